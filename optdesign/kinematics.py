@@ -1,0 +1,245 @@
+"""Planar kinematics of a scene as CasADi graphs of (sweep value s, parameters p).
+
+:class:`Mechanism` builds every point, body angle and centre of mass, the drive coordinate q(s)
+and the assembly margins of every construction.  Derivatives with respect to s (and through
+them velocities and accelerations in time) come from CasADi's automatic differentiation.
+The graphs are SX (fast, scalar) unless the scene has a Newton-solved loop, which needs MX.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from . import constructions as geo
+from .errors import AssemblyError
+from .expressions import evaluate
+from .loops import LoopGraph
+from .scene import Attach, Dyad, Fixed, Loop, Polar, Scene, Slider
+
+
+@dataclass(frozen=True)
+class Margin:
+    """A construction's assembly margin: positive where it assembles."""
+
+    construction: str
+    kind: str
+    expr: object
+
+
+class Mechanism:
+    """The kinematic graphs of one scene."""
+
+    def __init__(self, scene: Scene):
+        self.scene = scene
+        values = scene.parameter_values()
+        leaves = [p for p in scene.parameters if not p.value.names()]
+        self.parameter_names = tuple(p.name for p in leaves)
+        self.parameter_values = np.array([values[n] for n in self.parameter_names], dtype=float)
+        self.has_loops = any(isinstance(c, Loop) for c in scene.points)
+        sym = ca.MX if self.has_loops else ca.SX
+        self.sym = sym
+        self.s = sym.sym(scene.sweep.name)
+        self.p = sym.sym("p", len(leaves))
+        env = {n: self.p[i] for i, n in enumerate(self.parameter_names)}
+        for prm in scene.parameters:
+            if prm.value.names():
+                env[prm.name] = evaluate(prm.value, env, {}, f"[parameters] {prm.name}")
+        env[scene.sweep.name] = self.s
+        self.env = env
+        self.points: dict = {}
+        self.margins: list[Margin] = []
+        self.loops: list[LoopGraph] = []
+        for c in scene.points:
+            self._construct(c)
+        self.body_angle = {}
+        self.body_com = {}
+        for b in scene.bodies:
+            o, x = (self.points[n] for n in b.frame)
+            self.body_angle[b.name] = geo.frame_angle(o, x)
+            if b.com is not None:
+                a, bb = (self.value(e, f"[[bodies]] {b.name}.com") for e in b.com)
+                self.body_com[b.name] = geo.attach(o, x, a, bb)
+        self.q = self._drive_coordinate()
+
+    # --- building ---
+    def value(self, expr, where=""):
+        """An expression of the scene evaluated in this mechanism's graph (s, p, points)."""
+        return evaluate(expr, self.env, self.points, where)
+
+    def _construct(self, c):
+        where = f"[points] {c.name}"
+        ev = lambda e, what: self.value(e, f"{where}.{what}")  # noqa: E731
+        pts = self.points
+        if isinstance(c, Fixed):
+            pts[c.name] = ca.vertcat(ev(c.x, "fixed[0]"), ev(c.y, "fixed[1]"))
+        elif isinstance(c, Polar):
+            pts[c.name] = geo.polar(pts[c.centre], ev(c.length, "polar[1]"), ev(c.angle, "polar[2]"))
+        elif isinstance(c, Dyad):
+            pts[c.name], m = geo.dyad(pts[c.p], ev(c.length_p, "dyad[1]"), pts[c.q], ev(c.length_q, "dyad[3]"), c.side)
+            self.margins.append(Margin(c.name, "dyad", m))
+        elif isinstance(c, Slider):
+            pts[c.name], m = geo.slider(pts[c.p], ev(c.length, "slider[1]"), pts[c.origin], ev(c.angle, "slider[3]"), c.side)
+            self.margins.append(Margin(c.name, "slider", m))
+        elif isinstance(c, Attach):
+            pts[c.name] = geo.attach(pts[c.origin], pts[c.toward], ev(c.a, "attach[2]"), ev(c.b, "attach[3]"))
+        elif isinstance(c, Loop):
+            graph = LoopGraph(c, self.env, pts, self.s, self.p, where)
+            self.loops.append(graph)
+            for name, joint in zip(c.joints, graph.joints):
+                pts[name] = joint
+            if graph.margin is not None:
+                self.margins.append(Margin(c.name, "loop", graph.margin))
+        else:  # pragma: no cover - the scene validates kinds
+            raise TypeError(c)
+
+    def _drive_coordinate(self):
+        d = self.scene.drive
+        if d is None:
+            return self.s
+        a, b = (self.points[n] for n in d.pins)
+        if d.kind == "rotary":
+            return geo.frame_angle(a, b)
+        return ca.sqrt(ca.sumsqr(b - a))
+
+    # --- derivatives in s ---
+    def ds(self, expr):
+        """d expr / ds (exact, by AD)."""
+        return ca.jacobian(expr, self.s)
+
+    def function(self, name, outputs: dict) -> ca.Function:
+        """A CasADi Function (s, p) -> named outputs."""
+        return ca.Function(name, [self.s, self.p], list(outputs.values()), ["s", "p"], list(outputs))
+
+    # --- the stroke ---
+    def stroke(self, samples: int | None = None) -> np.ndarray:
+        sw = self.scene.sweep
+        values = self.scene.parameter_values()
+        from .expressions import constant_value
+
+        a = constant_value(sw.start, values, "[sweep] from")
+        b = constant_value(sw.stop, values, "[sweep] to")
+        return np.linspace(a, b, samples or sw.samples)
+
+    def motion(self):
+        """Sweep rate and acceleration (sd, sdd) as expressions of (s, p): from the drive's
+        speed and acceleration when the scene has a drive, else from the sweep's own rate."""
+        sc = self.scene
+        if sc.drive is not None:
+            qd = self.value(sc.drive.speed, "[drive] speed")
+            qdd = self.value(sc.drive.acceleration, "[drive] acceleration")
+            k = self.ds(self.q)
+            dk = self.ds(k)
+            sd = qd / k
+            return sd, (qdd - dk * sd**2) / k
+        sw = sc.sweep
+        sd = 0.0 if sw.rate is None else self.value(sw.rate, "[sweep] rate")
+        sdd = 0.0 if sw.acceleration is None else self.value(sw.acceleration, "[sweep] acceleration")
+        return sd, sdd
+
+    def check_assembly(self, s_values, p_values=None):
+        """Raise :class:`AssemblyError` naming the construction and the first sweep value where
+        it cannot assemble (negative margin, Newton residual, or a jump to another branch)."""
+        p_values = self.parameter_values if p_values is None else p_values
+        outs = {f"m{i}": m.expr for i, m in enumerate(self.margins)}
+        for j, loop in enumerate(self.loops):
+            if loop.solution is not None:
+                outs[f"r{j}"] = loop.residual
+                outs[f"u{j}"] = loop.solution
+        if not outs:
+            return
+        if self.points:
+            outs["size"] = ca.mmax(ca.fabs(ca.horzcat(*self.points.values())))
+        f = self.function("assembly", outs).map(len(s_values))
+        res = f(s=np.asarray(s_values)[None, :], p=p_values)
+        name = self.scene.sweep.name
+        for i, m in enumerate(self.margins):
+            if m.kind == "loop":
+                continue
+            vals = np.asarray(res[f"m{i}"]).ravel()
+            bad = np.flatnonzero(~(vals >= 0))
+            if bad.size:
+                k = bad[0]
+                raise AssemblyError(
+                    f"{self.scene.path}: [points] {m.construction} ({m.kind}) cannot assemble at "
+                    f"{name} = {_fmt_s(s_values[k])}: its circles/line do not meet (margin "
+                    f"{vals[k]:.3g} < 0). Change its lengths or narrow the sweep."
+                )
+        for j, loop in enumerate(self.loops):
+            if loop.solution is None:
+                continue
+            r = np.asarray(res[f"r{j}"]).ravel()
+            scale = np.maximum(1.0, np.asarray(res["size"]).ravel())
+            bad = np.flatnonzero(~(r <= 1e-9 * scale))
+            if bad.size:
+                k = bad[0]
+                raise AssemblyError(
+                    f"{self.scene.path}: [points] {loop.loop.name} (loop): Newton's method does not "
+                    f"close the loop at {name} = {_fmt_s(s_values[k])} (residual {r[k]:.3g}). The "
+                    "loop cannot assemble there, or the initial guesses lead elsewhere: check the "
+                    "lengths, the sweep range and the unknowns' guesses."
+                )
+            u = np.atleast_2d(np.asarray(res[f"u{j}"]))
+            jumps = np.abs(np.diff(np.unwrap(u, axis=1), axis=1)) if u.shape[1] > 1 else np.zeros((1, 0))
+            if jumps.size:
+                typical = np.median(jumps, axis=1, keepdims=True)
+                bad = np.argwhere((jumps > 10 * typical + 1e-9) & (jumps > 0.3))
+                if bad.size:
+                    k = bad[0][1]
+                    raise AssemblyError(
+                        f"{self.scene.path}: [points] {loop.loop.name} (loop): the solution jumps to "
+                        f"another assembly branch between {name} = {_fmt_s(s_values[k])} and "
+                        f"{_fmt_s(s_values[k + 1])}. Give initial guesses that follow the branch (they "
+                        "may use the sweep variable), or narrow the sweep."
+                    )
+
+
+def _fmt_s(value):
+    return f"{value:.6g} ({math.degrees(value):.4g} deg)"
+
+
+@dataclass(frozen=True)
+class KinematicsResult:
+    """Positions, velocities and accelerations over the stroke (arrays over samples)."""
+
+    scene: Scene
+    s: np.ndarray
+    q: np.ndarray
+    sd: np.ndarray
+    sdd: np.ndarray
+    points: dict  # name -> {"x","y","vx","vy","ax","ay"} arrays
+    bodies: dict  # name -> {"angle","omega","epsilon"} arrays
+
+
+def kinematics(scene: Scene, samples: int | None = None) -> KinematicsResult:
+    """Points and body angles with their rates over the stroke, at the scene's motion."""
+    mech = Mechanism(scene)
+    s_values = mech.stroke(samples)
+    mech.check_assembly(s_values)
+    sd, sdd = mech.motion()
+    outs = {"q": mech.q, "sd": sd, "sdd": sdd}
+    for name, r in mech.points.items():
+        r_s = mech.ds(r)
+        outs[f"P:{name}"] = ca.horzcat(r, r_s * sd, mech.ds(r_s) * sd**2 + r_s * sdd)
+    for name, phi in mech.body_angle.items():
+        phi_s = mech.ds(phi)
+        outs[f"B:{name}"] = ca.vertcat(phi, phi_s * sd, mech.ds(phi_s) * sd**2 + phi_s * sdd)
+    f = mech.function("kinematics", outs).map(len(s_values))
+    res = {k: np.asarray(v) for k, v in f(s=s_values[None, :], p=mech.parameter_values).items()}
+    n = len(s_values)
+    points = {}
+    for name in mech.points:
+        # mapped 2 x 3 blocks lie side by side: columns 3i .. 3i+2 belong to sample i
+        m = res[f"P:{name}"].reshape(2, n, 3).transpose(0, 2, 1)
+        points[name] = {"x": m[0, 0], "y": m[1, 0], "vx": m[0, 1], "vy": m[1, 1], "ax": m[0, 2], "ay": m[1, 2]}
+    bodies = {}
+    for name in mech.body_angle:
+        m = res[f"B:{name}"]
+        bodies[name] = {"angle": np.unwrap(m[0]), "omega": m[1], "epsilon": m[2]}
+    q = res["q"].ravel()
+    if scene.drive is not None and scene.drive.kind == "rotary":
+        q = np.unwrap(q)
+    return KinematicsResult(scene, s_values, q, np.broadcast_to(res["sd"].ravel(), (n,)).copy(),
+                            np.broadcast_to(res["sdd"].ravel(), (n,)).copy(), points, bodies)
