@@ -1,0 +1,20 @@
+"""optdesign: optimisation-based design of planar mechanisms with a variable drive ratio.
+
+Front doors: :func:`load` (a scene file), :func:`kinematics`, :func:`analyse`.
+"""
+from .analysis import AnalysisResult, analyse
+from .errors import (AssemblyError, DeadCentreError, ExpressionError, OptdesignError, SceneError,
+                     SolverError)
+from .kinematics import KinematicsResult, Mechanism, kinematics
+from .reduction import ReducedModel
+from .scene import (Attach, Body, Closure, Constraint, Drive, Dyad, Fixed, Gravity, Loop, Objective,
+                    Parameter, Polar, Scene, Slider, Sweep)
+from .scenefile import load, loads
+
+__all__ = [
+    "load", "loads", "kinematics", "analyse", "Mechanism", "ReducedModel", "KinematicsResult",
+    "AnalysisResult", "Scene", "Parameter", "Sweep", "Fixed", "Polar", "Dyad", "Slider", "Attach",
+    "Loop", "Closure", "Body", "Gravity", "Drive", "Constraint", "Objective", "OptdesignError",
+    "SceneError", "ExpressionError", "AssemblyError", "DeadCentreError", "SolverError",
+]
+__version__ = "0.1.0"

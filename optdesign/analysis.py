@@ -1,0 +1,106 @@
+"""Values of the reduced model over the stroke: the front door :func:`analyse`."""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from .expressions import evaluate
+from .kinematics import Mechanism
+from .reduction import ReducedModel
+from .scene import Scene
+
+
+@dataclass(frozen=True)
+class AnalysisResult:
+    """The reduced model over the stroke.
+
+    ``columns`` maps output names (``s``, ``q``, ``reduced_inertia``, ``reduced_inertia_dq``,
+    ``static_load``, ``inertia_term``, ``velocity_term``, ``drive``, ``power``, ...) to arrays
+    over the samples; names of terms the scene does not use are absent.  ``bodies`` maps body
+    name -> ratio name -> array; ``constraints`` maps constraint name -> array (per sample) or
+    float (per stroke); ``peaks`` holds the peak |value| of the main columns."""
+
+    scene: Scene
+    columns: dict
+    bodies: dict
+    constraints: dict
+    peaks: dict
+    timings: dict = field(default_factory=dict)
+
+    @property
+    def drive_kind(self):
+        return self.scene.drive.kind
+
+
+class Analysis:
+    """The compiled stroke evaluation of one scene (a class under :func:`analyse`)."""
+
+    def __init__(self, scene: Scene, samples: int | None = None, efficiency_smoothing: float = 0.0):
+        t0 = time.perf_counter()
+        self.scene = scene
+        self.mech = Mechanism(scene)
+        self.model = ReducedModel(self.mech, efficiency_smoothing)
+        self.s_values = self.mech.stroke(samples)
+        outs = dict(self.model.outputs())
+        for body, ratios in self.model.body_ratios().items():
+            for name, expr in ratios.items():
+                outs[f"{body}:{name}"] = expr
+        self.per_sample = [c for c in scene.constraints if not c.expr.is_aggregate]
+        self.per_stroke = [c for c in scene.constraints if c.expr.is_aggregate]
+        for c in self.per_sample:
+            outs[f"constraint:{c.name}"] = self.mech.value(c.expr, f"[[constraints]] {c.name}")
+        self.names = list(outs)
+        self.function = self.mech.function("reduced_model", outs)
+        self.mapped = self.function.map(len(self.s_values))
+        self.build_time = time.perf_counter() - t0
+
+    def run(self, p_values=None) -> AnalysisResult:
+        mech, model = self.mech, self.model
+        p_values = mech.parameter_values if p_values is None else np.asarray(p_values, float)
+        t0 = time.perf_counter()
+        mech.check_assembly(self.s_values, p_values)
+        model.check_dead_centre(self.s_values, p_values)
+        raw = self.mapped(s=self.s_values[None, :], p=p_values)
+        n = len(self.s_values)
+        values = {k: np.broadcast_to(np.asarray(v, float).ravel(), (n,)).copy() for k, v in raw.items()}
+        columns = {"s": self.s_values.copy()}
+        bodies, constraints = {}, {}
+        for key, arr in values.items():
+            if key.startswith("constraint:"):
+                constraints[key.split(":", 1)[1]] = arr
+            elif ":" in key:
+                body, name = key.split(":", 1)
+                bodies.setdefault(body, {})[name] = arr
+            else:
+                columns[key] = arr
+        if self.scene.drive.kind == "rotary":
+            columns["q"] = np.unwrap(columns["q"])
+        constraints.update(self._per_stroke(p_values))
+        peaks = {k: float(np.max(np.abs(columns[k]))) for k in
+                 ("drive", "static_load", "reduced_inertia", "power") if k in columns}
+        timings = {"build_s": self.build_time, "evaluate_s": time.perf_counter() - t0}
+        return AnalysisResult(self.scene, columns, bodies, constraints, peaks, timings)
+
+    def _per_stroke(self, p_values):
+        if not self.per_stroke:
+            return {}
+        mech = self.mech
+        n = len(self.s_values)
+        f = mech.function("points", {k: v for k, v in mech.points.items()}).map(n)
+        rows = f(s=self.s_values[None, :], p=p_values)
+        values = dict(zip(mech.parameter_names, p_values))
+        for prm in self.scene.parameters:
+            if prm.value.names():
+                values[prm.name] = evaluate(prm.value, values, {}, prm.name)
+        values[self.scene.sweep.name] = ca.DM(self.s_values[None, :])
+        points = {k: ca.DM(np.asarray(v)) for k, v in rows.items()}
+        return {c.name: float(evaluate(c.expr, values, points, f"[[constraints]] {c.name}"))
+                for c in self.per_stroke}
+
+
+def analyse(scene: Scene, samples: int | None = None) -> AnalysisResult:
+    """The reduced model of ``scene`` over its stroke (front door)."""
+    return Analysis(scene, samples).run()

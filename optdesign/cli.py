@@ -1,0 +1,84 @@
+"""The command line: a thin registry of subcommands over the front doors (no logic here)."""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from .errors import OptdesignError, SceneError
+
+
+def _overrides(pairs):
+    out = {}
+    for pair in pairs or ():
+        name, sep, value = pair.partition("=")
+        if not sep or not name.strip():
+            raise SceneError(f"--set {pair!r}: expected NAME=VALUE, e.g. --set mC=750 or --set psi='-55 deg'")
+        try:
+            out[name.strip()] = float(value)
+        except ValueError:
+            out[name.strip()] = value.strip()
+    return out
+
+
+def _load(args):
+    from .scenefile import load
+
+    return load(args.scene, _overrides(args.set))
+
+
+def _emit(args, json_text, table_text):
+    sys.stdout.write((json_text if args.json else table_text) + "\n")
+
+
+def cmd_kinematics(args):
+    from . import report
+    from .kinematics import kinematics
+
+    result = kinematics(_load(args), args.samples)
+    _emit(args, report.to_json(report.kinematics_json(result)) if args.json else "", report.kinematics_table(result))
+
+
+def cmd_analyse(args):
+    from . import report
+    from .analysis import analyse
+
+    result = analyse(_load(args), args.samples)
+    if args.plot:
+        for path in report.analysis_figures(result, args.plot):
+            print(f"wrote {path}", file=sys.stderr)
+    _emit(args, report.to_json(report.analysis_json(result)) if args.json else "", report.analysis_table(result))
+
+
+COMMANDS = {
+    "kinematics": (cmd_kinematics, "positions, velocities and accelerations over the sweep"),
+    "analyse": (cmd_analyse, "the reduced one-element model (drive torque or force) over the stroke"),
+}
+
+
+def parser():
+    top = argparse.ArgumentParser(prog="optdesign", description="Optimisation-based design of planar mechanisms.")
+    sub = top.add_subparsers(dest="command", required=True)
+    for name, (func, help_text) in COMMANDS.items():
+        p = sub.add_parser(name, help=help_text, description=help_text)
+        p.add_argument("scene", help="scene file (TOML), e.g. problems/seed1_jib.toml")
+        p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+        p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter (repeatable)")
+        p.add_argument("--samples", type=int, default=None, help="number of sweep samples (default: the scene's)")
+        if name == "analyse":
+            p.add_argument("--plot", metavar="DIR", help="write figures (PNG) into DIR")
+        p.set_defaults(func=func)
+    return top
+
+
+def main(argv=None):
+    args = parser().parse_args(argv)
+    try:
+        args.func(args)
+    except OptdesignError as exc:
+        print(f"optdesign {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,271 @@
+"""Seed 1's one-element dynamic model of a mechanism, reduced to its driving element.
+
+For sweep coordinate s and drive coordinate q(s) with k = dq/ds (all by CasADi AD):
+
+    M_s = sum m |dr/ds|^2 + I (dphi/ds)^2          Q_s = dV/ds - sum F . dr/ds - sum T dphi/ds
+    M_q = M_s / k^2     dM_q/dq = (dM_q/ds) / k     Q_q = Q_s / k
+    u   = Q_q + M_q qdd + 1/2 dM_q/dq qd^2          (Lagrange's equation for one coordinate)
+
+and the seed's names with the efficiency factor c (1/eta while the drive delivers power,
+eta while power flows back into it; 1 without efficiency):
+
+    I_zS (m_zS) = c M_q              reduced inertia (mass), eqs. (12), (33)
+    T_Su (F_Su) = c Q_q              static reduced load, eqs. (11), (32)
+    dT_S (dF_S) = -1/2 qd^2 c dM_q/dq   velocity term, eqs. (15), (36)
+    T_S  (F_S)  = T_Su + I_zS eps_S - dT_S = c u                     eqs. (16), (37)
+
+Per body the seed's ratios are derivatives of the same graphs: rotary drive R_z = |dr/dq| and
+i_m = 1 / (dphi/dq); linear drive i_v = 1 / |dr/dq| and R_e = 1 / (dphi/dq).  Loads in a scene
+are applied loads (a force does positive work when its point moves along it; so does a torque).
+
+Terms a scene does not use (no gravity, no forces, no mass, no inertia, eta = 1, zero speed or
+acceleration) are not built: their outputs are absent, not zero.
+"""
+from __future__ import annotations
+
+import math
+
+import casadi as ca
+import numpy as np
+
+from .errors import DeadCentreError, SceneError
+from .expressions import Expression
+from .kinematics import Mechanism, _fmt_s
+
+
+class ReducedModel:
+    """The reduced model of a scene with a ``[drive]``: CasADi expressions of (s, p)."""
+
+    def __init__(self, mechanism: Mechanism, efficiency_smoothing: float = 0.0):
+        scene = mechanism.scene
+        if scene.drive is None:
+            raise SceneError(f"{scene.path}: the reduced model needs a [drive] table (rotary crank or linear actuator)")
+        self.mech = m = mechanism
+        self.scene = scene
+        self.rotary = scene.drive.kind == "rotary"
+        self.k = m.ds(m.q)
+        self.dk = m.ds(self.k)
+        drive = scene.drive
+        self.uses_speed = not self.is_zero(drive.speed)
+        self.uses_acceleration = not self.is_zero(drive.acceleration)
+        self.uses_efficiency = drive.efficiency is not None and not self.is_one(drive.efficiency)
+        self.qd = m.value(drive.speed, "[drive] speed")
+        self.qdd = m.value(drive.acceleration, "[drive] acceleration")
+        self.eta = m.value(drive.efficiency, "[drive] efficiency") if self.uses_efficiency else 1.0
+        self.efficiency_smoothing = efficiency_smoothing
+        self._bodies()
+        self._generalised()
+
+    # --- which terms exist ---
+    def is_zero(self, expr: Expression | None) -> bool:
+        """True when ``expr`` is absent, or zero and independent of design variables and s."""
+        return self._constant_equal(expr, 0.0)
+
+    def is_one(self, expr):
+        return self._constant_equal(expr, 1.0)
+
+    def _constant_equal(self, expr, target):
+        if expr is None:
+            return target == 0.0
+        if expr.points() or self.scene.sweep.name in expr.names():
+            return False
+        design = {p.name for p in self.scene.parameters if p.is_design}
+        if _depends_on(self.scene, expr, design):
+            return False
+        from .expressions import constant_value
+
+        return constant_value(expr, self.scene.parameter_values(), "") == target
+
+    # --- building ---
+    def _bodies(self):
+        m, sc = self.mech, self.scene
+        self.massive, self.rotating, self.loaded = [], [], []
+        g = None if sc.gravity is None or self.is_zero(sc.gravity.g) else m.value(sc.gravity.g, "[gravity] g")
+        self.uses_gravity = g is not None
+        self.body_terms = {}
+        for b in sc.bodies:
+            t = {}
+            r_s = m.ds(m.body_com[b.name]) if b.name in m.body_com else None
+            phi_s = m.ds(m.body_angle[b.name])
+            if not self.is_zero(b.mass):
+                t["mass"] = m.value(b.mass, f"[[bodies]] {b.name}.mass")
+                t["r_s"] = r_s
+                self.massive.append(b.name)
+            if not self.is_zero(b.inertia):
+                t["inertia"] = m.value(b.inertia, f"[[bodies]] {b.name}.inertia")
+                self.rotating.append(b.name)
+            t["phi_s"] = phi_s
+            load = 0
+            if g is not None and "mass" in t:
+                load = load + t["mass"] * g * r_s[1]
+            if b.force is not None and not all(self.is_zero(f) for f in b.force):
+                force = ca.vertcat(*(m.value(f, f"[[bodies]] {b.name}.force") for f in b.force))
+                load = load - ca.dot(force, r_s)
+            if not self.is_zero(b.torque):
+                load = load - m.value(b.torque, f"[[bodies]] {b.name}.torque") * phi_s
+            if not (isinstance(load, int) and load == 0):
+                t["Q_s"] = load
+                self.loaded.append(b.name)
+            self.body_terms[b.name] = t
+
+    def _generalised(self):
+        m = self.mech
+        k = self.k
+        M_s = 0
+        for name, t in self.body_terms.items():
+            if "mass" in t:
+                M_s = M_s + t["mass"] * ca.sumsqr(t["r_s"])
+            if "inertia" in t:
+                M_s = M_s + t["inertia"] * t["phi_s"] ** 2
+        self.has_inertia = bool(self.massive or self.rotating)
+        self.M_s = M_s if self.has_inertia else None
+        Q_s = 0
+        for t in self.body_terms.values():
+            if "Q_s" in t:
+                Q_s = Q_s + t["Q_s"]
+        self.has_static = bool(self.loaded)
+        self.Q_s = Q_s if self.has_static else None
+
+        # referred to the drive coordinate q
+        u = 0
+        if self.has_static:
+            self.Q_q = self.Q_s / k
+            u = u + self.Q_q
+        if self.has_inertia:
+            self.M_q = self.M_s / k**2
+            self.dM_q = m.ds(self.M_q) / k
+            if self.uses_acceleration:
+                u = u + self.M_q * self.qdd
+            if self.uses_speed:
+                u = u + 0.5 * self.dM_q * self.qd**2
+        self.u = u  # the ideal (eta = 1) drive load
+        self.factor = self.efficiency_factor(u * self.qd) if self.uses_efficiency else 1.0
+
+    def efficiency_factor(self, power):
+        """c = 1/eta while the drive delivers power (power > 0), eta while it takes power back.
+
+        With ``efficiency_smoothing`` w > 0 the switch is c = (1/eta + eta)/2 + (1/eta - eta)/2
+        tanh(power / w): smooth for the optimiser; it differs from the exact switch only where
+        |power| is within a few w of zero, where the drive load error is at most
+        0.14 (1/eta - eta) w / |qd| (the maximum of x (1 - tanh x) is 0.278 at x = 0.65)."""
+        eta = self.eta
+        if self.efficiency_smoothing > 0:
+            mean, half = (1 / eta + eta) / 2, (1 / eta - eta) / 2
+            return mean + half * ca.tanh(power / self.efficiency_smoothing)
+        return ca.if_else(power >= 0, 1 / eta, eta)
+
+    # --- the seed's quantities (absent ones are None) ---
+    def outputs(self) -> dict:
+        """Named expressions per sample, in the seed's terms, leaving out unused terms."""
+        c = self.factor
+        out = {"q": self.mech.q, "k": self.k}
+        if self.has_inertia:
+            out["reduced_inertia"] = c * self.M_q
+            out["reduced_inertia_dq"] = c * self.dM_q
+        if self.has_static:
+            out["static_load"] = c * self.Q_q
+        if self.has_inertia and self.uses_acceleration:
+            out["inertia_term"] = c * self.M_q * self.qdd
+        if self.has_inertia and self.uses_speed:
+            out["velocity_term"] = -0.5 * self.qd**2 * c * self.dM_q
+        out["drive"] = c * self.u
+        if self.uses_speed:
+            out["power"] = c * self.u * self.qd
+        if self.uses_efficiency:
+            out["efficiency_factor"] = c
+        return out
+
+    def body_ratios(self) -> dict:
+        """Per body the seed's ratios and their derivatives with respect to q:
+        rotary R_z, dR_z/dq (massive bodies), i_m (rotating bodies); linear i_v, di_v/dq, R_e.
+        Also the tangential acceleration of the centre of mass, a_C0 + delta_a_C = a_C."""
+        m, k = self.mech, self.k
+        out = {}
+        for name, t in self.body_terms.items():
+            ratios = {}
+            if "mass" in t:
+                speed_ratio = ca.sqrt(ca.sumsqr(t["r_s"])) / ca.fabs(k)  # |dr/dq| = v_C / qd
+                d_speed_ratio = m.ds(speed_ratio) / k
+                if self.rotary:
+                    ratios["R_z"], ratios["dR_z_dq"] = speed_ratio, d_speed_ratio
+                else:
+                    ratios["i_v"] = 1 / speed_ratio
+                    ratios["di_v_dq"] = -d_speed_ratio / speed_ratio**2
+                ratios["a_C0"] = speed_ratio * self.qdd
+                ratios["delta_a_C"] = d_speed_ratio * self.qd**2
+                ratios["a_C"] = ratios["a_C0"] + ratios["delta_a_C"]
+            if "inertia" in t:
+                ratios["i_m" if self.rotary else "R_e"] = k / t["phi_s"]
+            if ratios:
+                out[name] = ratios
+        return out
+
+    def drive_acceleration(self, drive_load):
+        """Motion from the drive (eqs. 17, 38): the drive acceleration for a given drive torque
+        or force at the scene's speed, I_zS eps_S = T_S - T_Su + dT_S with the same c."""
+        if not self.has_inertia:
+            raise SceneError(f"{self.scene.path}: the mechanism has no mass or inertia: a drive load gives no acceleration")
+        c_inv = self.efficiency_inverse(drive_load * self.qd) if self.uses_efficiency else 1.0
+        ideal = drive_load * c_inv
+        rest = ideal
+        if self.has_static:
+            rest = rest - self.Q_q
+        if self.uses_speed:
+            rest = rest - 0.5 * self.dM_q * self.qd**2
+        return rest / self.M_q
+
+    def efficiency_inverse(self, power):
+        """1/c for a given drive power T_S qd (same sign as the ideal power)."""
+        return 1.0 / self.efficiency_factor(power)
+
+    # --- checks ---
+    def check_dead_centre(self, s_values, p_values=None):
+        """Raise :class:`DeadCentreError` where k = dq/ds vanishes in the stroke."""
+        m = self.mech
+        p_values = m.parameter_values if p_values is None else p_values
+        f = ca.Function("k", [m.s, m.p], [self.k])
+        k = np.asarray(f.map(len(s_values))(np.asarray(s_values)[None, :], p_values)).ravel()
+        scale = np.max(np.abs(k)) if k.size else 1.0
+        zero = np.flatnonzero(np.abs(k) <= 1e-12 * max(scale, 1e-300))
+        change = np.flatnonzero(np.sign(k[:-1]) * np.sign(k[1:]) < 0)
+        if not zero.size and not change.size:
+            return
+        if zero.size and (not change.size or zero[0] <= change[0]):
+            where = s_values[zero[0]]
+        else:
+            i = change[0]
+            where = _bisect(lambda x: float(f(x, p_values)), s_values[i], s_values[i + 1])
+        what = "crank angle" if self.rotary else "actuator length"
+        pins = "-".join(self.scene.drive.pins)
+        raise DeadCentreError(
+            f"{self.scene.path}: [drive] dead centre at {self.scene.sweep.name} = {_fmt_s(where)}: the "
+            f"drive coordinate ({what} {pins}) stops moving there (dq/d{self.scene.sweep.name} = 0), so "
+            "the reduced inertia and load are infinite. Narrow the sweep to exclude it, or move the "
+            "drive's pins so that q changes monotonically over the stroke."
+        )
+
+
+def _depends_on(scene, expr, names):
+    """True when expr uses any of ``names`` directly or through derived parameters."""
+    seen, todo = set(), set(expr.names())
+    by_name = {p.name: p for p in scene.parameters}
+    while todo:
+        n = todo.pop()
+        if n in names:
+            return True
+        if n in by_name and n not in seen:
+            seen.add(n)
+            todo |= by_name[n].value.names()
+    return False
+
+
+def _bisect(f, a, b, iterations=60):
+    fa = f(a)
+    for _ in range(iterations):
+        mid = 0.5 * (a + b)
+        fm = f(mid)
+        if math.copysign(1, fm) == math.copysign(1, fa):
+            a, fa = mid, fm
+        else:
+            b = mid
+    return 0.5 * (a + b)

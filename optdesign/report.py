@@ -1,0 +1,207 @@
+"""Tables, JSON and figures of results; every file is written atomically (temp file + rename)
+so that an interrupted run never leaves a half-written result behind."""
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+SCHEMA = "optdesign/1"
+
+UNITS = {
+    "rotary": {"q": "rad", "reduced_inertia": "kg m^2", "reduced_inertia_dq": "kg m^2/rad",
+               "static_load": "N m", "inertia_term": "N m", "velocity_term": "N m", "drive": "N m",
+               "power": "W", "k": "rad/unit of s"},
+    "linear": {"q": "m", "reduced_inertia": "kg", "reduced_inertia_dq": "kg/m", "static_load": "N",
+               "inertia_term": "N", "velocity_term": "N", "drive": "N", "power": "W", "k": "m/unit of s"},
+}
+SEED_NAMES = {
+    "rotary": {"reduced_inertia": "I_zS", "reduced_inertia_dq": "dI_zS/dalpha", "static_load": "T_Su",
+               "inertia_term": "I_zS*eps_S", "velocity_term": "dT_S", "drive": "T_S"},
+    "linear": {"reduced_inertia": "m_zS", "reduced_inertia_dq": "dm_zS/dx", "static_load": "F_Su",
+               "inertia_term": "m_zS*a_S", "velocity_term": "dF_S", "drive": "F_S"},
+}
+COLUMN_ORDER = ("s", "q", "k", "reduced_inertia", "reduced_inertia_dq", "static_load", "inertia_term",
+                "velocity_term", "drive", "power", "efficiency_factor")
+
+
+def write_atomic(path, text: str | bytes):
+    """Write ``text`` to ``path`` through a temporary file in the same folder and a rename."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    mode = "wb" if isinstance(text, bytes) else "w"
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, mode) as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def save_figure(fig, path):
+    """Save a matplotlib figure atomically."""
+    import io
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format=Path(path).suffix.lstrip(".") or "png", dpi=120, bbox_inches="tight")
+    write_atomic(path, buf.getvalue())
+
+
+def _clean(value):
+    """Numbers for JSON: floats, with inf/nan as null."""
+    if isinstance(value, dict):
+        return {k: _clean(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_clean(v) for v in value]
+    if isinstance(value, (np.floating, float)):
+        v = float(value)
+        return v if math.isfinite(v) else None
+    if isinstance(value, np.integer):
+        return int(value)
+    return value
+
+
+def to_json(data: dict) -> str:
+    return json.dumps(_clean(data), indent=1, allow_nan=False)
+
+
+def table(columns: dict, names=None) -> str:
+    """A plain fixed-width table of equal-length arrays."""
+    names = list(names or columns)
+    width = max(12, *(len(n) + 2 for n in names))
+    lines = ["".join(f"{n:>{width}}" for n in names)]
+    n = len(columns[names[0]])
+    for i in range(n):
+        lines.append("".join(f"{columns[c][i]:>{width}.6g}" for c in names))
+    return "\n".join(lines)
+
+
+def ordered(columns: dict) -> list:
+    return [c for c in COLUMN_ORDER if c in columns] + [c for c in columns if c not in COLUMN_ORDER]
+
+
+# --- kinematics ------------------------------------------------------------------------------
+def kinematics_json(result) -> dict:
+    n = len(result.s)
+    samples = []
+    for i in range(n):
+        samples.append({
+            "s": result.s[i], "q": result.q[i], "sd": result.sd[i], "sdd": result.sdd[i],
+            "points": {p: {k: v[i] for k, v in d.items()} for p, d in result.points.items()},
+            "bodies": {b: {k: v[i] for k, v in d.items()} for b, d in result.bodies.items()},
+        })
+    return {"schema": SCHEMA, "kind": "kinematics", "title": result.scene.title,
+            "file": result.scene.path, "sweep": result.scene.sweep.name, "samples": samples}
+
+
+def kinematics_table(result) -> str:
+    cols = {"s": result.s, "q": result.q}
+    for p, d in result.points.items():
+        for k in ("x", "y", "vx", "vy", "ax", "ay"):
+            cols[f"{p}.{k}"] = d[k]
+    for b, d in result.bodies.items():
+        for k in ("angle", "omega", "epsilon"):
+            cols[f"{b}.{k}"] = d[k]
+    return table(cols)
+
+
+# --- the reduced model -------------------------------------------------------------------------
+def analysis_json(result) -> dict:
+    cols = result.columns
+    n = len(cols["s"])
+    per_sample = {k: v for k, v in result.constraints.items() if np.ndim(v)}
+    samples = []
+    for i in range(n):
+        row = {k: cols[k][i] for k in ordered(cols)}
+        if result.bodies:
+            row["bodies"] = {b: {k: v[i] for k, v in d.items()} for b, d in result.bodies.items()}
+        if per_sample:
+            row["constraints"] = {k: v[i] for k, v in per_sample.items()}
+        samples.append(row)
+    kind = result.drive_kind
+    return {
+        "schema": SCHEMA, "kind": "analysis", "title": result.scene.title, "file": result.scene.path,
+        "sweep": result.scene.sweep.name, "drive": kind,
+        "units": {k: UNITS[kind][k] for k in cols if k in UNITS[kind]},
+        "seed_names": {k: SEED_NAMES[kind][k] for k in cols if k in SEED_NAMES[kind]},
+        "peaks": result.peaks,
+        "constraints": {k: v for k, v in result.constraints.items() if not np.ndim(v)},
+        "samples": samples,
+    }
+
+
+def analysis_table(result) -> str:
+    cols = dict(result.columns)
+    for name, v in result.constraints.items():
+        if np.ndim(v):
+            cols[name.replace(" ", "_")] = v
+    text = table(cols, ordered(result.columns) + [c for c in cols if c not in result.columns])
+    lines = [text, ""]
+    for k, v in result.peaks.items():
+        lines.append(f"peak |{k}| = {v:.6g} {UNITS[result.drive_kind].get(k, '')}")
+    for k, v in result.constraints.items():
+        if not np.ndim(v):
+            lines.append(f"{k} = {v:.6g}")
+    return "\n".join(lines)
+
+
+def analysis_figures(result, folder) -> list:
+    """Figures of the reduced model over the drive coordinate; returns the paths written."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    kind = result.drive_kind
+    cols, names, units = result.columns, SEED_NAMES[kind], UNITS[kind]
+    q = cols["q"]
+    qlabel = "crank angle alpha [rad]" if kind == "rotary" else "actuator length x [m]"
+    folder = Path(folder)
+    written = []
+
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for key in ("static_load", "inertia_term", "velocity_term", "drive"):
+        if key in cols:
+            ax.plot(q, cols[key], lw=2.2 if key == "drive" else 1.2, label=f"{names[key]} ({key})")
+    ax.set_xlabel(qlabel)
+    ax.set_ylabel(f"[{units['drive']}]")
+    ax.set_title(f"{result.scene.title}\ndrive load and its components")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    written.append(folder / "drive.png")
+    save_figure(fig, written[-1])
+    plt.close(fig)
+
+    if "reduced_inertia" in cols:
+        fig, ax = plt.subplots(figsize=(7, 4))
+        ax.plot(q, cols["reduced_inertia"], label=f"{names['reduced_inertia']} [{units['reduced_inertia']}]")
+        ax2 = ax.twinx()
+        ax2.plot(q, cols["reduced_inertia_dq"], "C1--", label=f"{names['reduced_inertia_dq']} [{units['reduced_inertia_dq']}]")
+        ax.set_xlabel(qlabel)
+        ax.set_title("reduced inertia and its derivative")
+        fig.legend(loc="upper right", fontsize=8)
+        ax.grid(alpha=0.3)
+        written.append(folder / "reduced_inertia.png")
+        save_figure(fig, written[-1])
+        plt.close(fig)
+
+    per_sample = {k: v for k, v in result.constraints.items() if np.ndim(v)}
+    if per_sample:
+        fig, ax = plt.subplots(figsize=(7, 3.5))
+        for k, v in per_sample.items():
+            ax.plot(q, v, label=k)
+        ax.set_xlabel(qlabel)
+        ax.set_title("constraints over the stroke")
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+        written.append(folder / "constraints.png")
+        save_figure(fig, written[-1])
+        plt.close(fig)
+    return written
