@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .errors import OptdesignError, SceneError
+from .errors import OptdesignError, SceneError, SolverError
 
 
 def _overrides(pairs):
@@ -49,9 +49,43 @@ def cmd_analyse(args):
     _emit(args, report.to_json(report.analysis_json(result)) if args.json else "", report.analysis_table(result))
 
 
+def cmd_optimise(args):
+    from pathlib import Path
+
+    from . import design_report, report
+    from .optimise import optimise
+
+    scene = _load(args)
+    result = optimise(scene, starts=args.starts, seed=args.seed, progress=_progress("starts"))
+    if result.success:
+        folder = Path(args.out or Path("results") / Path(args.scene).stem)
+        for path in design_report.write_results(result, folder):
+            print(f"wrote {path}", file=sys.stderr)
+    _emit(args, report.to_json(design_report.optimisation_json(result)) if args.json else "",
+          design_report.summary(result))
+    if not result.success:
+        raise SolverError(f"{scene.path}: no optimum: {result.status}. {result.message} "
+                          "(nothing was written to the results folder)")
+
+
+def _progress(what):
+    """A progress bar on standard error when it is a terminal."""
+    if not sys.stderr.isatty():
+        return None
+
+    def show(done, total):
+        bar = "#" * round(30 * done / total)
+        end = "\n" if done == total else ""
+        sys.stderr.write(f"\r{what} {done:>4}/{total} [{bar:<30}]{end}")
+        sys.stderr.flush()
+
+    return show
+
+
 COMMANDS = {
     "kinematics": (cmd_kinematics, "positions, velocities and accelerations over the sweep"),
     "analyse": (cmd_analyse, "the reduced one-element model (drive torque or force) over the stroke"),
+    "optimise": (cmd_optimise, "minimise the scene's objective over its design variables (IPOPT, multistart)"),
 }
 
 
@@ -66,6 +100,10 @@ def parser():
         p.add_argument("--samples", type=int, default=None, help="number of sweep samples (default: the scene's)")
         if name == "analyse":
             p.add_argument("--plot", metavar="DIR", help="write figures (PNG) into DIR")
+        if name == "optimise":
+            p.add_argument("--starts", type=int, default=20, help="number of starts (default 20)")
+            p.add_argument("--seed", type=int, default=0, help="seed of the random starts (default 0)")
+            p.add_argument("--out", metavar="DIR", help="results folder (default results/<scene name>)")
         p.set_defaults(func=func)
     return top
 

@@ -1,0 +1,378 @@
+"""The design problem as an NLP for IPOPT, with the peak over the continuous stroke.
+
+Formulation (what makes it fast and regular):
+
+* Design variables are the scene's bounded parameters, scaled to [0, 1] by their bounds.  All
+  other leaf parameters are NLP *parameters*, so the optimal objective's sensitivity to each of
+  them comes from IPOPT's multipliers (``lam_p``).
+* The peak over the stroke is an epigraph ``-t <= v(s_j)/F_ref <= t`` written only at a few
+  sample points s_j: a uniform base grid plus movable *slots*.  The s_j are NLP parameters too,
+  so an exchange step moves slots onto the continuous extrema found at the last solution and
+  re-solves without rebuilding anything.  The loop ends when the epigraph value and the peak of
+  the continuous stroke (refined by Newton, :mod:`optdesign.peaks`) agree within ``peak_tol``.
+* Per-sample constraints (transmission angle, any expression), assembly margins and the dead
+  centre guard (the drive coordinate keeps moving: sigma*k(s)/k_ref >= margin) live on the same
+  points and are checked on the continuous stroke in the same way.
+* A stroke aggregate max(e)/min(e) in a constraint or objective becomes an epigraph variable a
+  with e(s_j) <= a (or >= a), valid when the outer expression is monotone in a in the direction
+  that the bound makes conservative; this is checked at the start and an error explains otherwise.
+* Everything is scaled to order one by its value at the scene's start design: F_ref for the
+  drive load, the start's range for each constraint and margin.
+"""
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from .errors import SceneError
+from .expressions import Call, Expression, Name, evaluate
+from .kinematics import Mechanism
+from .peaks import continuous_maxima
+from .reduction import ReducedModel
+from .scene import Scene
+
+
+@dataclass(frozen=True)
+class SolverSettings:
+    """How the design problem is solved (the scene says only *what*)."""
+
+    tol: float = 1e-10             # IPOPT tol on the scaled problem
+    max_iter: int = 300            # IPOPT iterations per solve
+    grid: int = 13                 # base sample points of the epigraph (ends included)
+    slots: int = 6                 # movable sample points put on the located extrema
+    peak_tol: float = 1e-8         # relative agreement of epigraph and continuous peak
+    constraint_tol: float = 1e-7   # allowed violation of a scaled constraint between samples
+    max_exchanges: int = 12        # exchange steps per start
+    efficiency_smoothing: float = 1e-3  # width of the power-flow switch, times the power scale
+    dead_centre_margin: float = 1e-3    # sigma*k/k_ref at least this (k = dq/ds)
+    print_level: int = 0
+
+
+@dataclass(frozen=True)
+class Block:
+    """A named family of per-sample quantities with bounds (scaled)."""
+
+    name: str
+    kind: str       # 'peak', 'constraint', 'aggregate', 'margin', 'dead centre'
+    index: int      # row in the per-sample quantity vector
+    lower: float    # bounds on the scaled quantity (+-inf when open); for 'peak' unused
+    upper: float
+    scale: float
+
+
+@dataclass
+class Aggregate:
+    """A one-argument max/min over the stroke, replaced by an epigraph variable."""
+
+    name: str
+    func: str          # 'max' or 'min'
+    inner: Expression
+    index: int = -1    # row of its inner expression in the per-sample vector
+    scale: float = 1.0
+
+
+_OBJECTIVE = re.compile(r"^\s*(peak|rms)\s*\(\s*(.+?)\s*\)\s*$")
+
+
+class DesignProblem:
+    """The NLP of one scene's design problem.  Build once; solve from many starts."""
+
+    def __init__(self, scene: Scene, settings: SolverSettings | None = None):
+        self.scene = scene
+        self.settings = settings = settings or SolverSettings()
+        if scene.objective is None:
+            raise SceneError(f"{scene.path}: nothing to optimise: add an [objective] table, e.g. minimise = \"peak(drive)\"")
+        design = [p for p in scene.parameters if p.is_design]
+        if not design:
+            raise SceneError(f"{scene.path}: no design variables: give some parameters bounds, e.g. e = {{ value = 1.6, min = 0.5, max = 3.0 }}")
+        self.mech = mech = Mechanism(scene)
+        names = list(mech.parameter_names)
+        self.design_names = [p.name for p in design]
+        self.design_index = [names.index(n) for n in self.design_names]
+        self.fixed_names = [n for n in names if n not in self.design_names]
+        self.fixed_index = [names.index(n) for n in self.fixed_names]
+        self.lower = np.array([-math.inf if p.lower is None else p.lower for p in design])
+        self.upper = np.array([math.inf if p.upper is None else p.upper for p in design])
+        self.start = mech.parameter_values[self.design_index].copy()
+        finite = np.isfinite(self.lower) & np.isfinite(self.upper)
+        self.z_offset = np.where(finite, self.lower, 0.0)
+        self.z_scale = np.where(finite, self.upper - self.lower, np.maximum(np.abs(self.start), 1.0))
+        self.s_grid = mech.stroke()
+        self.model = self._model()
+        self._quantities()
+        self._scales()
+        self._nlp()
+
+    # --- parameter vectors ---
+    def full_parameters(self, x_design, fixed=None):
+        p = self.mech.parameter_values.copy() if not isinstance(x_design, (ca.SX, ca.MX)) else None
+        if p is None:
+            parts = [None] * len(self.mech.parameter_names)
+            for j, i in enumerate(self.design_index):
+                parts[i] = x_design[j]
+            for j, i in enumerate(self.fixed_index):
+                parts[i] = fixed[j]
+            return ca.vertcat(*parts)
+        p[self.design_index] = x_design
+        if fixed is not None:
+            p[self.fixed_index] = fixed
+        return p
+
+    def to_z(self, x):
+        return (np.asarray(x, float) - self.z_offset) / self.z_scale
+
+    def to_x(self, z):
+        return self.z_offset + self.z_scale * np.asarray(z, float)
+
+    # --- the model and the per-sample quantities ---
+    def _model(self):
+        model = ReducedModel(self.mech)
+        if model.uses_efficiency:
+            power = ca.Function("power", [self.mech.s, self.mech.p], [model.u * model.qd])
+            p_ideal = np.abs(np.asarray(power.map(len(self.s_grid))(self.s_grid[None, :], self.mech.parameter_values)))
+            width = self.settings.efficiency_smoothing * max(float(np.nanmax(p_ideal)), 1e-12)
+            model = ReducedModel(self.mech, efficiency_smoothing=width)
+        return model
+
+    def _quantities(self):
+        scene, mech = self.scene, self.mech
+        outputs = self.model.outputs()
+        rows, self.blocks, self.aggregates = [], [], []
+        self.objective_text = scene.objective.minimise
+        m = _OBJECTIVE.match(self.objective_text)
+        self.objective_quantity = None
+        if m:
+            self.objective_kind, what = m.group(1), m.group(2)
+            expr = outputs.get(what)
+            if expr is None:
+                expr = mech.value(_parse(what, "[objective] minimise"), "[objective] minimise")
+            self.objective_quantity = len(rows)
+            rows.append(expr)
+            self.blocks.append(Block(self.objective_text, "peak" if self.objective_kind == "peak" else "rms",
+                                     0, -math.inf, math.inf, 1.0))
+        else:
+            self.objective_kind = "expression"
+            self.objective_expr = self._lift(_parse(self.objective_text, "[objective] minimise"), "objective")
+            if not self.aggregates:
+                raise SceneError(
+                    f"{scene.path}: [objective] minimise = {self.objective_text!r}: expected peak(NAME), "
+                    "rms(NAME) or an expression over the stroke with max(...)/min(...), e.g. "
+                    "\"max(y(T)) - min(y(T))\""
+                )
+        self.stroke_constraints = []
+        for c in scene.constraints:
+            if c.expr.is_aggregate:
+                self.stroke_constraints.append((c, self._lift(c.expr, c.name)))
+            else:
+                lo = -math.inf if c.lower is None else float(mech.value(c.lower))
+                hi = math.inf if c.upper is None else float(mech.value(c.upper))
+                self.blocks.append(Block(c.name, "constraint", len(rows), lo, hi, 1.0))
+                rows.append(mech.value(c.expr, f"[[constraints]] {c.name}"))
+        for a in self.aggregates:
+            a.index = len(rows)
+            rows.append(mech.value(a.inner, a.name))
+        for margin in mech.margins:
+            if margin.kind == "loop":
+                continue
+            self.blocks.append(Block(f"assembly of {margin.construction}", "margin", len(rows), 0.0, math.inf, 1.0))
+            rows.append(margin.expr)
+        self.k_row = len(rows)
+        rows.append(self.model.k)
+        self.rows = rows
+        self.quantity = mech.function("quantities", {"v": ca.vertcat(*rows)})
+        v = ca.vertcat(*rows)
+        dv = mech.ds(v)
+        self.quantity_derivatives = mech.function("quantities_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)})
+
+    def _lift(self, expr: Expression, where):
+        """Replace one-argument max/min calls by epigraph variables; return the outer tree."""
+
+        def walk(node):
+            if isinstance(node, Call):
+                if node.func in ("max", "min") and len(node.args) == 1:
+                    name = f"__aggregate_{len(self.aggregates)}"
+                    inner = Expression(f"{node.func}(...) in {where}", node.args[0])
+                    self.aggregates.append(Aggregate(name, node.func, inner))
+                    return Name(name)
+                return Call(node.func, tuple(walk(a) for a in node.args))
+            for attr in ("left", "right", "operand"):
+                if hasattr(node, attr):
+                    kwargs = {k: walk(getattr(node, k)) if k in ("left", "right", "operand") else getattr(node, k)
+                              for k in node.__dataclass_fields__}
+                    return type(node)(**kwargs)
+            return node
+
+        return Expression(expr.source, walk(expr.tree))
+
+    def evaluate_grid(self, x, fixed=None, s_values=None):
+        """Per-sample quantities (rows x samples) at design x on the scene's grid."""
+        s_values = self.s_grid if s_values is None else np.asarray(s_values, float)
+        p = self.full_parameters(x, fixed)
+        return np.asarray(self.quantity.map(len(s_values))(s_values[None, :], p))
+
+    # --- scaling from the start design ---
+    def _scales(self):
+        v = self.evaluate_grid(self.start)
+        if not np.all(np.isfinite(v)):
+            bad = [r for r in range(v.shape[0]) if not np.all(np.isfinite(v[r]))]
+            raise SceneError(
+                f"{self.scene.path}: the start design does not assemble over the whole stroke "
+                f"(non-finite quantities in rows {bad}); run `optdesign analyse` on it to see where, "
+                "and move the start values"
+            )
+        def scale_of(row):
+            return max(float(np.max(np.abs(v[row]))), 1e-12)
+
+        self.blocks = [
+            Block(b.name, b.kind, b.index, b.lower, b.upper, scale_of(b.index) if b.kind != "constraint"
+                  else max(scale_of(b.index), *(abs(x) for x in (b.lower, b.upper) if math.isfinite(x))))
+            for b in self.blocks
+        ]
+        for a in self.aggregates:
+            a.scale = scale_of(a.index)
+        k = v[self.k_row]
+        self.k_sign = 1.0 if np.median(k) >= 0 else -1.0
+        self.k_ref = max(float(np.median(np.abs(k))), 1e-12)
+        self.f_ref = self.blocks[0].scale if self.objective_kind in ("peak", "rms") else 1.0
+        self.start_quantities = v
+
+    # --- the NLP ---
+    def _nlp(self):
+        st = self.settings
+        sym = self.mech.sym
+        nd = len(self.design_names)
+        z = sym.sym("z", nd)
+        fixed = sym.sym("fixed", len(self.fixed_names))
+        self.n_points = st.grid + st.slots
+        s_pts = sym.sym("s_points", self.n_points)
+        x = ca.DM(self.z_offset) + ca.DM(self.z_scale) * z
+        p = self.full_parameters(x, fixed)
+        t = sym.sym("t", 1 if self.objective_kind == "peak" else 0)
+        a = sym.sym("a", len(self.aggregates))
+        cols = [self.quantity(s_pts[j], p) for j in range(self.n_points)]
+        Q = ca.horzcat(*cols)  # rows x points
+        g, lbg, ubg, self.g_blocks = [], [], [], []
+
+        self.g_scale, self.stroke_outer = {}, {}
+
+        def add(name, kind, expr, lo, hi, scale=1.0):
+            self.g_scale[name] = scale
+            start = sum(int(e.numel()) for e in g)
+            g.append(expr)
+            n = int(expr.numel())
+            lbg.extend([lo] * n)
+            ubg.extend([hi] * n)
+            self.g_blocks.append((name, kind, start, n))
+
+        if self.objective_kind == "peak":
+            v = Q[self.objective_quantity, :].T / self.f_ref
+            add(self.objective_text, "peak", ca.vertcat(v - t, -v - t), -math.inf, 0.0)
+            f = t
+        elif self.objective_kind == "rms":
+            grid = self.s_grid
+            w = np.r_[0.5 * (grid[1] - grid[0]), 0.5 * (grid[2:] - grid[:-2]), 0.5 * (grid[-1] - grid[-2])]
+            self.rms_weights = w / w.sum()
+            vals = self.quantity.map(len(grid))(ca.DM(grid).T, p)[self.objective_quantity, :]
+            f = ca.dot(ca.DM(self.rms_weights), (vals.T / self.f_ref) ** 2)
+        else:
+            self.objective_scale = max(abs(float(self._outer_start(self.objective_expr))), 1e-12)
+            self._check_monotone(self.objective_expr, "[objective] minimise", self.objective_text, -math.inf, 0.0)
+            f = self._outer(self.objective_expr, a, p) / self.objective_scale
+        for b in self.blocks:
+            if b.kind in ("peak", "rms"):
+                continue
+            row = Q[b.index, :].T / b.scale
+            add(b.name, b.kind, row, b.lower / b.scale, b.upper / b.scale, b.scale)
+        for i, ag in enumerate(self.aggregates):
+            row = Q[ag.index, :].T / ag.scale
+            diff = row - a[i] / ag.scale
+            add(ag.name, "aggregate", diff, -math.inf, 0.0) if ag.func == "max" else add(ag.name, "aggregate", diff, 0.0, math.inf)
+        for c, outer in self.stroke_constraints:
+            scale = max(abs(float(self._outer_start(outer))), 1e-12)
+            lo = -math.inf if c.lower is None else float(self.mech.value(c.lower)) / scale
+            hi = math.inf if c.upper is None else float(self.mech.value(c.upper)) / scale
+            self._check_monotone(outer, f"[[constraints]] {c.name!r}", c.expr.source, lo, hi)
+            self.stroke_outer[c.name] = outer
+            add(c.name, "stroke constraint", self._outer(outer, a, p) / scale, lo, hi, scale)
+        add("dead centre", "dead centre", self.k_sign * Q[self.k_row, :].T / self.k_ref, st.dead_centre_margin, math.inf)
+        w = ca.vertcat(z, t, a)
+        self.nw = int(w.numel())
+        self.n_t = int(t.numel())
+        nlp = {"x": w, "p": ca.vertcat(fixed, s_pts), "f": f, "g": ca.vertcat(*g)}
+        opts = {"ipopt.print_level": st.print_level, "print_time": False, "ipopt.sb": "yes",
+                "ipopt.tol": st.tol, "ipopt.constr_viol_tol": st.tol, "ipopt.max_iter": st.max_iter, "ipopt.mu_strategy": "adaptive",
+                "error_on_fail": False}
+        self.solver = ca.nlpsol("design", "ipopt", nlp, opts)
+        self.lbg, self.ubg = np.array(lbg), np.array(ubg)
+        self.lbw = np.r_[np.where(np.isfinite(self.lower), 0.0, -np.inf), np.zeros(self.n_t), np.full(len(self.aggregates), -np.inf)]
+        self.ubw = np.r_[np.where(np.isfinite(self.upper), 1.0, np.inf), np.full(self.n_t, np.inf), np.full(len(self.aggregates), np.inf)]
+        base = np.linspace(self.s_grid[0], self.s_grid[-1], st.grid)
+        mids = 0.5 * (base[:-1] + base[1:])
+        self.base_points = base
+        self.initial_slots = mids[np.linspace(0, len(mids) - 1, st.slots).round().astype(int)] if st.slots else np.zeros(0)
+
+    def _outer(self, expr, a, p):
+        values = self._parameter_values(p)
+        values.update({ag.name: a[i] for i, ag in enumerate(self.aggregates)})
+        return evaluate(expr, values, {}, expr.source)
+
+    def _outer_start(self, expr):
+        v = self.start_quantities
+        values = self._parameter_values()
+        for ag in self.aggregates:
+            row = v[ag.index]
+            values[ag.name] = float(np.max(row) if ag.func == "max" else np.min(row))
+        return evaluate(expr, values, {}, expr.source)
+
+    def stroke_value(self, outer, extremes) -> float:
+        """A stroke expression evaluated with its aggregates taken from ``extremes``
+        ((aggregate name, 'max'|'min') -> value, as found by the continuous check)."""
+        values = self._parameter_values()
+        for ag in self.aggregates:
+            values[ag.name] = extremes.get((ag.name, ag.func), math.nan)
+        return float(evaluate(outer, values, {}, outer.source))
+
+    def _parameter_values(self, p=None):
+        names, p = self.mech.parameter_names, self.mech.parameter_values if p is None else p
+        values = {n: p[i] for i, n in enumerate(names)}
+        for prm in self.scene.parameters:
+            if prm.value.names():
+                values[prm.name] = evaluate(prm.value, values, {}, prm.name)
+        return values
+
+    def _check_monotone(self, outer, where, source, lo, hi):
+        """The epigraph of an aggregate is conservative only if the bound pushes the outer
+        expression the right way: an upper bound needs it increasing in each max(...) and
+        decreasing in each min(...), a lower bound the reverse."""
+        if not self.aggregates:
+            return
+        a = ca.SX.sym("a", len(self.aggregates))
+        values = self._parameter_values()
+        values.update({ag.name: a[i] for i, ag in enumerate(self.aggregates)})
+        expr = evaluate(outer, values, {}, outer.source)
+        grad = ca.Function("g", [a], [ca.gradient(expr, a)])
+        start = [float(np.max(self.start_quantities[ag.index]) if ag.func == "max" else np.min(self.start_quantities[ag.index]))
+                 for ag in self.aggregates]
+        grad_v = np.asarray(grad(start)).ravel()
+        for i, ag in enumerate(self.aggregates):
+            if grad_v[i] == 0:  # this aggregate belongs to another expression
+                continue
+            increasing = grad_v[i] > 0
+            ok_upper = increasing == (ag.func == "max")
+            if (math.isfinite(hi) and not ok_upper) or (math.isfinite(lo) and ok_upper):
+                raise SceneError(
+                    f"{self.scene.path}: {where}: a {'lower' if math.isfinite(lo) else 'upper'} "
+                    f"bound on {source!r} is not conservative in its {ag.func}(...) over the stroke; "
+                    "write it so that the bound limits a max from above or a min from below "
+                    "(e.g. max(L)/min(L) <= r, or max(L) - r*min(L) <= 0)"
+                )
+
+
+def _parse(text, where):
+    from .expressions import parse
+
+    return parse(text, where)

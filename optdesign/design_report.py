@@ -1,0 +1,119 @@
+"""The report of an optimisation: JSON, a text summary, and before/after figures."""
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from .report import SCHEMA, save_figure, to_json, write_atomic
+
+
+def optimisation_json(result) -> dict:
+    """The documented keys (README: "optdesign optimise --json")."""
+    return {
+        "schema": SCHEMA, "kind": "optimisation", "title": result.scene.title, "file": result.scene.path,
+        "objective_kind": result.objective_kind, "minimise": result.scene.objective.minimise,
+        "design": result.design, "objective": result.objective, "objective_sampled": result.objective_sampled,
+        "peak_certified": result.peak_certified, "peak_sampled": result.peak_sampled,
+        "success": result.success, "status": result.status, "message": result.message,
+        "starts_total": result.starts_total, "starts_at_best": result.starts_at_best,
+        "constraints": result.constraints, "sensitivities": result.sensitivities,
+        "starts": [dataclasses.asdict(s) for s in result.starts],
+        "timings": result.timings, "settings": dataclasses.asdict(result.settings),
+    }
+
+
+def summary(result) -> str:
+    lines = [f"{result.scene.title}", f"minimise {result.scene.objective.minimise}: "
+             + ("OPTIMAL" if result.success else "FAILED") + f" ({result.status})", result.message]
+    if result.success:
+        lines.append("design:")
+        lines += [f"  {k} = {v:.9g}" for k, v in result.design.items()]
+        lines.append(f"objective = {result.objective:.9g} (certified over the continuous stroke; "
+                     f"{result.objective_sampled:.9g} on the scene's samples)")
+        if result.peak_certified is not None:
+            lines.append(f"peak |drive| certified = {result.peak_certified:.9g}, sampled = {result.peak_sampled:.9g}")
+        lines.append("constraints (value, bounds, multiplier = d objective / d active bound):")
+        for name, c in result.constraints.items():
+            lines.append(f"  {name}: {_fmt(c['value'])} in [{_fmt(c['lower'])}, {_fmt(c['upper'])}]"
+                         f"  multiplier {_fmt(c['multiplier'])}" + (f" ({c['active']} active)" if c["active"] else ""))
+        if result.sensitivities:
+            lines.append("sensitivities d objective / d parameter:")
+            lines += [f"  {k}: {v:.6g}" for k, v in result.sensitivities.items()]
+    lines.append(f"starts: {result.starts_at_best} of {result.starts_total} reached the best value within 0.1 %")
+    for s in result.starts:
+        obj = "-" if s.objective is None else f"{s.objective:.9g}"
+        lines.append(f"  start {s.index:2d}: {s.status}{' (repaired)' if s.repaired else ''}, objective {obj}, "
+                     f"{s.iterations} iterations, {s.exchanges} exchanges, {s.time_s * 1e3:.1f} ms")
+    lines.append(f"time: {result.timings.get('total_s', float('nan')):.3f} s "
+                 f"(build {result.timings.get('build_s', float('nan')):.3f} s)")
+    return "\n".join(lines)
+
+
+def _fmt(v):
+    return "-" if v is None else f"{v:.6g}"
+
+
+def write_results(result, folder) -> list:
+    """Write result.json, summary.txt and the figures into ``folder``; returns the paths."""
+    folder = Path(folder)
+    written = [folder / "result.json", folder / "summary.txt"]
+    write_atomic(written[0], to_json(optimisation_json(result)) + "\n")
+    write_atomic(written[1], summary(result) + "\n")
+    written += figures(result, folder)
+    return written
+
+
+def figures(result, folder) -> list:
+    """Drive load and per-sample constraints over the stroke, before and after, and the
+    mechanism drawn at a few positions of the stroke, before and after."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .analysis import Analysis
+    from .drawing import draw_positions
+    from .kinematics import kinematics
+
+    scene = result.scene
+    after = scene.with_parameters(**result.design)
+    analyses = {"start": Analysis(scene).run(), "optimum": Analysis(after).run()}
+    written = []
+    per_sample = [k for k, v in analyses["start"].constraints.items() if np.ndim(v)]
+    fig, axes = plt.subplots(1 + len(per_sample), 1, figsize=(7, 3.2 * (1 + len(per_sample))), squeeze=False)
+    for label, res in analyses.items():
+        axes[0, 0].plot(res.columns["s"], res.columns["drive"], label=f"{label}: peak {res.peaks['drive']:.4g}")
+        for i, name in enumerate(per_sample):
+            axes[i + 1, 0].plot(res.columns["s"], np.degrees(res.constraints[name]) if "angle" in name else res.constraints[name], label=label)
+    axes[0, 0].set_ylabel("drive load [N or N m]")
+    axes[0, 0].set_title(f"{scene.title}\n{scene.objective.minimise}: start vs optimum")
+    for i, name in enumerate(per_sample):
+        c = next(c for c in scene.constraints if c.name == name)
+        conv = np.degrees if "angle" in name else (lambda v: v)
+        for bound in (c.lower, c.upper):
+            if bound is not None:
+                from .expressions import constant_value
+
+                axes[i + 1, 0].axhline(conv(constant_value(bound, scene.parameter_values(), name)), color="k", ls=":", lw=1)
+        axes[i + 1, 0].set_ylabel(name + (" [deg]" if "angle" in name else ""))
+    for ax in axes[:, 0]:
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    axes[-1, 0].set_xlabel(f"sweep {scene.sweep.name}")
+    written.append(Path(folder) / "drive_and_constraints.png")
+    save_figure(fig, written[-1])
+    plt.close(fig)
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 5))
+    for ax, (label, sc) in zip(axes, (("start", scene), ("optimum", after))):
+        draw_positions(ax, sc, kinematics(sc), positions=5)
+        ax.set_title(f"{label}: " + ", ".join(f"{k}={v:.3g}" for k, v in
+                                               (result.design if label == "optimum" else
+                                                {p.name: sc.parameter_values()[p.name] for p in sc.parameters if p.is_design}).items()),
+                     fontsize=9)
+    written.append(Path(folder) / "mechanism.png")
+    save_figure(fig, written[-1])
+    plt.close(fig)
+    return written

@@ -1,0 +1,393 @@
+"""Solving the design problem: exchange of sample points, peak certification, multistart,
+multipliers and sensitivities.  Front door: :func:`optimise`."""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from .design import DesignProblem, SolverSettings
+from .peaks import continuous_maxima
+from .scene import Scene
+
+
+@dataclass(frozen=True)
+class StartReport:
+    """What one start did."""
+
+    index: int
+    start: dict
+    status: str            # IPOPT's return status, or 'skipped: ...'
+    success: bool          # IPOPT converged and the continuous check agreed
+    objective: float | None
+    repaired: bool
+    iterations: int
+    exchanges: int
+    time_s: float
+
+
+@dataclass(frozen=True)
+class Solution:
+    """One converged solve (internal, with what the reports need)."""
+
+    x: np.ndarray
+    w: np.ndarray
+    lam_g: np.ndarray
+    lam_x: np.ndarray
+    lam_p: np.ndarray
+    g: np.ndarray
+    f: float
+    s_points: np.ndarray
+    status: str
+    success: bool
+    iterations: int
+    exchanges: int
+    certified: dict        # (block name, sense) -> worst continuous value (physical units)
+    sampled: dict          # (block name, sense) -> worst value on the scene's samples
+    converged: bool
+
+
+@dataclass(frozen=True)
+class OptimisationResult:
+    """The result of :func:`optimise` (frozen; fixed fields)."""
+
+    scene: Scene
+    design: dict
+    objective: float | None          # certified (continuous stroke) value of the objective
+    objective_sampled: float | None  # the same on the scene's samples only
+    objective_kind: str
+    peak_certified: float | None     # continuous peak |drive| (or |objective quantity|)
+    peak_sampled: float | None
+    success: bool
+    status: str
+    message: str
+    constraints: dict                # name -> {value, lower, upper, multiplier, active}
+    sensitivities: dict              # fixed parameter -> d objective / d parameter
+    starts_total: int
+    starts_at_best: int
+    starts: tuple
+    timings: dict = field(default_factory=dict)
+    settings: SolverSettings = field(default_factory=SolverSettings)
+
+
+# --- one start -----------------------------------------------------------------------------
+class Solver:
+    """Solves a :class:`DesignProblem` from one start by exchange of sample points."""
+
+    def __init__(self, problem: DesignProblem):
+        self.pb = problem
+        self._repair = None
+
+    def fixed_values(self, fixed=None):
+        pb = self.pb
+        return pb.mech.parameter_values[pb.fixed_index] if fixed is None else np.asarray(fixed, float)
+
+    def solve(self, x0, fixed=None, s_points=None) -> Solution | str:
+        pb, st = self.pb, self.pb.settings
+        fixed = self.fixed_values(fixed)
+        s_pts = np.r_[pb.base_points, pb.initial_slots] if s_points is None else np.asarray(s_points, float)
+        w = self._initial_w(x0, fixed, s_pts)
+        if isinstance(w, str):
+            return w
+        iterations, sol = 0, None
+        for exchange in range(st.max_exchanges + 1):
+            res = pb.solver(x0=w, p=np.r_[fixed, s_pts], lbx=pb.lbw, ubx=pb.ubw, lbg=pb.lbg, ubg=pb.ubg)
+            stats = pb.solver.stats()
+            iterations += int(stats.get("iter_count", 0))
+            status = stats["return_status"]
+            w = np.asarray(res["x"]).ravel()
+            x = pb.to_x(w[: len(pb.design_names)])
+            if not stats["success"]:
+                return self._solution(res, x, fixed, s_pts, status, False, iterations, exchange, {}, {}, False)
+            violations, certified, sampled = self.continuous_check(x, fixed, w, s_pts)
+            worst = [v for v in violations if v[0] > 0]
+            if not worst:
+                return self._solution(res, x, fixed, s_pts, status, True, iterations, exchange, certified, sampled, True)
+            s_pts = np.r_[pb.base_points, self._slots(violations)]
+        return self._solution(res, x, fixed, s_pts, status + " (exchange did not converge)", False,
+                              iterations, exchange, certified, sampled, False)
+
+    def _solution(self, res, x, fixed, s_pts, status, success, iterations, exchanges, certified, sampled, converged):
+        return Solution(
+            x=x, w=np.asarray(res["x"]).ravel(), lam_g=np.asarray(res["lam_g"]).ravel(),
+            lam_x=np.asarray(res["lam_x"]).ravel(), lam_p=np.asarray(res["lam_p"]).ravel(),
+            g=np.asarray(res["g"]).ravel(), f=float(res["f"]), s_points=s_pts, status=status, success=success and converged,
+            iterations=iterations, exchanges=exchanges, certified=certified, sampled=sampled,
+            converged=converged,
+        )
+
+    def _initial_w(self, x0, fixed, s_pts):
+        pb = self.pb
+        x0 = np.clip(np.asarray(x0, float), pb.lower, pb.upper)
+        q = pb.evaluate_grid(x0, fixed, s_pts)
+        if not np.all(np.isfinite(q)):
+            return "skipped: the start does not assemble and could not be repaired"
+        t = []
+        if pb.n_t:
+            t = [float(np.max(np.abs(q[pb.objective_quantity]))) / pb.f_ref]
+        a = [float(np.max(q[ag.index]) if ag.func == "max" else np.min(q[ag.index])) for ag in pb.aggregates]
+        return np.r_[pb.to_z(x0), t, a]
+
+    def continuous_check(self, x, fixed, w, s_points):
+        """Worst values of every block over the continuous stroke at design x.
+
+        Returns (violations, certified, sampled): violations is a list of (amount, s) with
+        amount > 0 where a bound (or the epigraph) is exceeded by more than its tolerance,
+        sorted largest first, near-active extrema included with amount <= 0."""
+        pb, st = self.pb, self.pb.settings
+        p = pb.full_parameters(x, fixed)
+        grid = pb.s_grid
+        V = pb.evaluate_grid(x, fixed)
+        d = pb.quantity_derivatives
+
+        def at(row):
+            def evaluate(s):
+                out = d(s, p)
+                return float(out[0][row]), float(out[1][row]), float(out[2][row])
+            return evaluate
+
+        nd = len(pb.design_names)
+        t = float(w[nd]) if pb.n_t else None
+        a = w[nd + pb.n_t:]
+        out, certified, sampled = [], {}, {}
+
+        def check(name, row, sense, scale, bound, tol, upper=True):
+            vals = V[row]
+            # only extrema near the bound can matter: refine those within 10 % of the scale
+            sign = 1.0 if upper else -1.0
+            limit = sign * bound / scale - 0.1 if math.isfinite(bound) else None
+            ext = continuous_maxima(at(row), grid, vals, sense, only_above=None if limit is None else limit * scale)
+            certified[(name, sense)] = ext[0].value
+            sampled[(name, sense)] = float(np.max(np.abs(vals)) if sense == "abs" else (np.max(vals) if sense == "max" else np.min(vals)))
+            for e in ext:
+                amount = (sign * e.value - sign * bound) / scale if sense != "abs" else (abs(e.value) - bound) / scale
+                out.append((amount - tol, e.s))
+
+        at_points = pb.evaluate_grid(x, fixed, s_points)
+        for b in pb.blocks:
+            if b.kind == "peak":
+                # the epigraph's own value: the largest |v| at the NLP's points (IPOPT may leave t
+                # a hair below it, within its constraint tolerance)
+                reference = max(t * pb.f_ref, float(np.max(np.abs(at_points[b.index]))))
+                check(b.name, b.index, "abs", pb.f_ref, reference, st.peak_tol * reference / pb.f_ref)
+            elif b.kind == "rms":
+                ext = continuous_maxima(at(b.index), grid, V[b.index], "abs")
+                certified[(b.name, "abs")] = ext[0].value
+                sampled[(b.name, "abs")] = float(np.max(np.abs(V[b.index])))
+            elif b.kind in ("constraint", "margin"):
+                if math.isfinite(b.upper):
+                    check(b.name, b.index, "max", b.scale, b.upper, st.constraint_tol)
+                if math.isfinite(b.lower):
+                    check(b.name, b.index, "min", b.scale, b.lower, st.constraint_tol, upper=False)
+        for i, ag in enumerate(pb.aggregates):
+            if ag.func == "max":
+                check(ag.name, ag.index, "max", ag.scale, float(a[i]), st.constraint_tol)
+            else:
+                check(ag.name, ag.index, "min", ag.scale, float(a[i]), st.constraint_tol, upper=False)
+        check("dead centre", pb.k_row, "min" if pb.k_sign > 0 else "max", pb.k_ref,
+              pb.k_sign * st.dead_centre_margin * pb.k_ref, 0.0, upper=pb.k_sign < 0)
+        out.sort(key=lambda v: v[0], reverse=True)
+        return out, certified, sampled
+
+    def _slots(self, violations):
+        """Sample points for the slots: the most violated or most active continuous extrema."""
+        pb = self.pb
+        chosen = []
+        for _, s in violations:
+            if all(abs(s - c) > 1e-9 for c in chosen) and np.min(np.abs(pb.base_points - s)) > 1e-9:
+                chosen.append(s)
+            if len(chosen) == len(pb.initial_slots):
+                break
+        fill = [s for s in pb.initial_slots if all(abs(s - c) > 1e-9 for c in chosen)]
+        chosen += fill[: len(pb.initial_slots) - len(chosen)]
+        return np.array(sorted(chosen))
+
+
+# --- repair of starts that do not assemble ---------------------------------------------------
+class Repair:
+    """Projects a start onto designs whose constructions assemble at the sample points:
+    min |z - z0|^2 subject to every dyad/slider margin >= 1e-3 of its start scale."""
+
+    def __init__(self, problem: DesignProblem):
+        pb = problem
+        self.pb = pb
+        margins = [b for b in pb.blocks if b.kind == "margin"]
+        self.ok = bool(margins)
+        if not self.ok:
+            return
+        sym = pb.mech.sym
+        z = sym.sym("z", len(pb.design_names))
+        z0 = sym.sym("z0", len(pb.design_names))
+        fixed = sym.sym("fixed", len(pb.fixed_names))
+        x = ca.DM(pb.z_offset) + ca.DM(pb.z_scale) * z
+        p = pb.full_parameters(x, fixed)
+        rows = ca.vertcat(*[pb.rows[b.index] / b.scale for b in margins])
+        f = pb.mech.function("margins", {"m": rows})
+        pts = np.linspace(pb.s_grid[0], pb.s_grid[-1], max(pb.settings.grid * 2, 25))
+        g = ca.vertcat(*[f(s, p) for s in pts])
+        nlp = {"x": z, "p": ca.vertcat(z0, fixed), "f": ca.sumsqr(z - z0), "g": g}
+        self.solver = ca.nlpsol("repair", "ipopt", nlp, {
+            "ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "error_on_fail": False})
+        self.n_g = int(g.numel())
+
+    def __call__(self, x0, fixed):
+        pb = self.pb
+        if not self.ok:
+            return None
+        z0 = pb.to_z(np.clip(x0, pb.lower, pb.upper))
+        lb = np.where(np.isfinite(pb.lower), 0.0, -np.inf)
+        ub = np.where(np.isfinite(pb.upper), 1.0, np.inf)
+        res = self.solver(x0=z0, p=np.r_[z0, fixed], lbx=lb, ubx=ub, lbg=1e-3, ubg=np.inf)
+        if not self.solver.stats()["success"]:
+            return None
+        return pb.to_x(np.asarray(res["x"]).ravel())
+
+
+def solve_start(solver: Solver, repair: Repair, index, x0, fixed=None) -> tuple:
+    """One start: solve, repairing it first if it does not assemble.  (StartReport, Solution)"""
+    pb = solver.pb
+    t0 = time.perf_counter()
+    fixed_v = solver.fixed_values(fixed)
+    repaired = False
+    start = dict(zip(pb.design_names, map(float, x0)))
+    q = pb.evaluate_grid(np.clip(x0, pb.lower, pb.upper), fixed_v,
+                         np.r_[pb.base_points, pb.initial_slots])
+    if not np.all(np.isfinite(q)):
+        fixed_x = repair(np.asarray(x0, float), fixed_v)
+        if fixed_x is None:
+            return StartReport(index, start, "skipped: does not assemble and could not be repaired", False,
+                               None, False, 0, 0, time.perf_counter() - t0), None
+        x0, repaired = fixed_x, True
+    sol = solver.solve(x0, fixed_v)
+    if isinstance(sol, str):
+        return StartReport(index, start, sol, False, None, repaired, 0, 0, time.perf_counter() - t0), None
+    objective = objective_value(pb, sol) if sol.success else None
+    report = StartReport(index, start, sol.status, sol.success, objective, repaired, sol.iterations,
+                         sol.exchanges, time.perf_counter() - t0)
+    return report, sol
+
+
+def objective_value(pb: DesignProblem, sol: Solution, certified=True) -> float:
+    """The objective in physical units: certified (continuous) or on the scene's samples."""
+    values = sol.certified if certified else sol.sampled
+    if pb.objective_kind == "peak":
+        return abs(values[(pb.objective_text, "abs")])
+    if pb.objective_kind == "rms":
+        return pb.f_ref * math.sqrt(max(sol.f, 0.0))
+    return pb.stroke_value(pb.objective_expr, values)
+
+
+def objective_gradient_factor(pb: DesignProblem, sol: Solution) -> float:
+    """dJ/df: the physical objective J per unit of the NLP's objective f."""
+    if pb.objective_kind == "peak":
+        return pb.f_ref
+    if pb.objective_kind == "rms":
+        return pb.f_ref / (2 * math.sqrt(max(sol.f, 1e-300)))
+    return pb.objective_scale
+
+
+# --- the front door ------------------------------------------------------------------------
+def draw_starts(problem: DesignProblem, starts: int, seed: int) -> np.ndarray:
+    """The scene's own start, then uniform random points of the design box (reproducible)."""
+    rng = np.random.default_rng(seed)
+    lo = np.where(np.isfinite(problem.lower), problem.lower, problem.start - np.abs(problem.start) - 1)
+    hi = np.where(np.isfinite(problem.upper), problem.upper, problem.start + np.abs(problem.start) + 1)
+    rand = lo + (hi - lo) * rng.random((max(starts - 1, 0), len(lo)))
+    return np.vstack([problem.start[None, :], rand])[:starts]
+
+
+def optimise(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSettings | None = None,
+             progress=None, x_starts=None) -> OptimisationResult:
+    """Minimise the scene's objective over its design variables (front door).
+
+    ``starts`` reproducible starts (the scene's start, then random points of the design box
+    drawn with ``seed``) or explicit ``x_starts``; ``progress(done, total)`` is called after
+    each start."""
+    t0 = time.perf_counter()
+    problem = DesignProblem(scene, settings)
+    solver, repair = Solver(problem), Repair(problem)
+    t_build = time.perf_counter() - t0
+    xs = draw_starts(problem, starts, seed) if x_starts is None else np.atleast_2d(np.asarray(x_starts, float))
+    reports, solutions = [], []
+    for i, x0 in enumerate(xs):
+        report, sol = solve_start(solver, repair, i, x0)
+        reports.append(report)
+        solutions.append(sol)
+        if progress is not None:
+            progress(i + 1, len(xs))
+    return summarise(problem, solver, reports, solutions, {"build_s": t_build, "total_s": time.perf_counter() - t0})
+
+
+def summarise(problem, solver, reports, solutions, timings) -> OptimisationResult:
+    pb = problem
+    good = [(r.objective, i) for i, r in enumerate(reports) if r.success and r.objective is not None]
+    if not good:
+        statuses = sorted({r.status for r in reports})
+        return OptimisationResult(
+            pb.scene, {}, None, None, pb.objective_kind, None, None, False, "; ".join(statuses),
+            "No start converged to a feasible design. Try more starts (--starts), widen the bounds, "
+            "relax the constraints, or check the start with `optdesign analyse`.",
+            {}, {}, len(reports), 0, tuple(reports), timings, pb.settings)
+    best_value, best = min(good)
+    at_best = sum(1 for v, _ in good if abs(v - best_value) <= 1e-3 * max(abs(best_value), 1e-300))
+    sol = solutions[best]
+    factor = objective_gradient_factor(pb, sol)
+    # CasADi's lam_p is minus the gradient of the Lagrangian in p: dJ*/dp = -lam_p (scaled)
+    sens = {name: float(-factor * sol.lam_p[j]) for j, name in enumerate(pb.fixed_names)}
+    peak_key = (pb.objective_text, "abs")
+    peak_c = abs(sol.certified[peak_key]) if peak_key in sol.certified else None
+    peak_s = abs(sol.sampled[peak_key]) if peak_key in sol.sampled else None
+    return OptimisationResult(
+        scene=pb.scene, design=dict(zip(pb.design_names, map(float, np.clip(sol.x, pb.lower, pb.upper)))),
+        objective=best_value, objective_sampled=objective_value(pb, sol, certified=False),
+        objective_kind=pb.objective_kind, peak_certified=peak_c, peak_sampled=peak_s,
+        success=True, status=sol.status, message="optimal: IPOPT converged and the continuous check agrees",
+        constraints=constraint_report(pb, sol, factor), sensitivities=sens,
+        starts_total=len(reports), starts_at_best=at_best, starts=tuple(reports), timings=timings,
+        settings=pb.settings)
+
+
+def constraint_report(pb: DesignProblem, sol: Solution, factor: float) -> dict:
+    """Each named constraint: its extreme values over the continuous stroke, its bounds, and
+    its multiplier as dJ*/d(active bound) in physical units (0 when inactive)."""
+    out = {}
+    for name, kind, start, n in pb.g_blocks:
+        if kind in ("peak", "aggregate"):
+            continue
+        scale = pb.g_scale[name]
+        lam = float(np.sum(_active(sol.lam_g[start:start + n], sol.g[start:start + n],
+                                   pb.lbg[start:start + n], pb.ubg[start:start + n])))
+        entry = {"kind": kind, "lower": _finite(pb.lbg[start] * scale), "upper": _finite(pb.ubg[start] * scale),
+                 "multiplier": -lam * factor / scale + 0.0,
+                 "active": None if lam == 0 else ("upper" if lam > 0 else "lower")}
+        if kind == "stroke constraint":
+            entry["value"] = pb.stroke_value(pb.stroke_outer[name], sol.certified)
+        else:
+            lo, hi = sol.certified.get((name, "min")), sol.certified.get((name, "max"))
+            if kind == "dead centre":  # reported as sigma * k / k_ref, the guarded quantity
+                lo, hi = [None if v is None else pb.k_sign * v / pb.k_ref for v in (lo, hi)]
+                lo, hi = (hi, lo) if pb.k_sign < 0 else (lo, hi)
+            entry.update({"min": lo, "max": hi})
+            entry["value"] = hi if lo is None or (entry["active"] == "upper") else lo
+        out[name] = entry
+    for j, name in enumerate(pb.design_names):
+        lam = float(_active(sol.lam_x[j:j + 1], sol.w[j:j + 1], pb.lbw[j:j + 1], pb.ubw[j:j + 1])[0])
+        out[f"bounds of {name}"] = {
+            "kind": "bound", "value": float(np.clip(sol.x[j], pb.lower[j], pb.upper[j])), "lower": _finite(pb.lower[j]), "upper": _finite(pb.upper[j]),
+            "multiplier": float(-lam * factor / pb.z_scale[j]) + 0.0,
+            "active": None if lam == 0 else ("upper" if lam > 0 else "lower")}
+    return out
+
+
+def _active(lam, value, lower, upper, tol=1e-6):
+    """Multipliers of constraints at their bounds (within tol, scaled); 0 for the others,
+    whose interior-point multipliers are of the order of IPOPT's barrier parameter."""
+    at_bound = (np.abs(value - lower) <= tol) | (np.abs(value - upper) <= tol)
+    return np.where(at_bound, lam, 0.0)
+
+
+def _finite(v):
+    return float(v) if math.isfinite(v) else None
