@@ -178,7 +178,8 @@ class ReducedModel:
     def body_ratios(self) -> dict:
         """Per body the seed's ratios and their derivatives with respect to q:
         rotary R_z, dR_z/dq (massive bodies), i_m (rotating bodies); linear i_v, di_v/dq, R_e.
-        Also the tangential acceleration of the centre of mass, a_C0 + delta_a_C = a_C."""
+        Also the tangential acceleration of the centre of mass, a_C0 + delta_a_C = a_C (eqs. 3,
+        24), each part only when the drive's acceleration (a_C0) or speed (delta_a_C) is used."""
         m, k = self.mech, self.k
         out = {}
         for name, t in self.body_terms.items():
@@ -191,9 +192,16 @@ class ReducedModel:
                 else:
                     ratios["i_v"] = 1 / speed_ratio
                     ratios["di_v_dq"] = -d_speed_ratio / speed_ratio**2
-                ratios["a_C0"] = speed_ratio * self.qdd
-                ratios["delta_a_C"] = d_speed_ratio * self.qd**2
-                ratios["a_C"] = ratios["a_C0"] + ratios["delta_a_C"]
+                # lean: a zero drive acceleration (speed) builds no a_C0 (delta_a_C)
+                parts = []
+                if self.uses_acceleration:
+                    ratios["a_C0"] = speed_ratio * self.qdd
+                    parts.append(ratios["a_C0"])
+                if self.uses_speed:
+                    ratios["delta_a_C"] = d_speed_ratio * self.qd**2
+                    parts.append(ratios["delta_a_C"])
+                if parts:
+                    ratios["a_C"] = sum(parts[1:], parts[0])
             if "inertia" in t:
                 ratios["i_m" if self.rotary else "R_e"] = k / t["phi_s"]
             if ratios:
@@ -217,6 +225,25 @@ class ReducedModel:
     def efficiency_inverse(self, power):
         """1/c for a given drive power T_S qd (same sign as the ideal power)."""
         return 1.0 / self.efficiency_factor(power)
+
+    def drive_numerator(self, k_ref: float = 1.0):
+        """The drive load as N / K with K = (k / k_ref)^4 >= 0 and N free of any division by
+        k = dq/ds:  u k^4 = Q_s k^3 + M_s k^2 qdd + 1/2 qd^2 (dM_s/ds k - 2 M_s dk/ds).
+
+        The optimiser constrains |N| <= t K instead of |N / K| <= t: the same set wherever
+        k != 0, but bounded and smooth where an iterate nears a dead centre (k -> 0)."""
+        k = self.k
+        n = 0
+        if self.has_static:
+            n = n + self.Q_s * k**3
+        if self.has_inertia and self.uses_acceleration:
+            n = n + self.M_s * k**2 * self.qdd
+        if self.has_inertia and self.uses_speed:
+            n = n + 0.5 * self.qd**2 * (self.mech.ds(self.M_s) * k - 2 * self.M_s * self.dk)
+        n = n / k_ref**4
+        if self.uses_efficiency:
+            n = n * self.efficiency_factor(n * self.qd)  # same sign as the power u qd
+        return n, (k / k_ref) ** 4
 
     # --- checks ---
     def check_dead_centre(self, s_values, p_values=None):
