@@ -192,13 +192,16 @@ class ReducedModel:
                 else:
                     ratios["i_v"] = 1 / speed_ratio
                     ratios["di_v_dq"] = -d_speed_ratio / speed_ratio**2
-                # lean: a zero drive acceleration (speed) builds no a_C0 (delta_a_C)
+                # lean: a zero drive acceleration (speed) builds no a_C0 (delta_a_C).
+                # a_C = d|v_C|/dt (eqs. 3, 24) with |v_C| = speed_ratio |qd|: when the drive runs
+                # backwards (qd < 0) both parts change sign.
+                direction = ca.sign(self.qd) if self.uses_speed else 1.0
                 parts = []
                 if self.uses_acceleration:
-                    ratios["a_C0"] = speed_ratio * self.qdd
+                    ratios["a_C0"] = direction * speed_ratio * self.qdd
                     parts.append(ratios["a_C0"])
                 if self.uses_speed:
-                    ratios["delta_a_C"] = d_speed_ratio * self.qd**2
+                    ratios["delta_a_C"] = direction * d_speed_ratio * self.qd**2
                     parts.append(ratios["delta_a_C"])
                 if parts:
                     ratios["a_C"] = sum(parts[1:], parts[0])

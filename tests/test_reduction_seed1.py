@@ -28,6 +28,7 @@ floor of a millionth of the stroke's peak only matters where a quantity crosses 
 """
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -352,3 +353,24 @@ def test_jib_force_against_eq37(jib):
     assert_rel(res.columns["velocity_term"], dF_S, "dF_S (36)")
     assert_rel(res.columns["drive"], F_S, "F_S (37)")
     assert_rel(res.columns["power"], F_S * v_S, "P_in = F_S v_S (28)")
+
+
+# ---------------------------------------------------------------------------------------------
+# a_C^v = d|v_C|/dt (eqs. 3, 24) whichever way the drive runs
+# ---------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("path,body,point", [(SC_PATH, "piston", "C"), (JIB_PATH, "load", "C")])
+@pytest.mark.parametrize("direction", [1.0, -1.0])
+def test_a_C_is_the_tangential_acceleration(path, body, point, direction):
+    """The seed's a_C^v is the rate of change of |v_C|: (v_C . a_C)/|v_C| from the point's
+    velocity and acceleration (optdesign.kinematics), also with the drive running backwards
+    (where the naive R_z eps_S + omega_S^2 dR_z/dalpha has the wrong sign).  Samples where
+    v_C = 0 to round-off (the piston's dead centres) are skipped: |v_C| has a kink there."""
+    scene = load(path)
+    speed, acc = drive_motion(scene)
+    scene = dataclasses.replace(scene, drive=dataclasses.replace(scene.drive, speed=direction * speed))
+    res, kin = analyse(scene), kinematics(scene)
+    C = kin.points[point]
+    v = np.hypot(C["vx"], C["vy"])
+    moving = v > 1e-12 * v.max()
+    tangential = (C["vx"] * C["ax"] + C["vy"] * C["ay"])[moving] / v[moving]
+    assert_rel(res.bodies[body]["a_C"][moving], tangential, f"a_C, drive speed {direction * speed}")
