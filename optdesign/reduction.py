@@ -213,7 +213,10 @@ class ReducedModel:
 
     def drive_acceleration(self, drive_load):
         """Motion from the drive (eqs. 17, 38): the drive acceleration for a given drive torque
-        or force at the scene's speed, I_zS eps_S = T_S - T_Su + dT_S with the same c."""
+        or force at the scene's speed, I_zS eps_S = T_S - T_Su + dT_S with the same c.
+        It inverts :meth:`outputs`' drive exactly only with efficiency_smoothing = 0: with
+        smoothing, c is taken at the given power T_S qd, the forward model at the ideal power
+        u qd, so near zero power the round trip is off by up to the smoothing error."""
         if not self.has_inertia:
             raise SceneError(f"{self.scene.path}: the mechanism has no mass or inertia: a drive load gives no acceleration")
         c_inv = self.efficiency_inverse(drive_load * self.qd) if self.uses_efficiency else 1.0
