@@ -401,3 +401,72 @@ def test_open_chain_printed_1_12_without_square_is_wrong(open_chain):
     ad = np.array([res.points["M"]["ax"][0], res.points["M"]["ay"][0]])
     assert np.abs(seed2_acceleration(*args)[:2] - ad).max() < 1e-11
     assert np.abs(seed2_acceleration(*args, square_rates=False)[:2] - ad).max() > 1e-2
+
+
+# ===================================================================================
+# The paper's own route for examples 2 and 3: its printed matrices v_i, v'_i, v_ij at the
+# given position, then (1.7) and (1.12) solved for the unknown rates (a check of the print)
+# ===================================================================================
+def seed2_matrices(phi, lengths_before, r):
+    """v_i, v'_i and v_ij (i < j) of (1.9), (1.14), (1.15) as 2-vectors."""
+    k = len(phi)
+    Ts = [T(p, Lb) for p, Lb in zip(phi, lengths_before)]
+
+    def v_with(derivs):
+        return chain_product([derivs.get(j, Ts[j]) for j in range(k)], r)[:2]
+
+    v = [v_with({i: T1p(phi[i])}) for i in range(k)]
+    vp = [v_with({i: T2p(phi[i])}) for i in range(k)]
+    vij = {(i, j): v_with({i: T1p(phi[i]), j: T1p(phi[j])}) for i in range(k) for j in range(i + 1, k)}
+    return v, vp, vij
+
+
+def test_example2_printed_matrices_and_their_solution():
+    """At phi1 = pi/2, c2 = 0.2, s2 = sqrt(0.96), B = (-2, 0) in link 2: the printed v_1*, v_2*,
+    v'_1*, v'_2*, v_12* (printed with the label T_1 T''_2 r; it is T'_1 T'_2 r, equal here),
+    and with y_B fixed to the line: phi2_dot = -phi1_dot, phi2_ddot = -eps1 + 0.2/sqrt(0.96) w^2,
+    x_B_ddot = -0.4 eps1 + 0.08/sqrt(0.96) w^2 and x_B_dot = 0.4 phi2_dot = -0.4 w."""
+    q = math.sqrt(0.96)
+    v, vp, vij = seed2_matrices([math.pi / 2, math.acos(0.2)], [0.0, 0.4], np.array([-2.0, 0.0, 1.0]))
+    printed = {"v1": (0, 2 * q), "v2": (0.4, 2 * q), "v'1": (-2 * q, 0), "v'2": (-2 * q, 0.4), "v12": (-2 * q, 0.4)}
+    for name, got in zip(printed, (v[0], v[1], vp[0], vp[1], vij[0, 1])):
+        assert got == pytest.approx(printed[name], abs=1e-15), name
+    for w1, e1 in RATES:
+        w2 = -v[0][1] * w1 / v[1][1]  # y_B_dot = 0
+        # y_B_ddot = 0 solved for phi2_ddot
+        e2 = -(v[0][1] * e1 + vp[0][1] * w1**2 + vp[1][1] * w2**2 + 2 * vij[0, 1][1] * w1 * w2) / v[1][1]
+        xdot = v[0][0] * w1 + v[1][0] * w2
+        xddot = v[0][0] * e1 + v[1][0] * e2 + vp[0][0] * w1**2 + vp[1][0] * w2**2 + 2 * vij[0, 1][0] * w1 * w2
+        assert w2 == pytest.approx(-w1, abs=1e-15)
+        assert e2 == pytest.approx(-e1 + 0.2 / q * w1**2, abs=1e-14)
+        assert xdot == pytest.approx(-0.4 * w1, abs=1e-15)  # printed +0.4 omega1: the sign slip
+        assert xddot == pytest.approx(-0.4 * e1 + 0.08 / q * w1**2, abs=1e-14)
+
+
+def test_example3_printed_matrices_and_their_solution():
+    """At c1 = 0.8, s1 = 0.6, phi2 = pi/2, phi3 = pi - phi1, D = (0.4, 0) in link 3: the printed
+    v_i*, v'_i*, v_ij* (several printed with garbled labels, values right), then (1.7) and
+    (1.12) for the fixed point D give the paper's rates.  The printed y-equation of (1.12)
+    lacks 2 v_13y w1 w3 + 2 v_23y w2 w3 = 0.8 w1 w3 + 0.8 w2 w3; as printed it would give
+    eps2 = 8/3 eps1 + 15.56 w1^2, with them the paper's 8/3 eps1 - 20/9 w1^2."""
+    p1 = PHI1_STAR
+    v, vp, vij = seed2_matrices([p1, math.pi / 2, math.pi - p1], [0.0, 0.4, 0.2], np.array([0.4, 0.0, 1.0]))
+    printed = {"v1": (0, 0.2), "v2": (0.24, -0.12), "v3": (0.4, 0), "v'1": (-0.2, 0), "v'2": (0.12, 0.24),
+               "v'3": (0, 0.4), "v12": (0.12, 0.24), "v13": (0, 0.4), "v23": (0, 0.4)}
+    got = (*v, *vp, vij[0, 1], vij[0, 2], vij[1, 2])
+    for name, value in zip(printed, got):
+        assert value == pytest.approx(printed[name], abs=1e-15), name
+    V = np.column_stack([v[1], v[2]])
+    for w1, e1 in RATES:
+        w2, w3 = np.linalg.solve(V, -v[0] * w1)  # D at rest: (1.7) = 0
+        assert (w2, w3) == pytest.approx((5 / 3 * w1, -w1), abs=1e-14)
+        w = (w1, w2, w3)
+        quad = sum(vp[i] * w[i] ** 2 for i in range(3)) + sum(2 * vij[i, j] * w[i] * w[j] for i, j in vij)
+        e2, e3 = np.linalg.solve(V, -(v[0] * e1 + quad))  # (1.12) = 0
+        paper = fourbar_paper(w1, e1)
+        assert e1 + e2 == pytest.approx(paper["eps2"], abs=1e-13)
+        assert e1 + e2 + e3 == pytest.approx(paper["eps3"], abs=1e-13)
+        # the y-equation as printed (0.20 e1 - 0.12 e2 + 0.24 w2^2 + 0.40 w3^2 + 0.48 w1 w2 = 0)
+        e2_printed = (0.20 * e1 + 0.24 * w2**2 + 0.40 * w3**2 + 0.48 * w1 * w2) / 0.12
+        if w1 != 0:
+            assert abs(e1 + e2_printed - paper["eps2"]) > 1.0
