@@ -8,6 +8,7 @@ Grammar (never ``eval``)::
     power   := atom ('^' unary)?              # right associative, binds tighter than unary minus
     atom    := NUMBER ['deg'] | NAME | NAME '(' expr (',' expr)* ')' | '(' expr ')'
 
+``**`` is read as ``^``.  So ``-2^2`` is -4, ``2^3^2`` is 512 and ``1 - 2 - 3`` is -4.
 Names are parameters, the sweep variable, ``pi`` and ``deg`` (pi/180).  ``25 deg`` is 25 degrees.
 Functions: ``sin cos tan asin acos atan atan2 sqrt abs exp log min max`` and the geometric
 measures ``length(P, Q)``, ``angle(P, Q, R)`` (at Q, between Q->P and Q->R, 0..pi), ``x(P)``,
@@ -16,6 +17,8 @@ the whole stroke (an aggregate); with two or more, element by element.
 
 Evaluation works on scalars and on rows of samples alike (CasADi operations are element-wise),
 so the same tree gives a value per sample or, through the aggregates, one value per stroke.
+Every mistake (syntax, an unknown name or function, a wrong number of arguments) raises
+:class:`~optdesign.errors.ExpressionError` before CasADi sees the expression.
 """
 from __future__ import annotations
 
@@ -25,6 +28,7 @@ import re
 from dataclasses import dataclass
 
 import casadi as ca
+import numpy as np
 
 from .errors import ExpressionError
 
@@ -39,7 +43,27 @@ UNARY = {
     "atan": ca.atan, "sqrt": ca.sqrt, "abs": ca.fabs, "exp": ca.exp, "log": ca.log,
 }
 GEOMETRIC = {"length": 2, "angle": 3, "x": 1, "y": 1}
-FUNCTIONS = sorted(set(UNARY) | set(GEOMETRIC) | {"atan2", "min", "max"})
+AGGREGATES = ("min", "max")
+FUNCTIONS = sorted(set(UNARY) | set(GEOMETRIC) | {"atan2"} | set(AGGREGATES))
+
+
+def located_error(cls, where, detail, path=None):
+    """An error of class ``cls`` that remembers where it happened.
+
+    ``where`` names the item (a string, or any object whose ``str`` does, such as the scene's
+    ``Where``); ``detail`` says what was found and what was expected.  The attributes ``where``,
+    ``detail`` and ``path`` let the scene-file reader add the file name and the line number
+    without parsing the message."""
+    head = f"{path}: " if path else ""
+    exc = cls(f"{head}{where}: {detail}" if where else f"{head}{detail}")
+    exc.where, exc.detail, exc.path = where, detail, path
+    return exc
+
+
+def near_miss(name, known) -> str:
+    """'; did you mean 'X'?' for the closest of ``known``, or ''."""
+    hint = difflib.get_close_matches(str(name), [str(k) for k in known], n=1)
+    return f"; did you mean {hint[0]!r}?" if hint else ""
 
 
 # --- syntax tree ---------------------------------------------------------------------------
@@ -79,8 +103,9 @@ class Expression:
     tree: object
 
     def names(self) -> set[str]:
-        """Every plain name used (not point arguments of geometric measures)."""
-        return _collect(self.tree, points=False)
+        """Every plain name used, except the constants ``pi`` and ``deg`` (point arguments of
+        geometric measures are not names: see :meth:`points`)."""
+        return _collect(self.tree, points=False) - set(CONSTANTS)
 
     def points(self) -> set[str]:
         """Every point named as an argument of a geometric measure."""
@@ -95,51 +120,90 @@ class Expression:
     def is_constant_number(self) -> bool:
         return isinstance(self.tree, Num)
 
+    def outside_aggregates(self) -> tuple[set, set]:
+        """(names, points) used outside every one-argument ``min``/``max``: for an aggregate
+        expression these must not vary along the stroke."""
+        return _outside(self.tree)
+
+
+def _children(node):
+    if isinstance(node, Neg):
+        return (node.operand,)
+    if isinstance(node, BinOp):
+        return (node.left, node.right)
+    if isinstance(node, Call):
+        return () if node.func in GEOMETRIC else node.args
+    return ()
+
 
 def _collect(node, points):
     if isinstance(node, Name):
         return set() if points else {node.name}
-    if isinstance(node, Num):
-        return set()
-    if isinstance(node, Neg):
-        return _collect(node.operand, points)
-    if isinstance(node, BinOp):
-        return _collect(node.left, points) | _collect(node.right, points)
-    if isinstance(node, Call):
-        if node.func in GEOMETRIC:
-            return {a.name for a in node.args} if points else set()
-        out = set()
-        for a in node.args:
-            out |= _collect(a, points)
-        return out
-    raise TypeError(node)
+    if isinstance(node, Call) and node.func in GEOMETRIC:
+        return {a.name for a in node.args} if points else set()
+    out = set()
+    for child in _children(node):
+        out |= _collect(child, points)
+    return out
+
+
+def _is_aggregate_call(node):
+    return isinstance(node, Call) and node.func in AGGREGATES and len(node.args) == 1
 
 
 def _has_aggregate(node):
+    return _is_aggregate_call(node) or any(_has_aggregate(c) for c in _children(node))
+
+
+def _outside(node):
+    if _is_aggregate_call(node):
+        return set(), set()
+    if isinstance(node, Name):
+        return {node.name} - set(CONSTANTS), set()
+    if isinstance(node, Call) and node.func in GEOMETRIC:
+        return set(), {a.name for a in node.args}
+    names, pts = set(), set()
+    for child in _children(node):
+        n, p = _outside(child)
+        names |= n
+        pts |= p
+    return names, pts
+
+
+def _describe(node) -> str:
+    """A short rendering of a parsed argument, for messages."""
+    if isinstance(node, Num):
+        return f"{node.value:g}"
+    if isinstance(node, Name):
+        return node.name
     if isinstance(node, Call):
-        if node.func in ("min", "max") and len(node.args) == 1:
-            return True
-        return any(_has_aggregate(a) for a in node.args)
-    if isinstance(node, BinOp):
-        return _has_aggregate(node.left) or _has_aggregate(node.right)
-    if isinstance(node, Neg):
-        return _has_aggregate(node.operand)
-    return False
+        return f"{node.func}(...)"
+    return "an expression"
 
 
 # --- parser --------------------------------------------------------------------------------
 def parse(text, where: str = "expression") -> Expression:
     """Parse a number or a string into an :class:`Expression`; ``where`` names it in errors."""
+    if isinstance(text, Expression):
+        return text
     if isinstance(text, bool) or not isinstance(text, (int, float, str)):
-        raise ExpressionError(
-            f"{where}: expected a number or an expression string, found {text!r} "
-            f"({type(text).__name__})"
-        )
+        kind = {list: "a list", tuple: "a list", dict: "a table", bool: "a boolean"}.get(
+            type(text), type(text).__name__)
+        raise located_error(
+            ExpressionError, where,
+            f"expected a number or an expression string such as \"2*r\" or \"25 deg\", "
+            f"found {_show(text)} ({kind})")
     if isinstance(text, (int, float)):
         if not math.isfinite(text):
-            raise ExpressionError(f"{where}: expected a finite number, found {text!r}")
+            raise located_error(ExpressionError, where, f"expected a finite number, found {text!r}")
         return Expression(repr(text), Num(float(text)))
     return Expression(text, _Parser(text, where).parse())
+
+
+def _show(value):
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return repr(value)
 
 
 class _Parser:
@@ -149,7 +213,7 @@ class _Parser:
         self.i = 0
 
     def _fail(self, message):
-        raise ExpressionError(f"{self.where}: {message} in {self.text!r}")
+        raise located_error(ExpressionError, self.where, f"{self.text!r}: {message}")
 
     def _tokenize(self, text):
         tokens, pos = [], 0
@@ -158,13 +222,17 @@ class _Parser:
             m = _TOKEN.match(text, pos)
             if not m or m.end() == pos:
                 bad = text[pos:].strip()[:1]
-                self._fail(f"unexpected character {bad!r} at position {pos}")
+                self._fail(
+                    f"unexpected character {bad!r} at position {text.index(bad, pos)}"
+                    " (an expression holds numbers, names, + - * / ^, parentheses and function calls)")
             kind = m.lastgroup
             value = m.group(kind)
+            if kind == "num" and not math.isfinite(float(value)):
+                self._fail(f"the number {value} is too large")
             tokens.append((kind, "^" if value == "**" else value))
             pos = m.end()
         if not tokens:
-            self._fail("empty expression")
+            self._fail("empty expression: expected a number or a formula")
         return tokens
 
     def _peek(self):
@@ -173,7 +241,9 @@ class _Parser:
     def _take(self, value=None):
         kind, tok = self._peek()
         if kind is None:
-            self._fail("unexpected end" + (f", expected {value!r}" if value else ""))
+            after = f" after {self.tokens[-1][1]!r}" if self.tokens else ""
+            self._fail(f"the expression ends too early{after}: expected "
+                       + (repr(value) if value else "a number, a name or '('"))
         if value is not None and tok != value:
             self._fail(f"expected {value!r}, found {tok!r}")
         self.i += 1
@@ -182,7 +252,11 @@ class _Parser:
     def parse(self):
         node = self.expr()
         if self.i != len(self.tokens):
-            self._fail(f"unexpected {self._peek()[1]!r}")
+            tok = self._peek()[1]
+            if tok == "deg":
+                self._fail("'deg' after something other than a number: write '25 deg' for a "
+                           "literal angle, or 'name*deg'")
+            self._fail(f"unexpected {tok!r} after a complete expression (a missing operator?)")
         return node
 
     def expr(self):
@@ -231,32 +305,37 @@ class _Parser:
             node = self.expr()
             self._take(")")
             return node
-        self._fail(f"unexpected {tok!r}")
+        self._fail(f"unexpected {tok!r}: expected a number, a name or '('")
 
     def call(self, func):
         if func not in FUNCTIONS:
-            hint = difflib.get_close_matches(func, FUNCTIONS, n=1)
-            self._fail(
-                f"unknown function {func!r}"
-                + (f" (did you mean {hint[0]!r}?)" if hint else f"; known: {', '.join(FUNCTIONS)}")
-            )
+            hint = near_miss(func, FUNCTIONS)
+            self._fail(f"unknown function {func!r}" + (hint or f"; known functions: {', '.join(FUNCTIONS)}"))
         self._take("(")
+        if self._peek()[1] == ")":
+            self._fail(f"{func}() needs an argument")
         args = [self.expr()]
         while self._peek()[1] == ",":
             self._take()
             args.append(self.expr())
         self._take(")")
+        self._check_arguments(func, args)
+        return Call(func, tuple(args))
+
+    def _check_arguments(self, func, args):
         n = len(args)
         if func in GEOMETRIC:
-            if n != GEOMETRIC[func]:
-                self._fail(f"{func}() takes {GEOMETRIC[func]} point names, found {n} arguments")
-            if not all(isinstance(a, Name) for a in args):
-                self._fail(f"{func}() takes point names as arguments")
+            want = GEOMETRIC[func]
+            if n != want:
+                self._fail(f"{func}() takes {want} point name{'s' if want > 1 else ''}, found {n} argument"
+                           + ("s" if n != 1 else ""))
+            for a in args:
+                if not isinstance(a, Name) or a.name in CONSTANTS:
+                    self._fail(f"{func}() takes point names as arguments, found {_describe(a)}")
         elif func in UNARY and n != 1:
             self._fail(f"{func}() takes 1 argument, found {n}")
         elif func == "atan2" and n != 2:
             self._fail(f"atan2() takes 2 arguments (y, x), found {n}")
-        return Call(func, tuple(args))
 
 
 # --- evaluation ----------------------------------------------------------------------------
@@ -271,11 +350,10 @@ class _Evaluator:
         self.values, self.points, self.where, self.source = values, points, where, source
 
     def _unknown(self, name, kind, known):
-        hint = difflib.get_close_matches(name, list(known), n=1)
-        tail = f"; did you mean {hint[0]!r}?" if hint else (
-            f"; known {kind}s: {', '.join(sorted(known))}" if known else f"; no {kind}s exist yet"
+        tail = near_miss(name, known) or (
+            f"; known {kind}s: {', '.join(sorted(known))}" if known else f"; no {kind}s exist here"
         )
-        raise ExpressionError(f"{self.where}: unknown {kind} {name!r} in {self.source!r}{tail}")
+        raise located_error(ExpressionError, self.where, f"{self.source!r}: unknown {kind} {name!r}{tail}")
 
     def point(self, name):
         if name not in self.points:
@@ -294,16 +372,7 @@ class _Evaluator:
         if isinstance(node, Neg):
             return -self.run(node.operand)
         if isinstance(node, BinOp):
-            a, b = self.run(node.left), self.run(node.right)
-            if node.op == "+":
-                return a + b
-            if node.op == "-":
-                return a - b
-            if node.op == "*":
-                return a * b
-            if node.op == "/":
-                return a / b
-            return a**b
+            return _arithmetic(node.op, self.run(node.left), self.run(node.right))
         return self.call(node)
 
     def call(self, node):
@@ -334,13 +403,34 @@ class _Evaluator:
         return out
 
 
-def constant_value(expr: Expression, values: dict, where: str) -> float:
-    """Evaluate an expression that must be a plain number (no sweep, no points)."""
+_OPERATORS = {"+": lambda a, b: a + b, "-": lambda a, b: a - b, "*": lambda a, b: a * b,
+              "/": lambda a, b: a / b, "^": lambda a, b: a**b}
+
+
+def _arithmetic(op, a, b):
+    """``a op b``.  Two plain numbers follow IEEE rules like CasADi does (1/0 is inf, (-8)^(1/3)
+    is nan) instead of raising Python's ZeroDivisionError or returning a complex number."""
+    if isinstance(a, (int, float)) and isinstance(b, (int, float)):
+        with np.errstate(all="ignore"):
+            return float(_OPERATORS[op](np.float64(a), np.float64(b)))
+    return _OPERATORS[op](a, b)
+
+
+def constant_value(expr: Expression, values: dict, where) -> float:
+    """Evaluate an expression that must be a plain, finite number (no sweep, no points)."""
     out = evaluate(expr, values, {}, where)
     try:
-        return float(out)
+        if isinstance(out, (ca.SX, ca.MX, ca.DM)) and (out.numel() != 1 or not out.is_constant()):
+            raise TypeError("not a constant")  # float() of a CasADi symbol would give nan
+        number = float(out)
     except (TypeError, RuntimeError, NotImplementedError):
-        raise ExpressionError(
-            f"{where}: {expr.source!r} must evaluate to a number here (it may use earlier "
-            "parameters, pi and deg, but not the sweep or points)"
-        ) from None
+        raise located_error(
+            ExpressionError, where,
+            f"{expr.source!r} must evaluate to a number here (it may use earlier parameters, pi "
+            "and deg, but not the sweep or points)") from None
+    if not math.isfinite(number):
+        raise located_error(
+            ExpressionError, where,
+            f"{expr.source!r} evaluates to {number} (a division by zero, or a square root or "
+            "logarithm out of its domain?); expected a finite number")
+    return number

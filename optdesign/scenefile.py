@@ -1,22 +1,27 @@
 """Reading scene files (TOML) into :class:`~optdesign.scene.Scene` objects.
 
-Every error names the file, the table and key, the line where it can be found, what was found
-and what was expected; an unknown key suggests its near miss.  The format is documented in
-``docs/scenes.md``.
+Every error names the file, the line where the item can be found, the table and key, what was
+found and what was expected; an unknown key or name suggests its near miss.  The format is
+documented in ``docs/scenes.md``.  The reader only checks the shape of the file (tables, keys,
+lists); the scene objects check values and cross references, and this module adds the line.
 """
 from __future__ import annotations
 
-import difflib
 import re
 import tomllib
 from pathlib import Path
 
 from .errors import OptdesignError, SceneError
-from .scene import (Attach, Body, Closure, Constraint, Drive, Dyad, Fixed, Gravity, Loop,
-                    Objective, Parameter, Polar, Scene, Slider, Sweep)
+from .expressions import located_error, near_miss
+from .scene import (ARRAY_TABLES, DRIVE_PINS, Attach, Body, Closure, Constraint, Drive, Dyad, Fixed,
+                    Gravity, Loop, Objective, Parameter, Polar, Scene, Slider, Sweep, Where)
 
 TOP_KEYS = ("title", "source", "parameters", "sweep", "points", "bodies", "gravity", "drive",
             "constraints", "objective", "reference")
+REQUIRED_TOP = {"title": "a string naming the scene", "sweep": "the table [sweep] (the stroke)",
+                "points": "the table [points] (the constructions)"}
+CLOSED_FORM = {cls.KIND: cls for cls in (Fixed, Polar, Dyad, Slider, Attach)}
+KINDS = tuple(CLOSED_FORM) + ("loop",)
 CONSTRUCTION_KEYS = {
     "fixed": ("fixed",),
     "polar": ("polar",),
@@ -25,15 +30,21 @@ CONSTRUCTION_KEYS = {
     "attach": ("attach",),
     "loop": ("loop", "lengths", "angles", "joints", "unknowns", "closure"),
 }
+SWEEP_KEYS = ("name", "from", "to", "samples", "rate", "acceleration")
+BODY_KEYS = ("name", "frame", "mass", "com", "inertia", "force", "torque")
+CONSTRAINT_KEYS = ("name", "expr", "min", "max")
 
 
 def load(path, overrides: dict | None = None) -> Scene:
-    """Load a scene file; ``overrides`` (name -> number or expression) replace parameters."""
+    """Load a scene file; ``overrides`` (name -> number or expression) replace parameters, as
+    ``--set NAME=VALUE`` does on the command line."""
     path = Path(path)
     try:
         text = path.read_text()
     except FileNotFoundError:
         raise SceneError(f"{path}: no such scene file; check the path (scenes ship in problems/)") from None
+    except (IsADirectoryError, UnicodeDecodeError) as exc:
+        raise SceneError(f"{path}: cannot read it as a scene file ({exc})") from None
     scene = loads(text, str(path))
     return scene.with_parameters(**overrides) if overrides else scene
 
@@ -43,241 +54,230 @@ def loads(text: str, path: str = "<string>") -> Scene:
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise SceneError(f"{path}: TOML syntax error: {exc}") from None
-    reader = _Reader(path, text)
+        raise _syntax_error(exc, text, path) from None
     try:
-        return reader.scene(data)
-    except SceneError as exc:
-        msg = str(exc)
-        if not msg.startswith(path):
-            msg = f"{path}: {msg}"
-        raise SceneError(msg) from None
+        return _Reader().scene(data, path)
+    except OptdesignError as exc:
+        raise _with_line(exc, _Lines(text), path) from None
+
+
+def _syntax_error(exc, text, path):
+    """A TOML syntax error with its line, and a hint for a name given twice."""
+    message = str(exc)
+    m = re.search(r"at line (\d+)", message)
+    line = int(m.group(1)) if m else None
+    head = f"{path}, line {line}" if line else path
+    hint = ""
+    if "overwrite" in message or "declare" in message:
+        source = text.splitlines()[line - 1] if line and line <= len(text.splitlines()) else ""
+        key = re.match(r"\s*\[*\s*([^=\]]+?)\s*[=\]]", source)
+        name = f"{key.group(1)!r} " if key else ""
+        hint = (f": {name}is defined twice in the same table; every key, point and parameter "
+                "name must be unique, so rename or remove one of them")
+    exc2 = SceneError(f"{head}: TOML syntax error: {message}{hint}")
+    exc2.where, exc2.detail, exc2.path, exc2.line = None, f"TOML syntax error: {message}{hint}", path, line
+    return exc2
+
+
+def _with_line(exc, lines, path):
+    """The same error, its message led by the file name and the line of its item."""
+    where = getattr(exc, "where", None)
+    detail = getattr(exc, "detail", None)
+    if detail is None:
+        message = str(exc)
+        return type(exc)(message if message.startswith(path) else f"{path}: {message}")
+    line = lines.find(where) if isinstance(where, Where) else None
+    head = f"{path}, line {line}" if line else path
+    out = type(exc)(f"{head}: {where}: {detail}" if where else f"{head}: {detail}")
+    out.where, out.detail, out.path, out.line = where, detail, path, line
+    return out
+
+
+class _Lines:
+    """Where keys and tables sit in the TOML text (best effort, for messages only).
+
+    Records the line of every ``[table]``/``[[table]]`` header and of every ``key =`` at the
+    start of a line, per table (and per element of an array of tables, whose ``name = "..."``
+    identifies it)."""
+
+    _HEADER = re.compile(r"^\s*(\[\[?)\s*([^\[\]#]+?)\s*\]\]?\s*(#.*)?$")
+    _KEY = re.compile(r"""^\s*("[^"]*"|'[^']*'|[A-Za-z0-9_-]+)\s*(?:\.[^=]*)?=\s*(.*)$""")
+
+    def __init__(self, text):
+        self.headers, self.keys, self.names = {}, {}, {}
+        table, index, count = "", 0, {}
+        for no, line in enumerate(text.splitlines(), 1):
+            m = self._HEADER.match(line)
+            if m:
+                table = re.sub(r"\s*\.\s*", ".", m.group(2)).replace('"', "").replace("'", "")
+                index = count[table] = count.get(table, -1) + 1 if m.group(1) == "[[" else 0
+                self.headers.setdefault((table, index), no)
+                continue
+            m = self._KEY.match(line)
+            if m:
+                key = m.group(1).strip("\"'")
+                self.keys.setdefault((table, index, key), no)
+                value = re.match(r"""\s*["']([^"']*)["']""", m.group(2))
+                if key == "name" and table in ARRAY_TABLES and value:
+                    self.names.setdefault((table, value.group(1)), index)
+
+    def find(self, where: Where):
+        table, item = where.table, where.item
+        key = re.split(r"[\s\[.]", where.key)[0] if where.key else None
+        if not table:
+            return self.keys.get(("", 0, key)) or self.headers.get((key, 0)) or next(
+                (no for (t, _), no in sorted(self.headers.items(), key=lambda kv: kv[1])
+                 if t.startswith(f"{key}.")), None)
+        if table in ARRAY_TABLES:
+            index = self.names.get((table, item), where.index)
+            if index is None:
+                return self.headers.get((table, 0)) if item is None else None
+            return self.keys.get((table, index, key)) or self.headers.get((table, index))
+        if item is not None:
+            sub = f"{table}.{item}"
+            found = (self.keys.get((sub, 0, key)) if key else None) or self.headers.get((sub, 0)) \
+                or self.keys.get((table, 0, item))
+            if found:
+                return found
+        return (self.keys.get((table, 0, key)) if key else None) or self.headers.get((table, 0))
 
 
 class _Reader:
-    def __init__(self, path, text):
-        self.path, self.lines = path, text.splitlines()
+    """TOML data (dicts and lists) -> scene objects; checks tables, keys and list shapes."""
 
-    # --- error helpers ---
-    def line_of(self, table, key=None, index=None):
-        """Best-effort line number of ``key`` in ``table`` (index-th for arrays of tables)."""
-        header = re.compile(r"^\s*\[\[?\s*([A-Za-z0-9_.\"' -]+?)\s*\]\]?")
-        current, count, start = None, {}, None
-        for no, line in enumerate(self.lines, 1):
-            m = header.match(line)
-            if m:
-                current = m.group(1)
-                count[current] = count.get(current, -1) + 1
-                if current == table and (index is None or count[current] == index):
-                    if key is None:
-                        return no
-                    start = no
-                continue
-            if start and current == table and (index is None or count[current] == index):
-                if re.match(rf"^\s*\"?{re.escape(key)}\"?\s*=", line):
-                    return no
-        return start
-
-    def fail(self, table, key, message, index=None):
-        line = self.line_of(table, key, index)
-        where = f"[{table}]" if index is None else f"[[{table}]] #{index + 1}"
-        if key:
-            where += f" {key}"
-        raise SceneError(f"{self.path}: {where}: {message}" + (f" (line {line})" if line else ""))
-
-    def keys(self, table, data, allowed, required=(), index=None, what=None):
+    def check_keys(self, where, data, allowed):
+        """``data`` must be a table whose keys are all in ``allowed``."""
         if not isinstance(data, dict):
-            self.fail(table, what, f"expected a table, found {data!r}", index)
+            _raise(where, f"expected a table, found {data!r}")
         for key in data:
             if key not in allowed:
-                hint = difflib.get_close_matches(key, allowed, n=1)
-                self.fail(table, key, f"unknown key {key!r}"
-                          + (f" (did you mean {hint[0]!r}?)" if hint else f"; expected one of {', '.join(allowed)}"),
-                          index)
-        for key in required:
-            if key not in data:
-                self.fail(table, what, f"missing key {key!r}", index)
-
-    def guarded(self, table, key, build, index=None):
-        """Run ``build``; prefix any scene error from it with the table and line."""
-        try:
-            return build()
-        except OptdesignError as exc:
-            self.fail(table, key, str(exc), index)
-        except (TypeError, ValueError) as exc:
-            self.fail(table, key, f"bad value: {exc}", index)
-
-    def name_list(self, table, key, value, n, what, index=None):
-        if not isinstance(value, list) or len(value) != n:
-            self.fail(table, key, f"expected {what} ({n} items), found {value!r}", index)
-        return value
+                _raise(where.at(f"{where.key}.{key}" if where.key else key), f"unknown key {key!r}" + (
+                    near_miss(key, allowed) or f"; expected one of: {', '.join(allowed)}"))
 
     # --- tables ---
-    def scene(self, data):
+    def scene(self, data, path):
         for key in data:
             if key not in TOP_KEYS:
-                hint = difflib.get_close_matches(key, TOP_KEYS, n=1)
-                line = self.line_of(key) or self.line_of("", key)
-                raise SceneError(
-                    f"{self.path}: unknown table or key {key!r}"
-                    + (f" (did you mean {hint[0]!r}?)" if hint else f"; expected one of {', '.join(TOP_KEYS)}")
-                    + (f" (line {line})" if line else "")
-                )
-        for key in ("title", "sweep", "points"):
+                _raise(Where("", key=key), f"unknown top-level table or key {key!r}" + (
+                    near_miss(key, TOP_KEYS) or f"; expected one of: {', '.join(TOP_KEYS)}"))
+        for key, what in REQUIRED_TOP.items():
             if key not in data:
-                raise SceneError(f"{self.path}: missing {'key' if key == 'title' else 'table'} {key!r}")
-        if not isinstance(data["title"], str):
-            raise SceneError(f"{self.path}: title: expected a string, found {data['title']!r}")
-        fields = dict(
+                _raise(None, f"missing {'key' if key == 'title' else 'table'} {key!r}: expected {what}")
+        return Scene(
             title=data["title"],
-            source=str(data.get("source", "")),
+            source=data.get("source", ""),
             parameters=self.parameters(data.get("parameters", {})),
             sweep=self.sweep(data["sweep"]),
             points=self.points(data["points"]),
-            bodies=self.bodies(data.get("bodies", [])),
+            bodies=self.array("bodies", data.get("bodies", []), BODY_KEYS, self.body),
             gravity=self.gravity(data["gravity"]) if "gravity" in data else None,
             drive=self.drive(data["drive"]) if "drive" in data else None,
-            constraints=self.constraints(data.get("constraints", [])),
+            constraints=self.array("constraints", data.get("constraints", []), CONSTRAINT_KEYS, self.constraint),
             objective=self.objective(data["objective"]) if "objective" in data else None,
             reference=data.get("reference", {}),
-            path=self.path,
+            path=path,
         )
-        return Scene(**fields)
 
     def parameters(self, data):
-        self.keys("parameters", data, list(data))
+        self.check_keys(Where("parameters"), data, list(data))
         out = []
         for name, spec in data.items():
             if isinstance(spec, dict):
-                self.keys("parameters", spec, ["value", "min", "max"], ["value"], what=name)
-                bounds = {}
-                for key, attr in (("min", "lower"), ("max", "upper")):
-                    if key in spec:
-                        bounds[attr] = self.number("parameters", name, spec[key], f"{name}.{key}")
-                out.append(self.guarded("parameters", name, lambda: Parameter(name, spec["value"], **bounds)))
+                self.check_keys(Where("parameters", name), spec, ("value", "min", "max"))
+                if "value" not in spec:
+                    _raise(Where("parameters", name, "value"),
+                           "missing key 'value': expected the start value of the design variable")
+                out.append(Parameter(name, spec["value"], spec.get("min"), spec.get("max")))
             else:
-                out.append(self.guarded("parameters", name, lambda: Parameter(name, spec)))
+                out.append(Parameter(name, spec))
         return out
 
-    def number(self, table, key, value, what):
-        from .expressions import constant_value, parse
-
-        try:
-            return constant_value(parse(value, what), {}, what)
-        except SceneError as exc:
-            self.fail(table, key, f"expected a number: {exc}")
-
     def sweep(self, data):
-        self.keys("sweep", data, ["name", "from", "to", "samples", "rate", "acceleration"],
-                  ["name", "from", "to", "samples"])
-        if not isinstance(data["name"], str) or not re.fullmatch(r"[A-Za-z_]\w*", data["name"]):
-            self.fail("sweep", "name", f"expected a name, found {data['name']!r}")
-        return self.guarded("sweep", None, lambda: Sweep(
-            data["name"], data["from"], data["to"], data["samples"],
-            data.get("rate"), data.get("acceleration")))
+        self.check_keys(Where("sweep"), data, SWEEP_KEYS)
+        return Sweep(data.get("name"), data.get("from"), data.get("to"), data.get("samples"),
+                     data.get("rate"), data.get("acceleration"))
 
     def points(self, data):
         if not isinstance(data, dict):
-            self.fail("points", None, "expected a table of constructions")
+            _raise(Where("points"), f"expected a table of constructions, found {data!r}")
         return [self.construction(name, spec) for name, spec in data.items()]
 
     def construction(self, name, spec):
+        where = Where("points", name)
         if not isinstance(spec, dict):
-            self.fail("points", name, f"expected a table such as {{ fixed = [0, 0] }}, found {spec!r}")
-        kinds = [k for k in spec if k in CONSTRUCTION_KEYS]
+            _raise(where, f"expected a construction such as {{ fixed = [0, 0] }}, found {spec!r}")
+        kinds = [k for k in spec if k in KINDS]
         if len(kinds) != 1:
-            self.fail("points", name,
-                      f"expected exactly one construction kind ({', '.join(CONSTRUCTION_KEYS)}), "
-                      f"found {kinds or list(spec)}")
+            found = ", ".join(map(repr, kinds or spec)) or "nothing"
+            hint = "" if kinds else near_miss(next(iter(spec), ""), KINDS)
+            _raise(where, f"expected exactly one construction kind ({', '.join(KINDS)}), found {found}{hint}")
         kind = kinds[0]
-        self.keys("points", spec, CONSTRUCTION_KEYS[kind], what=name)
-        v = spec[kind]
-        table = "points"
-
-        def build():
-            if kind == "fixed":
-                x, y = self.name_list(table, name, v, 2, "[x, y]")
-                return Fixed(name, x, y)
-            if kind == "polar":
-                c, length, angle = self.name_list(table, name, v, 3, "[centre, length, angle]")
-                return Polar(name, c, length, angle)
-            if kind == "dyad":
-                p, lp, q, lq = self.name_list(table, name, v, 4, "[P, length from P, Q, length from Q]")
-                return Dyad(name, p, lp, q, lq, self.required(table, name, spec, "side"))
-            if kind == "slider":
-                p, length, origin, angle = self.name_list(table, name, v, 4, "[P, length, line origin, line angle]")
-                return Slider(name, p, length, origin, angle, self.required(table, name, spec, "side"))
-            if kind == "attach":
-                o, x, a, b = self.name_list(table, name, v, 4, "[origin, toward, a, b]")
-                return Attach(name, o, x, a, b)
+        self.check_keys(where, spec, CONSTRUCTION_KEYS[kind])
+        if kind == "loop":
             return self.loop(name, spec)
-
-        return self.guarded(table, name, build)
-
-    def required(self, table, name, spec, key):
-        if key not in spec:
-            self.fail(table, name, f"missing key {key!r}")
-        return spec[key]
+        cls = CLOSED_FORM[kind]
+        items = spec[kind]
+        if not isinstance(items, list) or len(items) != len(cls.ROLES):
+            _raise(where.at(kind), f"expected {kind} = {cls.form()} ({len(cls.ROLES)} items), found {items!r}")
+        extra = {"side": spec.get("side")} if "side" in CONSTRUCTION_KEYS[kind] else {}
+        return cls(name, *items, **extra)
 
     def loop(self, name, spec):
-        for key in ("lengths", "angles", "joints"):
-            if not isinstance(spec.get(key), list):
-                self.fail("points", name, f"a loop needs {key} = [...] (one per link)")
+        where = Where("points", name)
         closure = None
         if "closure" in spec:
             c = spec["closure"]
-            self.keys("points", c, ["point", "fixed", "line"], ["point"], what=f"{name}.closure")
+            self.check_keys(where.at("closure"), c, ("point", "fixed", "line"))
+            if "point" not in c:
+                _raise(where.at("closure"), "missing key 'point': expected the loop joint that closes it")
             line = c.get("line")
-            if line is not None:
-                line = self.name_list("points", name, line, 2, "closure line [origin point, angle]")
+            if line is not None and (not isinstance(line, list) or len(line) != 2):
+                _raise(where.at("closure"), f"expected line = [origin point, angle], found {line!r}")
             closure = Closure(c["point"], c.get("fixed"), line[0] if line else None, line[1] if line else None)
-        unknowns = spec.get("unknowns", {})
-        if not isinstance(unknowns, dict):
-            self.fail("points", name, "unknowns: expected a table name = initial guess")
-        return Loop(name, spec["loop"], spec["lengths"], spec["angles"], spec["joints"], unknowns, closure)
+        return Loop(name, spec["loop"], spec.get("lengths"), spec.get("angles"), spec.get("joints"),
+                    spec.get("unknowns", {}), closure)
 
-    def bodies(self, data):
+    def array(self, table, data, allowed, build):
+        """An array of tables ([[bodies]], [[constraints]]): each a table with a name."""
         if not isinstance(data, list):
-            self.fail("bodies", None, "expected an array of tables [[bodies]]")
+            _raise(Where(table), f"expected an array of tables [[{table}]], found a single table or value")
         out = []
-        allowed = ["name", "frame", "mass", "com", "inertia", "force", "torque"]
-        for i, b in enumerate(data):
-            self.keys("bodies", b, allowed, ["name", "frame"], index=i)
-            out.append(self.guarded("bodies", None, lambda: Body(
-                b["name"], b["frame"], b.get("mass"), b.get("com"), b.get("inertia"),
-                b.get("force"), b.get("torque")), index=i))
+        for i, item in enumerate(data):
+            where = Where(table, item.get("name") if isinstance(item, dict) else None, index=i)
+            self.check_keys(where, item, allowed)
+            for key in ("name",) + (("frame",) if table == "bodies" else ("expr",)):
+                if key not in item:
+                    _raise(where.at(key), f"missing key {key!r}")
+            out.append(build(item))
         return out
+
+    def body(self, b):
+        return Body(b["name"], b["frame"], b.get("mass"), b.get("com"), b.get("inertia"),
+                    b.get("force"), b.get("torque"))
+
+    def constraint(self, c):
+        return Constraint(c["name"], c["expr"], c.get("min"), c.get("max"))
 
     def gravity(self, data):
-        self.keys("gravity", data, ["g"], ["g"])
-        return self.guarded("gravity", "g", lambda: Gravity(data["g"]))
+        self.check_keys(Where("gravity"), data, ("g",))
+        return Gravity(data.get("g"))
 
     def drive(self, data):
+        where = Where("drive")
         if not isinstance(data, dict):
-            self.fail("drive", None, "expected a table")
+            _raise(where, f"expected a table, found {data!r}")
         kind = data.get("type")
-        pins_key = {"rotary": "crank", "linear": "between"}.get(kind)
-        if pins_key is None:
-            self.fail("drive", "type", f"expected 'rotary' or 'linear', found {kind!r}")
-        self.keys("drive", data, ["type", pins_key, "speed", "acceleration", "efficiency"],
-                  ["type", pins_key, "speed", "acceleration"])
-        return self.guarded("drive", None, lambda: Drive(
-            kind, data[pins_key], data["speed"], data["acceleration"], data.get("efficiency")))
-
-    def constraints(self, data):
-        out = []
-        for i, c in enumerate(data):
-            self.keys("constraints", c, ["name", "expr", "min", "max"], ["name", "expr"], index=i)
-            if "min" not in c and "max" not in c:
-                self.fail("constraints", None, "give min, max or both", index=i)
-            out.append(self.guarded("constraints", None, lambda: Constraint(
-                c["name"], c["expr"], c.get("min"), c.get("max")), index=i))
-        names = [c.name for c in out]
-        for n in names:
-            if names.count(n) > 1:
-                self.fail("constraints", None, f"the name {n!r} is used twice")
-        return out
+        pins = DRIVE_PINS.get(kind)
+        allowed = ("type", pins or "crank", "speed", "acceleration", "efficiency")
+        if pins is None:
+            Drive(kind, None, None, None)  # raises: missing or unknown type, with the near miss
+        self.check_keys(where, data, allowed)
+        return Drive(kind, data.get(pins), data.get("speed"), data.get("acceleration"), data.get("efficiency"))
 
     def objective(self, data):
-        self.keys("objective", data, ["minimise"], ["minimise"])
-        return Objective(data["minimise"])
+        self.check_keys(Where("objective"), data, ("minimise",))
+        return Objective(data.get("minimise"))
+
+
+def _raise(where, detail):
+    raise located_error(SceneError, where, detail)
