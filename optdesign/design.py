@@ -152,6 +152,14 @@ class DesignProblem:
                 expr = mech.value(_parse(what, "[objective] minimise"), "[objective] minimise")
             self.objective_quantity = len(rows)
             rows.append(expr)
+            self.objective_fraction = None
+            if what in ("drive", "power") and self.objective_kind == "peak":
+                k_ref = self._k_ref_start()
+                numerator, denominator = self.model.drive_numerator(k_ref)
+                if what == "power":
+                    numerator = numerator * self.model.qd
+                self.objective_fraction = (len(rows), len(rows) + 1)
+                rows += [numerator, denominator]
             self.blocks.append(Block(self.objective_text, "peak" if self.objective_kind == "peak" else "rms",
                                      0, -math.inf, math.inf, 1.0))
         else:
@@ -214,6 +222,12 @@ class DesignProblem:
         p = self.full_parameters(x, fixed)
         return np.asarray(self.quantity.map(len(s_values))(s_values[None, :], p))
 
+    def _k_ref_start(self):
+        """Median |k| = |dq/ds| over the stroke at the start design (a scale, not a bound)."""
+        f = self.mech.function("k", {"k": self.model.k})
+        k = np.asarray(f.map(len(self.s_grid))(self.s_grid[None, :], self.mech.parameter_values)).ravel()
+        return max(float(np.median(np.abs(k))), 1e-12)
+
     # --- scaling from the start design ---
     def _scales(self):
         v = self.evaluate_grid(self.start)
@@ -269,8 +283,12 @@ class DesignProblem:
             self.g_blocks.append((name, kind, start, n))
 
         if self.objective_kind == "peak":
-            v = Q[self.objective_quantity, :].T / self.f_ref
-            add(self.objective_text, "peak", ca.vertcat(v - t, -v - t), -math.inf, 0.0)
+            if self.objective_fraction is not None:  # |N| <= t K: no division by k = dq/ds
+                num, den = (Q[i, :].T for i in self.objective_fraction)
+                v, bound = num / self.f_ref, t * den
+            else:
+                v, bound = Q[self.objective_quantity, :].T / self.f_ref, t
+            add(self.objective_text, "peak", ca.vertcat(v - bound, -v - bound), -math.inf, 0.0)
             f = t
         elif self.objective_kind == "rms":
             grid = self.s_grid
@@ -306,10 +324,16 @@ class DesignProblem:
         opts = {"ipopt.print_level": st.print_level, "print_time": False, "ipopt.sb": "yes",
                 "ipopt.tol": st.tol, "ipopt.constr_viol_tol": st.tol, "ipopt.max_iter": st.max_iter, "ipopt.mu_strategy": "adaptive",
                 "error_on_fail": False}
+        self._nlp_dict = nlp
         self.solver = ca.nlpsol("design", "ipopt", nlp, opts)
         self.lbg, self.ubg = np.array(lbg), np.array(ubg)
-        self.lbw = np.r_[np.where(np.isfinite(self.lower), 0.0, -np.inf), np.zeros(self.n_t), np.full(len(self.aggregates), -np.inf)]
-        self.ubw = np.r_[np.where(np.isfinite(self.upper), 1.0, np.inf), np.full(self.n_t, np.inf), np.full(len(self.aggregates), np.inf)]
+        # an aggregate keeps the sign it has at the start design: this keeps outer expressions
+        # such as max(L)/min(L) regular and monotone (a min(...) cannot run to zero or below)
+        a_start = np.array([self.aggregate_start(ag) for ag in self.aggregates])
+        a_lo = np.where(a_start > 0, 1e-3 * a_start, -np.inf)
+        a_hi = np.where(a_start < 0, 1e-3 * a_start, np.inf)
+        self.lbw = np.r_[np.where(np.isfinite(self.lower), 0.0, -np.inf), np.zeros(self.n_t), a_lo]
+        self.ubw = np.r_[np.where(np.isfinite(self.upper), 1.0, np.inf), np.full(self.n_t, np.inf), a_hi]
         base = np.linspace(self.s_grid[0], self.s_grid[-1], st.grid)
         mids = 0.5 * (base[:-1] + base[1:])
         self.base_points = base
@@ -324,9 +348,13 @@ class DesignProblem:
         v = self.start_quantities
         values = self._parameter_values()
         for ag in self.aggregates:
-            row = v[ag.index]
-            values[ag.name] = float(np.max(row) if ag.func == "max" else np.min(row))
+            values[ag.name] = self.aggregate_start(ag)
         return evaluate(expr, values, {}, expr.source)
+
+    def aggregate_start(self, ag) -> float:
+        """The aggregate's value on the scene's samples at the start design."""
+        row = self.start_quantities[ag.index]
+        return float(np.max(row) if ag.func == "max" else np.min(row))
 
     def stroke_value(self, outer, extremes) -> float:
         """A stroke expression evaluated with its aggregates taken from ``extremes``
@@ -355,8 +383,7 @@ class DesignProblem:
         values.update({ag.name: a[i] for i, ag in enumerate(self.aggregates)})
         expr = evaluate(outer, values, {}, outer.source)
         grad = ca.Function("g", [a], [ca.gradient(expr, a)])
-        start = [float(np.max(self.start_quantities[ag.index]) if ag.func == "max" else np.min(self.start_quantities[ag.index]))
-                 for ag in self.aggregates]
+        start = [self.aggregate_start(ag) for ag in self.aggregates]
         grad_v = np.asarray(grad(start)).ravel()
         for i, ag in enumerate(self.aggregates):
             if grad_v[i] == 0:  # this aggregate belongs to another expression
