@@ -38,6 +38,9 @@ def write_atomic(path, text: str | bytes):
     try:
         with os.fdopen(fd, mode) as fh:
             fh.write(text)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; results are for everyone to read
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
