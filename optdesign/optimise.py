@@ -177,6 +177,10 @@ class Solver:
                 ext = continuous_maxima(at(b.index), grid, V[b.index], "abs")
                 certified[(b.name, "abs")] = ext[0].value
                 sampled[(b.name, "abs")] = float(np.max(np.abs(V[b.index])))
+                # the quadrature of the NLP against one with twice the panels
+                rms, finer = pb.rms(x, fixed), pb.rms(x, fixed, 2 * pb.rms_panels)
+                certified[(b.name, "rms")], sampled[(b.name, "rms")] = finer, pb.rms_sampled(x, fixed)
+                out.append((abs(rms - finer) / max(finer, 1e-300) - st.rms_tol, 0.5 * (grid[0] + grid[-1])))
             elif b.kind in ("constraint", "margin"):
                 if math.isfinite(b.upper):
                     check(b.name, b.index, "max", b.scale, b.upper, st.constraint_tol)
@@ -276,7 +280,7 @@ def objective_value(pb: DesignProblem, sol: Solution, certified=True) -> float:
     if pb.objective_kind == "peak":
         return abs(values[(pb.objective_text, "abs")])
     if pb.objective_kind == "rms":
-        return pb.f_ref * math.sqrt(max(sol.f, 0.0))
+        return values[(pb.objective_text, "rms")]
     return pb.stroke_value(pb.objective_expr, values)
 
 
