@@ -22,7 +22,11 @@ from .scene import Attach, Dyad, Fixed, Loop, Polar, Scene, Slider
 
 @dataclass(frozen=True)
 class Margin:
-    """A construction's assembly margin: positive where it assembles."""
+    """A construction's assembly margin.  For a dyad or slider (``kind`` 'dyad', 'slider') it is
+    positive where the construction assembles and negative where it cannot.  For a loop it is
+    the determinant of the closure's Jacobian, whose sign depends on the assembly branch: only
+    a change of sign (a singular, locking position) means something, so the analysis checks
+    loops by their Newton residual and branch continuity instead."""
 
     construction: str
     kind: str
