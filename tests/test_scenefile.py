@@ -7,6 +7,8 @@ tolerance 1e-10 relative (AD through the CasADi graph against the closed form; r
 """
 import glob
 import math
+import re
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -117,6 +119,17 @@ def test_the_draft_still_holds_both_examples():
     text = draft.read_text()
     for example in (EXAMPLE_1, EXAMPLE_2):
         assert example.strip() in text
+
+
+def test_the_reference_page_holds_both_examples_and_only_valid_toml():
+    """docs/scenes.md: every TOML block parses, and its complete scenes are the two examples."""
+    page = (ROOT / "docs" / "scenes.md").read_text()
+    blocks = re.findall(r"```toml\n(.*?)```", page, re.S)
+    assert len(blocks) > 10
+    for block in blocks:
+        tomllib.loads(block)
+    complete = [b for b in blocks if b.startswith("title = ")]
+    assert [b.strip() for b in complete] == [EXAMPLE_1.strip(), EXAMPLE_2.strip()]
 
 
 # --- example 1: the jib --------------------------------------------------------------------
