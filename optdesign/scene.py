@@ -358,10 +358,9 @@ class Loop:
         if (cl.fixed is None) == (cl.origin is None):
             _fail(where, "expected either fixed = POINT (closed loop) or line = [POINT, angle] "
                          "(semi-closed loop), not " + ("both" if cl.fixed is not None else "neither"))
-        ref = _point_ref(cl.fixed if cl.fixed is not None else cl.origin, where)
-        angle = None if cl.origin is None else _expr(cl.angle, where.at("closure line angle"))
-        _set(self, "closure", dataclasses.replace(cl, angle=angle) if angle is not None else cl)
-        return ref
+        _point_ref(cl.fixed if cl.fixed is not None else cl.origin, where)
+        if cl.origin is not None:
+            _set(self, "closure", dataclasses.replace(cl, angle=_expr(cl.angle, where.at("closure line angle"))))
 
     def uses(self):
         refs = [self.base]
