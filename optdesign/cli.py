@@ -20,6 +20,16 @@ def _overrides(pairs):
     return out
 
 
+def _samples(text):
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if n < 2:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 2, found {text!r}")
+    return n
+
+
 def _load(args):
     from .scenefile import load
 
@@ -97,7 +107,7 @@ def parser():
         p.add_argument("scene", help="scene file (TOML), e.g. problems/seed1_jib.toml")
         p.add_argument("--json", action="store_true", help="print JSON instead of a table")
         p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter (repeatable)")
-        p.add_argument("--samples", type=int, default=None, help="number of sweep samples (default: the scene's)")
+        p.add_argument("--samples", type=_samples, default=None, help="number of sweep samples, >= 2 (default: the scene's)")
         if name == "analyse":
             p.add_argument("--plot", metavar="DIR", help="write figures (PNG) into DIR")
         if name == "optimise":

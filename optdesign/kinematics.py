@@ -125,7 +125,7 @@ class Mechanism:
 
         a = constant_value(sw.start, values, "[sweep] from")
         b = constant_value(sw.stop, values, "[sweep] to")
-        return np.linspace(a, b, samples or sw.samples)
+        return np.linspace(a, b, sw.samples if samples is None else samples)
 
     def motion(self):
         """Sweep rate and acceleration (sd, sdd) as expressions of (s, p): from the drive's
