@@ -8,9 +8,11 @@ starts within 0.1 % of the best value, and an INDEPENDENT search must confirm th
   31 to 121 points with the scene's reduced model (:class:`optdesign.reduction.
   ReducedModel` with the exact power-flow switch, as ``optdesign analyse`` uses it); grid
   points that do not assemble, pass a dead centre or violate a constraint are skipped;
-* a local polish of the best few distinct feasible grid points with scipy's SLSQP (finite
-  differences, the peak as an epigraph over ``POLISH_SAMPLES`` samples, every constraint as an
-  SLSQP constraint), the result re-evaluated on a dense stroke of ``DENSE_SAMPLES`` samples.
+* a local polish of the best few feasible local minima of the grid with scipy's SLSQP (finite
+  differences, the peak as an epigraph over ``POLISH_SAMPLES`` or more samples with the
+  extremes refined between samples, every constraint as an SLSQP constraint), the result
+  re-evaluated on a dense stroke of ``DENSE_SAMPLES`` samples.  Stroke expressions
+  (max/min over the stroke) are evaluated by a numpy evaluator written here (:func:`np_eval`).
 
 Nothing of the optimiser (no DesignProblem, no exchange, no certification) is used by the
 search: it shares only the scene's model (kinematics and reduced model), which other tests
@@ -41,9 +43,9 @@ from optdesign.scenefile import load
 ROOT = Path(__file__).resolve().parents[1]
 GRID_POINTS = 2500       # about this many grid points in the design box, at least 15 per variable
 GRID_EVALUATIONS = 4e5   # grid points x stroke samples: the grid's stroke has 31 .. 121 samples
-POLISH_SAMPLES = 241     # stroke samples of the SLSQP polish (at least the scene's; rms: the scene's)
+POLISH_SAMPLES = 241     # stroke samples of the SLSQP polish (at least the scene's own)
 DENSE_SAMPLES = 20001    # stroke samples of the final checks
-POLISH_STARTS = 4        # best distinct feasible grid points polished
+POLISH_STARTS = 4        # best feasible local minima of the grid polished
 AGREE = 5e-3             # independent best vs ours: within 0.5 %
 AT_BEST = 1e-3           # a start "reached the best" within 0.1 %
 BOUND_TOL = 1e-6         # constraint values within their bounds, relative
