@@ -178,10 +178,13 @@ class DesignProblem:
             if c.expr.is_aggregate:
                 self.stroke_constraints.append((c, self._lift(c.expr, c.name)))
             else:
-                lo = -math.inf if c.lower is None else float(mech.value(c.lower))
-                hi = math.inf if c.upper is None else float(mech.value(c.upper))
-                self.blocks.append(Block(c.name, "constraint", len(rows), lo, hi, 1.0))
-                rows.append(mech.value(c.expr, f"[[constraints]] {c.name}"))
+                lo, hi = self._bounds(c)
+                expr = mech.value(c.expr, f"[[constraints]] {c.name}")
+                # a constraint on the design alone (no dependence on the sweep) is one row,
+                # not one per sample point (repeated rows would be degenerate)
+                kind = "constraint" if ca.depends_on(expr, mech.s) else "design constraint"
+                self.blocks.append(Block(c.name, kind, len(rows), lo, hi, 1.0))
+                rows.append(expr)
         for a in self.aggregates:
             a.index = len(rows)
             rows.append(mech.value(a.inner, a.name))
@@ -197,6 +200,16 @@ class DesignProblem:
         v = ca.vertcat(*rows)
         dv = mech.ds(v)
         self.quantity_derivatives = mech.function("quantities_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)})
+
+    def _bounds(self, c):
+        """A constraint's (lower, upper) as numbers (they may name fixed parameters)."""
+        from .expressions import constant_value
+
+        values = self.scene.parameter_values()
+        where = f"{self.scene.path}: [[constraints]] {c.name!r}"
+        lo = -math.inf if c.lower is None else constant_value(c.lower, values, f"{where} min")
+        hi = math.inf if c.upper is None else constant_value(c.upper, values, f"{where} max")
+        return lo, hi
 
     def _lift(self, expr: Expression, where):
         """Replace one-argument max/min calls by epigraph variables; return the outer tree."""
@@ -244,7 +257,7 @@ class DesignProblem:
             return max(float(np.max(np.abs(v[row]))), 1e-12)
 
         self.blocks = [
-            Block(b.name, b.kind, b.index, b.lower, b.upper, scale_of(b.index) if b.kind != "constraint"
+            Block(b.name, b.kind, b.index, b.lower, b.upper, scale_of(b.index) if b.kind not in ("constraint", "design constraint")
                   else max(scale_of(b.index), *(abs(x) for x in (b.lower, b.upper) if math.isfinite(x))))
             for b in self.blocks
         ]
@@ -310,7 +323,7 @@ class DesignProblem:
         for b in self.blocks:
             if b.kind in ("peak", "rms"):
                 continue
-            row = Q[b.index, :].T / b.scale
+            row = (Q[b.index, 0] if b.kind == "design constraint" else Q[b.index, :].T) / b.scale
             add(b.name, b.kind, row, b.lower / b.scale, b.upper / b.scale, b.scale)
         for i, ag in enumerate(self.aggregates):
             row = Q[ag.index, :].T / ag.scale
@@ -318,8 +331,7 @@ class DesignProblem:
             add(ag.name, "aggregate", diff, -math.inf, 0.0) if ag.func == "max" else add(ag.name, "aggregate", diff, 0.0, math.inf)
         for c, outer in self.stroke_constraints:
             scale = max(abs(float(self._outer_start(outer))), 1e-12)
-            lo = -math.inf if c.lower is None else float(self.mech.value(c.lower)) / scale
-            hi = math.inf if c.upper is None else float(self.mech.value(c.upper)) / scale
+            lo, hi = (v / scale for v in self._bounds(c))
             self._check_monotone(outer, f"[[constraints]] {c.name!r}", c.expr.source, lo, hi)
             self.stroke_outer[c.name] = outer
             add(c.name, "stroke constraint", self._outer(outer, a, p) / scale, lo, hi, scale)

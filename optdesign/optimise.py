@@ -106,7 +106,7 @@ class Solver:
             worst = [v for v in violations if v[0] > 0]
             if not worst:
                 return self._solution(res, x, fixed, s_pts, status, True, iterations, exchange, certified, sampled, True)
-            s_pts = np.r_[pb.base_points, self._slots(violations)]
+            s_pts = np.r_[pb.base_points, self._slots(violations, s_pts, np.asarray(res["lam_g"]).ravel())]
         return self._solution(res, x, fixed, s_pts, status + " (exchange did not converge)", False,
                               iterations, exchange, certified, sampled, False)
 
@@ -181,7 +181,7 @@ class Solver:
                 rms, finer = pb.rms(x, fixed), pb.rms(x, fixed, 2 * pb.rms_panels)
                 certified[(b.name, "rms")], sampled[(b.name, "rms")] = finer, pb.rms_sampled(x, fixed)
                 out.append((abs(rms - finer) / max(finer, 1e-300) - st.rms_tol, 0.5 * (grid[0] + grid[-1])))
-            elif b.kind in ("constraint", "margin"):
+            elif b.kind in ("constraint", "design constraint", "margin"):
                 if math.isfinite(b.upper):
                     check(b.name, b.index, "max", b.scale, b.upper, st.constraint_tol)
                 if math.isfinite(b.lower):
@@ -196,18 +196,36 @@ class Solver:
         out.sort(key=lambda v: v[0], reverse=True)
         return out, certified, sampled
 
-    def _slots(self, violations):
-        """Sample points for the slots: the most violated or most active continuous extrema."""
+    def _slots(self, violations, s_pts, lam_g):
+        """Sample points for the slots.  Slots whose constraints carry a multiplier at the last
+        solution stay (dropping them lets the next solve cycle between designs); the most
+        violated continuous extrema fill the rest, then the most nearly active ones."""
         pb = self.pb
+        n_slots = len(pb.initial_slots)
+        weight = self._point_weights(lam_g, len(s_pts))
+        kept = [(weight[j], s) for j, s in enumerate(s_pts) if j >= len(pb.base_points) and weight[j] > 0]
+        kept = [s for _, s in sorted(kept, reverse=True)]
+        new = [s for amount, s in violations if amount > 0]
+        near = [s for amount, s in violations if amount <= 0]
+        # every violated extremum needs a slot: it displaces the least active kept ones
+        spare = np.linspace(pb.base_points[0], pb.base_points[-1], 4 * (len(pb.base_points) + n_slots))
         chosen = []
-        for _, s in violations:
+        for s in [*new, *kept, *near, *pb.initial_slots, *spare]:
+            if len(chosen) == n_slots:
+                break
             if all(abs(s - c) > 1e-9 for c in chosen) and np.min(np.abs(pb.base_points - s)) > 1e-9:
                 chosen.append(s)
-            if len(chosen) == len(pb.initial_slots):
-                break
-        fill = [s for s in pb.initial_slots if all(abs(s - c) > 1e-9 for c in chosen)]
-        chosen += fill[: len(pb.initial_slots) - len(chosen)]
         return np.array(sorted(chosen))
+
+    def _point_weights(self, lam_g, n_points):
+        """Sum of |multipliers| of all per-point constraint rows, per sample point."""
+        w = np.zeros(n_points)
+        for _, kind, start, n in self.pb.g_blocks:
+            if n == n_points:
+                w += np.abs(lam_g[start:start + n])
+            elif n == 2 * n_points:  # the epigraph's two sides
+                w += np.abs(lam_g[start:start + n_points]) + np.abs(lam_g[start + n_points:start + n])
+        return np.where(w > 1e-9 * max(float(np.max(w, initial=0.0)), 1e-300), w, 0.0)
 
 
 # --- repair of starts that do not assemble ---------------------------------------------------
