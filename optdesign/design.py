@@ -200,6 +200,8 @@ class DesignProblem:
         v = ca.vertcat(*rows)
         dv = mech.ds(v)
         self.quantity_derivatives = mech.function("quantities_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)})
+        # how each row's extrema move with the parameters: d(dv/ds)/dp, for peak tracking
+        self.quantity_tracking = mech.function("quantities_tracking", {"d2v": mech.ds(dv), "dvdp": ca.jacobian(dv, mech.p)})
 
     def _bounds(self, c):
         """A constraint's (lower, upper) as numbers (they may name fixed parameters)."""
@@ -236,6 +238,24 @@ class DesignProblem:
         s_values = self.s_grid if s_values is None else np.asarray(s_values, float)
         p = self.full_parameters(x, fixed)
         return np.asarray(self.quantity.map(len(s_values))(s_values[None, :], p))
+
+    def nlp_parameters(self, fixed, s_points, x_ref=None, tracking=None):
+        """The NLP's parameter vector: fixed parameters, sample points, tracking of the points."""
+        nd = len(self.design_names)
+        x_ref = self.start if x_ref is None else x_ref
+        tracking = np.zeros((self.n_points, nd)) if tracking is None else tracking
+        return np.r_[fixed, s_points, x_ref, tracking.ravel(order="F")]
+
+    def tracking_gradient(self, s, x, fixed, row):
+        """ds*/dx of the extremum of ``row`` at sweep value s and design x (0 where the row's
+        curvature in s vanishes: no extremum to follow)."""
+        p = self.full_parameters(x, fixed)
+        out = self.quantity_tracking(s, p)
+        d2v = float(out[0][row])
+        dvdp = np.asarray(out[1])[row, self.design_index]
+        if abs(d2v) <= 1e-12 * max(float(np.max(np.abs(dvdp))), 1e-300):
+            return np.zeros(len(self.design_names))
+        return -dvdp / d2v
 
     def _k_ref_start(self):
         """Median |k| = |dq/ds| over the stroke at the start design (a scale, not a bound)."""
@@ -282,14 +302,19 @@ class DesignProblem:
         fixed = sym.sym("fixed", len(self.fixed_names))
         self.n_points = st.grid + st.slots
         s_pts = sym.sym("s_points", self.n_points)
+        # each sample point follows its extremum to first order in the design:
+        # s_j(x) = s_j + G_j . (x - x_ref), G_j = -(d2v/ds dx) / (d2v/ds2) at the last solution
+        x_ref = sym.sym("x_ref", nd)
+        G = sym.sym("tracking", self.n_points, nd)
         x = ca.DM(self.z_offset) + ca.DM(self.z_scale) * z
         p = self.full_parameters(x, fixed)
         t = sym.sym("t", 1 if self.objective_kind == "peak" else 0)
         a = sym.sym("a", len(self.aggregates))
+        s_eff = s_pts + ca.mtimes(G, x - x_ref)
         if sym is ca.MX:
-            Q = self.quantity.map(self.n_points)(s_pts.T, p)  # rows x points
+            Q = self.quantity.map(self.n_points)(s_eff.T, p)  # rows x points
         else:
-            Q = ca.horzcat(*[self.quantity(s_pts[j], p) for j in range(self.n_points)])
+            Q = ca.horzcat(*[self.quantity(s_eff[j], p) for j in range(self.n_points)])
         g, lbg, ubg, self.g_blocks = [], [], [], []
 
         self.g_scale, self.stroke_outer = {}, {}
@@ -339,7 +364,7 @@ class DesignProblem:
         w = ca.vertcat(z, t, a)
         self.nw = int(w.numel())
         self.n_t = int(t.numel())
-        nlp = {"x": w, "p": ca.vertcat(fixed, s_pts), "f": f, "g": ca.vertcat(*g)}
+        nlp = {"x": w, "p": ca.vertcat(fixed, s_pts, x_ref, ca.vec(G)), "f": f, "g": ca.vertcat(*g)}
         opts = {"ipopt.print_level": st.print_level, "print_time": False, "ipopt.sb": "yes",
                 "ipopt.tol": st.tol, "ipopt.constr_viol_tol": st.tol, "ipopt.max_iter": st.max_iter, "ipopt.mu_strategy": "adaptive",
                 # constraint multipliers from the least dual infeasibility: starts that begin

@@ -85,29 +85,42 @@ class Solver:
         pb = self.pb
         return pb.mech.parameter_values[pb.fixed_index] if fixed is None else np.asarray(fixed, float)
 
-    def solve(self, x0, fixed=None, s_points=None) -> Solution | str:
+    def solve(self, x0, fixed=None) -> Solution | str:
+        """Solve from design x0: IPOPT, then the continuous check; while some bound or the
+        epigraph is exceeded between the sample points, move slots onto the located extrema
+        (each following its extremum to first order in the design) and solve again."""
         pb, st = self.pb, self.pb.settings
         fixed = self.fixed_values(fixed)
-        s_pts = np.r_[pb.base_points, pb.initial_slots] if s_points is None else np.asarray(s_points, float)
+        nd = len(pb.design_names)
+        s_pts = np.r_[pb.base_points, pb.initial_slots]
+        x_ref, tracking, rows = np.clip(np.asarray(x0, float), pb.lower, pb.upper), np.zeros((pb.n_points, nd)), {}
         w = self._initial_w(x0, fixed, s_pts)
         if isinstance(w, str):
             return w
-        iterations, sol = 0, None
+        iterations = 0
         for exchange in range(st.max_exchanges + 1):
-            res = pb.solver(x0=w, p=np.r_[fixed, s_pts], lbx=pb.lbw, ubx=pb.ubw, lbg=pb.lbg, ubg=pb.ubg)
+            res = pb.solver(x0=w, p=pb.nlp_parameters(fixed, s_pts, x_ref, tracking),
+                            lbx=pb.lbw, ubx=pb.ubw, lbg=pb.lbg, ubg=pb.ubg)
             stats = pb.solver.stats()
             iterations += int(stats.get("iter_count", 0))
             status = stats["return_status"]
             w = np.asarray(res["x"]).ravel()
-            x = pb.to_x(w[: len(pb.design_names)])
+            x = pb.to_x(w[:nd])
+            s_now = s_pts + tracking @ (x - x_ref)  # where the NLP's points were at its solution
             if not stats["success"]:
-                return self._solution(res, x, fixed, s_pts, status, False, iterations, exchange, {}, {}, False)
-            violations, certified, sampled = self.continuous_check(x, fixed, w, s_pts)
-            worst = [v for v in violations if v[0] > 0]
-            if not worst:
-                return self._solution(res, x, fixed, s_pts, status, True, iterations, exchange, certified, sampled, True)
-            s_pts = np.r_[pb.base_points, self._slots(violations, s_pts, np.asarray(res["lam_g"]).ravel())]
-        return self._solution(res, x, fixed, s_pts, status + " (exchange did not converge)", False,
+                return self._solution(res, x, fixed, s_now, status, False, iterations, exchange, {}, {}, False)
+            violations, certified, sampled = self.continuous_check(x, fixed, w, s_now)
+            if not any(v[0] > 0 for v in violations):
+                return self._solution(res, x, fixed, s_now, status, True, iterations, exchange, certified, sampled, True)
+            slots, rows = self._slots(violations, s_now, rows, np.asarray(res["lam_g"]).ravel())
+            s_pts = np.r_[pb.base_points, slots]
+            tracking = np.zeros((pb.n_points, nd))
+            for j, s_j in enumerate(slots):
+                row = rows.get(round(s_j, 12))
+                if row is not None:
+                    tracking[len(pb.base_points) + j] = pb.tracking_gradient(s_j, x, fixed, row)
+            x_ref = x
+        return self._solution(res, x, fixed, s_now, status + " (exchange did not converge)", False,
                               iterations, exchange, certified, sampled, False)
 
     def _solution(self, res, x, fixed, s_pts, status, success, iterations, exchanges, certified, sampled, converged):
@@ -164,7 +177,7 @@ class Solver:
             sampled[(name, sense)] = float(np.max(np.abs(vals)) if sense == "abs" else (np.max(vals) if sense == "max" else np.min(vals)))
             for e in ext:
                 amount = (sign * e.value - sign * bound) / scale if sense != "abs" else (abs(e.value) - bound) / scale
-                out.append((amount - tol, e.s))
+                out.append((amount - tol, e.s, row))
 
         at_points = pb.evaluate_grid(x, fixed, s_points)
         for b in pb.blocks:
@@ -180,7 +193,7 @@ class Solver:
                 # the quadrature of the NLP against one with twice the panels
                 rms, finer = pb.rms(x, fixed), pb.rms(x, fixed, 2 * pb.rms_panels)
                 certified[(b.name, "rms")], sampled[(b.name, "rms")] = finer, pb.rms_sampled(x, fixed)
-                out.append((abs(rms - finer) / max(finer, 1e-300) - st.rms_tol, 0.5 * (grid[0] + grid[-1])))
+                out.append((abs(rms - finer) / max(finer, 1e-300) - st.rms_tol, 0.5 * (grid[0] + grid[-1]), None))
             elif b.kind in ("constraint", "design constraint", "margin"):
                 if math.isfinite(b.upper):
                     check(b.name, b.index, "max", b.scale, b.upper, st.constraint_tol)
@@ -196,26 +209,29 @@ class Solver:
         out.sort(key=lambda v: v[0], reverse=True)
         return out, certified, sampled
 
-    def _slots(self, violations, s_pts, lam_g):
-        """Sample points for the slots.  Slots whose constraints carry a multiplier at the last
-        solution stay (dropping them lets the next solve cycle between designs); the most
-        violated continuous extrema fill the rest, then the most nearly active ones."""
+    def _slots(self, violations, s_now, rows, lam_g):
+        """Sample points for the slots, and the row whose extremum each one follows.
+
+        Violated continuous extrema first, then slots whose constraints carry a multiplier at
+        the last solution (dropping them lets the next solve cycle between designs), then the
+        most nearly active extrema.  Returns (sorted points, {round(point, 12): row})."""
         pb = self.pb
-        n_slots = len(pb.initial_slots)
-        weight = self._point_weights(lam_g, len(s_pts))
-        kept = [(weight[j], s) for j, s in enumerate(s_pts) if j >= len(pb.base_points) and weight[j] > 0]
-        kept = [s for _, s in sorted(kept, reverse=True)]
-        new = [s for amount, s in violations if amount > 0]
-        near = [s for amount, s in violations if amount <= 0]
-        # every violated extremum needs a slot: it displaces the least active kept ones
-        spare = np.linspace(pb.base_points[0], pb.base_points[-1], 4 * (len(pb.base_points) + n_slots))
-        chosen = []
-        for s in [*new, *kept, *near, *pb.initial_slots, *spare]:
+        n_base, n_slots = len(pb.base_points), len(pb.initial_slots)
+        weight = self._point_weights(lam_g, len(s_now))
+        kept = sorted(((weight[j], s_now[j], rows.get(round(s_now[j], 12))) for j in range(n_base, len(s_now))
+                       if weight[j] > 0), key=lambda k: k[0], reverse=True)
+        new = [(s, row) for amount, s, row in violations if amount > 0]
+        near = [(s, row) for amount, s, row in violations if amount <= 0]
+        spare = np.linspace(pb.base_points[0], pb.base_points[-1], 4 * (n_base + n_slots))
+        candidates = new + [(s, row) for _, s, row in kept] + near + [(s, None) for s in (*pb.initial_slots, *spare)]
+        chosen = {}
+        for s, row in candidates:
             if len(chosen) == n_slots:
                 break
             if all(abs(s - c) > 1e-9 for c in chosen) and np.min(np.abs(pb.base_points - s)) > 1e-9:
-                chosen.append(s)
-        return np.array(sorted(chosen))
+                chosen[s] = row
+        points = np.array(sorted(chosen))
+        return points, {round(s, 12): chosen[s] for s in points}
 
     def _point_weights(self, lam_g, n_points):
         """Sum of |multipliers| of all per-point constraint rows, per sample point."""
