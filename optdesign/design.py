@@ -310,7 +310,7 @@ class DesignProblem:
         p = self.full_parameters(x, fixed)
         t = sym.sym("t", 1 if self.objective_kind == "peak" else 0)
         a = sym.sym("a", len(self.aggregates))
-        s_eff = s_pts + ca.mtimes(G, x - x_ref)
+        s_eff = ca.fmin(ca.fmax(s_pts + ca.mtimes(G, x - x_ref), self.s_grid[0]), self.s_grid[-1])
         if sym is ca.MX:
             Q = self.quantity.map(self.n_points)(s_eff.T, p)  # rows x points
         else:

@@ -106,7 +106,7 @@ class Solver:
             status = stats["return_status"]
             w = np.asarray(res["x"]).ravel()
             x = pb.to_x(w[:nd])
-            s_now = s_pts + tracking @ (x - x_ref)  # where the NLP's points were at its solution
+            s_now = np.clip(s_pts + tracking @ (x - x_ref), pb.s_grid[0], pb.s_grid[-1])  # the NLP's points at its solution
             if not stats["success"]:
                 return self._solution(res, x, fixed, s_now, status, False, iterations, exchange, {}, {}, False)
             violations, certified, sampled = self.continuous_check(x, fixed, w, s_now)
