@@ -197,6 +197,7 @@ class DesignProblem:
         rows.append(self.model.k)
         self.rows = rows
         self.quantity = mech.function("quantities", {"v": ca.vertcat(*rows)})
+        self._maps = {}  # number of samples -> the mapped quantity function
         v = ca.vertcat(*rows)
         dv = mech.ds(v)
         self.quantity_derivatives = mech.function("quantities_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)})
@@ -237,7 +238,10 @@ class DesignProblem:
         """Per-sample quantities (rows x samples) at design x on the scene's grid."""
         s_values = self.s_grid if s_values is None else np.asarray(s_values, float)
         p = self.full_parameters(x, fixed)
-        return np.asarray(self.quantity.map(len(s_values))(s_values[None, :], p))
+        n = len(s_values)
+        if n not in self._maps:
+            self._maps[n] = self.quantity.map(n)
+        return np.asarray(self._maps[n](s_values[None, :], p))
 
     def nlp_parameters(self, fixed, s_points, x_ref=None, tracking=None):
         """The NLP's parameter vector: fixed parameters, sample points, tracking of the points."""
@@ -310,7 +314,9 @@ class DesignProblem:
         p = self.full_parameters(x, fixed)
         t = sym.sym("t", 1 if self.objective_kind == "peak" else 0)
         a = sym.sym("a", len(self.aggregates))
-        s_eff = ca.fmin(ca.fmax(s_pts + ca.mtimes(G, x - x_ref), self.s_grid[0]), self.s_grid[-1])
+        nb = st.grid  # base points stay put: tracking only the slots keeps the Hessian small
+        moved = s_pts[nb:] + ca.mtimes(G[nb:, :], x - x_ref)
+        s_eff = ca.vertcat(s_pts[:nb], ca.fmin(ca.fmax(moved, self.s_grid[0]), self.s_grid[-1]))
         if sym is ca.MX:
             Q = self.quantity.map(self.n_points)(s_eff.T, p)  # rows x points
         else:
