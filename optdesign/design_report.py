@@ -87,7 +87,7 @@ def figures(result, folder) -> list:
         axes[0, 0].plot(res.columns["s"], res.columns["drive"], label=f"{label}: peak {res.peaks['drive']:.4g}")
         for i, name in enumerate(per_sample):
             axes[i + 1, 0].plot(res.columns["s"], np.degrees(res.constraints[name]) if "angle" in name else res.constraints[name], label=label)
-    axes[0, 0].set_ylabel("drive load [N or N m]")
+    axes[0, 0].set_ylabel("drive torque T_S [N m]" if scene.drive.kind == "rotary" else "drive force F_S [N]")
     axes[0, 0].set_title(f"{scene.title}\n{scene.objective.minimise}: start vs optimum")
     for i, name in enumerate(per_sample):
         c = next(c for c in scene.constraints if c.name == name)
