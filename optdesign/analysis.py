@@ -55,6 +55,7 @@ class Analysis:
         self.names = list(outs)
         self.function = self.mech.function("reduced_model", outs)
         self.mapped = self.function.map(len(self.s_values))
+        self._points_map = None
         self.build_time = time.perf_counter() - t0
 
     def run(self, p_values=None) -> AnalysisResult:
@@ -88,9 +89,9 @@ class Analysis:
         if not self.per_stroke:
             return {}
         mech = self.mech
-        n = len(self.s_values)
-        f = mech.function("points", {k: v for k, v in mech.points.items()}).map(n)
-        rows = f(s=self.s_values[None, :], p=p_values)
+        if self._points_map is None:  # built once, on the first run that needs it
+            self._points_map = mech.function("points", dict(mech.points)).map(len(self.s_values))
+        rows = self._points_map(s=self.s_values[None, :], p=p_values)
         values = dict(zip(mech.parameter_names, p_values))
         for prm in self.scene.parameters:
             if prm.value.names():

@@ -53,6 +53,7 @@ class ReducedModel:
         self.qdd = m.value(drive.acceleration, "[drive] acceleration")
         self.eta = m.value(drive.efficiency, "[drive] efficiency") if self.uses_efficiency else 1.0
         self.efficiency_smoothing = efficiency_smoothing
+        self._k_function = None
         self._bodies()
         self._generalised()
 
@@ -256,8 +257,13 @@ class ReducedModel:
         """Raise :class:`DeadCentreError` where k = dq/ds vanishes in the stroke."""
         m = self.mech
         p_values = m.parameter_values if p_values is None else p_values
-        f = ca.Function("k", [m.s, m.p], [self.k])
-        k = np.asarray(f.map(len(s_values))(np.asarray(s_values)[None, :], p_values)).ravel()
+        if self._k_function is None:
+            self._k_function = ca.Function("k", [m.s, m.p], [self.k])
+            self._k_maps = {}
+        f = self._k_function
+        if len(s_values) not in self._k_maps:
+            self._k_maps[len(s_values)] = f.map(len(s_values))
+        k = np.asarray(self._k_maps[len(s_values)](np.asarray(s_values)[None, :], p_values)).ravel()
         scale = np.max(np.abs(k)) if k.size else 1.0
         zero = np.flatnonzero(np.abs(k) <= 1e-12 * max(scale, 1e-300))
         change = np.flatnonzero(np.sign(k[:-1]) * np.sign(k[1:]) < 0)
