@@ -294,7 +294,7 @@ def mx_function(scene, names):
     from optdesign.reduction import ReducedModel
     from optdesign.scene import Fixed, Loop
 
-    _kinematics = importlib.import_module("optdesign.kinematics")  # the module, not the function
+    _kinematics = importlib.import_module("optdesign.mechanism")  # the module, not the function
     original = _kinematics.Loop
     _kinematics.Loop = (Loop, Fixed)
     try:

@@ -5,7 +5,7 @@ Front doors: :func:`load` (a scene file), :func:`kinematics`, :func:`analyse`.
 from .analysis import AnalysisResult, analyse
 from .errors import (AssemblyError, DeadCentreError, ExpressionError, OptdesignError, SceneError,
                      SolverError)
-from .kinematics import KinematicsResult, Mechanism, kinematics
+from .mechanism import KinematicsResult, Mechanism, kinematics
 from .reduction import ReducedModel
 from .scene import (Attach, Body, Closure, Constraint, Drive, Dyad, Fixed, Gravity, Loop, Objective,
                     Parameter, Polar, Scene, Slider, Sweep)

@@ -8,7 +8,7 @@ import casadi as ca
 import numpy as np
 
 from .expressions import evaluate
-from .kinematics import Mechanism
+from .mechanism import Mechanism
 from .reduction import ReducedModel
 from .scene import Scene
 

@@ -42,7 +42,7 @@ def _emit(args, json_text, table_text):
 
 def cmd_kinematics(args):
     from . import report
-    from .kinematics import kinematics
+    from .mechanism import kinematics
 
     result = kinematics(_load(args), args.samples)
     _emit(args, report.to_json(report.kinematics_json(result)) if args.json else "", report.kinematics_table(result))

@@ -30,7 +30,7 @@ import numpy as np
 
 from .errors import SceneError
 from .expressions import Call, Expression, Name, evaluate
-from .kinematics import Mechanism
+from .mechanism import Mechanism
 from .peaks import continuous_maxima
 from .reduction import ReducedModel
 from .scene import Scene

@@ -75,7 +75,7 @@ def figures(result, folder) -> list:
 
     from .analysis import Analysis
     from .drawing import draw_positions
-    from .kinematics import kinematics
+    from .mechanism import kinematics
 
     scene = result.scene
     after = scene.with_parameters(**result.design)

@@ -30,7 +30,7 @@ import numpy as np
 
 from .errors import DeadCentreError, SceneError
 from .expressions import Expression
-from .kinematics import Mechanism, _fmt_s
+from .mechanism import Mechanism, _fmt_s
 
 
 class ReducedModel:

@@ -35,7 +35,7 @@ import pytest
 from scipy.optimize import minimize
 
 from optdesign.expressions import BinOp, Call, Name, Neg, Num, constant_value, parse
-from optdesign.kinematics import Mechanism
+from optdesign.mechanism import Mechanism
 from optdesign.optimise import optimise
 from optdesign.reduction import ReducedModel
 from optdesign.scenefile import load

@@ -13,7 +13,7 @@ the drive power must balance the mechanism:
 and with the seed's efficiency rule (eqs. 5, 26 and the closing remarks of sections 2.4/3.4):
 P_u = eta P_in while the drive delivers power (P_in > 0), P_in = eta P_u while power flows back
 into it (P_in < 0).  The right-hand side is computed here in plain numpy from
-optdesign.kinematics.kinematics (point velocities and accelerations, body omegas and epsilons)
+optdesign.kinematics (point velocities and accelerations, body omegas and epsilons)
 and from the masses and loads as written in the scene, never from the reduced model.
 
 Tolerance: |P_in - expected| <= 1e-9 * (|P_in| + |dE/dt| + |P_applied|) at each sample (the
@@ -31,7 +31,7 @@ import pytest
 
 from optdesign.analysis import analyse
 from optdesign.expressions import constant_value, evaluate
-from optdesign.kinematics import kinematics
+from optdesign.mechanism import kinematics
 from optdesign.scenefile import load, loads
 
 PROBLEMS = Path(__file__).resolve().parent.parent / "problems"

@@ -36,7 +36,7 @@ import pytest
 
 from optdesign.analysis import analyse
 from optdesign.expressions import constant_value
-from optdesign.kinematics import kinematics
+from optdesign.mechanism import kinematics
 from optdesign.scenefile import load
 
 PROBLEMS = Path(__file__).resolve().parent.parent / "problems"
