@@ -11,6 +11,7 @@ from .expressions import evaluate
 from .mechanism import Mechanism
 from .reduction import ReducedModel
 from .scene import Scene
+from .vectorised import VectorisedSX
 
 
 @dataclass(frozen=True)
@@ -55,6 +56,10 @@ class Analysis:
         self.names = list(outs)
         self.function = self.mech.function("reduced_model", outs)
         self.mapped = self.function.map(len(self.s_values))
+        try:  # numpy over the whole stroke, instruction by instruction (SX graphs only)
+            self.vectorised = VectorisedSX(self.function)
+        except NotImplementedError:
+            self.vectorised = None
         self._points_map = None
         self.build_time = time.perf_counter() - t0
 
@@ -64,7 +69,10 @@ class Analysis:
         t0 = time.perf_counter()
         mech.check_assembly(self.s_values, p_values)
         model.check_dead_centre(self.s_values, p_values)
-        raw = self.mapped(s=self.s_values[None, :], p=p_values)
+        if self.vectorised is not None:
+            raw = self.vectorised(self.s_values, p_values)
+        else:
+            raw = self.mapped(s=self.s_values[None, :], p=p_values)
         n = len(self.s_values)
         values = {k: np.broadcast_to(np.asarray(v, float).ravel(), (n,)).copy() for k, v in raw.items()}
         columns = {"s": self.s_values.copy()}
