@@ -441,6 +441,7 @@ def main(argv=None):
     funcs = {
         "numpy": lambda: closed_form(theta, values, **motion),
         "mapped": lambda: analysis.mapped(s=s_row, p=p),
+        "vectorised": lambda: analysis.vectorised(theta, p),
         "run": lambda: analysis.run(),
     }
     for label, (f, _, _, _) in options.items():
@@ -494,8 +495,10 @@ def report(args, n, git, started, load_start, load_end, build, builds, analysis,
         "| what | median [ms] | ours / numpy | goal |",
         "|---|---|---|---|",
         f"| numpy closed form (10 columns) | {fmt_ms(numpy_t)} | 1 | |",
-        f"| ours: `Analysis.mapped(s, p)` (all {analysis.function.n_out()} outputs, SX VM, serial) | {fmt_ms(med['mapped'])} | "
-        f"**{ratio:.3g}x** | <= 1x: {'met' if ratio <= 1 else 'NOT met'} |",
+        f"| ours: `Analysis.vectorised(s, p)`, what `run()` evaluates (all {analysis.function.n_out()} outputs, the SX graph's instructions run by numpy) | "
+        f"{fmt_ms(med['vectorised'])} | **{med['vectorised'] / numpy_t:.3g}x** | <= 1x: {'met' if med['vectorised'] <= numpy_t else 'NOT met'} |",
+        f"| ours: `Analysis.mapped(s, p)` (the same Function through CasADi's SX VM, serial) | {fmt_ms(med['mapped'])} | "
+        f"{ratio:.3g}x | |",
         f"| ours: `Analysis.run()` (mapped + assembly and dead-centre checks + per-stroke constraint) | {fmt_ms(med['run'])} | "
         f"{med['run'] / numpy_t:.3g}x | |",
         f"| ours: one-time build `Analysis(scene, samples={n})` (median of {len(builds)}) | {fmt_ms(build)} | | |",
