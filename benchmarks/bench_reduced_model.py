@@ -229,62 +229,7 @@ def jit_compile(func: ca.Function, n: int, flags, directory):
 
 
 # --- an option without a compiler: the SX instruction list run by numpy over all samples ----
-_BINARY = {ca.OP_ADD: np.add, ca.OP_SUB: np.subtract, ca.OP_MUL: np.multiply, ca.OP_DIV: np.divide,
-           ca.OP_ATAN2: np.arctan2, ca.OP_LE: np.less_equal, ca.OP_LT: np.less, ca.OP_EQ: np.equal,
-           ca.OP_NE: np.not_equal, ca.OP_POW: np.power, ca.OP_CONSTPOW: np.power, ca.OP_FMIN: np.fmin,
-           ca.OP_FMAX: np.fmax,
-           ca.OP_AND: np.logical_and, ca.OP_OR: np.logical_or,
-           ca.OP_IF_ELSE_ZERO: lambda c, x: np.where(c != 0, x, 0.0)}
-_UNARY = {ca.OP_NEG: np.negative, ca.OP_SQ: np.square, ca.OP_TWICE: lambda x: 2.0 * x, ca.OP_SQRT: np.sqrt,
-          ca.OP_SIN: np.sin, ca.OP_COS: np.cos, ca.OP_TAN: np.tan, ca.OP_ASIN: np.arcsin,
-          ca.OP_ACOS: np.arccos, ca.OP_ATAN: np.arctan, ca.OP_EXP: np.exp, ca.OP_LOG: np.log,
-          ca.OP_FABS: np.abs, ca.OP_SIGN: np.sign, ca.OP_INV: np.reciprocal, ca.OP_NOT: np.logical_not,
-          ca.OP_ASSIGN: lambda x: x}
-
-
-class VectorisedSX:
-    """Runs an SX Function's instruction list once, each instruction a numpy operation over all
-    samples (inputs that do not vary with the sample stay scalars, so parameter-only work is
-    done once).  Same graph, same operations, same order as CasADi's VM: only the loop is turned
-    inside out (instructions outside, samples inside).  Scalar inputs only (as here)."""
-
-    def __init__(self, func: ca.Function):
-        assert func.is_a("SXFunction"), "needs an SX Function"
-        self.names = [func.name_out(j) for j in range(func.n_out())]
-        self.n_w = func.sz_w()
-        self.program = []
-        for k in range(func.n_instructions()):
-            op, i, o = func.instruction_id(k), func.instruction_input(k), func.instruction_output(k)
-            if op == ca.OP_INPUT:
-                self.program.append((0, i[0], i[1], o[0]))
-            elif op == ca.OP_OUTPUT:
-                self.program.append((1, o[0], o[1], i[0]))
-            elif op == ca.OP_CONST:
-                self.program.append((2, float(func.instruction_constant(k)), o[0], None))
-            elif op in _BINARY:
-                self.program.append((3, _BINARY[op], (i[0], i[1]), o[0]))
-            elif op in _UNARY:
-                self.program.append((4, _UNARY[op], i[0], o[0]))
-            else:
-                raise NotImplementedError(f"CasADi operation {op} has no numpy counterpart here")
-        self.out_sizes = [func.nnz_out(j) for j in range(func.n_out())]
-
-    def __call__(self, s_row, p):
-        inputs = (np.asarray(s_row, float).ravel(), np.asarray(p, float).ravel())
-        w = [None] * self.n_w
-        outs = [[None] * n for n in self.out_sizes]
-        for kind, a, b, c in self.program:
-            if kind == 3:
-                w[c] = a(w[b[0]], w[b[1]])
-            elif kind == 4:
-                w[c] = a(w[b])
-            elif kind == 2:
-                w[b] = a
-            elif kind == 0:
-                w[c] = inputs[0] if a == 0 else inputs[1][b]
-            else:
-                outs[a][b] = w[c]
-        return {name: out[0] for name, out in zip(self.names, outs)}
+from optdesign.vectorised import VectorisedSX  # noqa: E402  (the evaluator Analysis.run uses)
 
 
 def mx_function(scene, names):
