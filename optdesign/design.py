@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
@@ -31,7 +31,6 @@ import numpy as np
 from .errors import SceneError
 from .expressions import Call, Expression, Name, evaluate
 from .mechanism import Mechanism
-from .peaks import continuous_maxima
 from .reduction import ReducedModel
 from .scene import Scene
 
@@ -403,7 +402,6 @@ class DesignProblem:
         return evaluate(expr, values, {}, expr.source)
 
     def _outer_start(self, expr):
-        v = self.start_quantities
         values = self._parameter_values()
         for ag in self.aggregates:
             values[ag.name] = self.aggregate_start(ag)

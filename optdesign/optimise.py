@@ -79,7 +79,6 @@ class Solver:
 
     def __init__(self, problem: DesignProblem):
         self.pb = problem
-        self._repair = None
 
     def fixed_values(self, fixed=None):
         pb = self.pb
