@@ -67,7 +67,7 @@ def read(out, stem):
     return {h: body[:, i] for i, h in enumerate(header)}
 
 
-def close(got, want, rel):
+def assert_close(got, want, rel):
     """|got - want| <= rel * max|want| at every sample."""
     got, want = np.asarray(got), np.asarray(want)
     scale = np.max(np.abs(want))
@@ -143,16 +143,16 @@ def test_csv_columns_are_the_figure_quantities(out, stem):
 def test_fig06_R_z_is_the_closed_form_and_the_tool_gives_its_magnitude(out, slider):
     c = read(out, "fig06_R_z")
     alpha = np.radians(c["alpha [deg]"])
-    close(c["alpha [deg]"], np.linspace(0, 360, 721), 1e-14)
+    assert_close(c["alpha [deg]"], np.linspace(0, 360, 721), 1e-14)
     R, dR = slider_closed_form(alpha, slider["r"], slider["l"])
-    close(c["R_z [m]"], R, 1e-10)
-    close(c["dR_z/dalpha [m/rad]"], dR, 1e-10)
-    close(c["|R_z| [m]"], np.abs(c["R_z [m]"]), 1e-12)
+    assert_close(c["R_z [m]"], R, 1e-10)
+    assert_close(c["dR_z/dalpha [m/rad]"], dR, 1e-10)
+    assert_close(c["|R_z| [m]"], np.abs(c["R_z [m]"]), 1e-12)
     # the tool's d|R_z|/dalpha: sign(v_C) dR_z/dalpha where the piston moves; undefined only where
     # it stands still (|v_C| has a corner there)
     tool = c["d|R_z|/dalpha [m/rad]"]
     moving = np.abs(R) > 1e-6 * max_rel(R)
-    close(tool[moving], np.sign(R[moving]) * dR[moving], 1e-9)
+    assert_close(tool[moving], np.sign(R[moving]) * dR[moving], 1e-9)
     assert np.all(np.abs(R[~np.isfinite(tool)]) <= 1e-12 * max_rel(R))
     # at the dead centres (sin alpha = 0) the closed form gives dR_z/dalpha = r (cos a - cos 2a r/l):
     # r (1 - r/l) at the bottom (0, 360 deg) and -r (1 + r/l) at the top (180 deg)
@@ -164,8 +164,8 @@ def test_fig07_I_zS_is_m_R_z_squared_and_vanishes_at_the_dead_centres(out, slide
     c6, c7 = read(out, "fig06_R_z"), read(out, "fig07_I_zS")
     R, dR = c6["R_z [m]"], c6["dR_z/dalpha [m/rad]"]
     I, dI = c7["I_zS [kg m^2]"], c7["dI_zS/dalpha [kg m^2/rad]"]
-    close(I, slider["m"] * R**2, 1e-12)          # eq. (20) with eta = 1
-    close(dI, 2 * slider["m"] * R * dR, 1e-10)   # d/dalpha of m R_z^2
+    assert_close(I, slider["m"] * R**2, 1e-12)          # eq. (20) with eta = 1
+    assert_close(dI, 2 * slider["m"] * R * dR, 1e-10)   # d/dalpha of m R_z^2
     assert np.all(np.abs(I[[0, 360, 720]]) <= 1e-12 * max_rel(I))  # alpha = 0, 180, 360 deg
     assert np.all(I >= 0)
 
@@ -175,10 +175,10 @@ def test_fig08_piston_acceleration_is_the_second_derivative_of_its_position(out,
     alpha = np.radians(c["alpha [deg]"])
     omega, eps, r, l = slider["omega"], slider["eps"], slider["r"], slider["l"]
     R, dR = slider_closed_form(alpha, r, l)
-    close(c["a_C0 [m/s^2]"], R * eps, 1e-10)
-    close(c["delta_a_C [m/s^2]"], dR * omega**2, 1e-10)
-    close(c["a_C [m/s^2]"], c["a_C0 [m/s^2]"] + c["delta_a_C [m/s^2]"], 1e-12)
-    close(c["a_C [m/s^2]"], R * eps + dR * omega**2, 1e-10)  # d2y_C/dt2 at constant eps
+    assert_close(c["a_C0 [m/s^2]"], R * eps, 1e-10)
+    assert_close(c["delta_a_C [m/s^2]"], dR * omega**2, 1e-10)
+    assert_close(c["a_C [m/s^2]"], c["a_C0 [m/s^2]"] + c["delta_a_C [m/s^2]"], 1e-12)
+    assert_close(c["a_C [m/s^2]"], R * eps + dR * omega**2, 1e-10)  # d2y_C/dt2 at constant eps
     # textbook values at the dead centres: r omega^2 (1 -+ r/l) towards the top dead centre
     assert c["a_C [m/s^2]"][[0, 360]] == pytest.approx([r * omega**2 * (1 - r / l), -r * omega**2 * (1 + r / l)], rel=1e-12)
 
@@ -188,15 +188,15 @@ def test_fig09_torque_balances_the_power_of_the_piston(out, slider):
     c7 = read(out, "fig07_I_zS")
     alpha = np.radians(c["alpha [deg]"])
     T_Su, Ieps, dT, T_S = (c[k] for k in ("T_Su [N m]", "I_zS*eps_S [N m]", "dT_S [N m]", "T_S [N m]"))
-    close(T_S, T_Su + Ieps - dT, 1e-12)                                          # eq. (16)
-    close(dT, -0.5 * slider["omega"] ** 2 * c7["dI_zS/dalpha [kg m^2/rad]"], 1e-12)  # eq. (15)
-    close(Ieps, c7["I_zS [kg m^2]"] * slider["eps"], 1e-12)
+    assert_close(T_S, T_Su + Ieps - dT, 1e-12)                                          # eq. (16)
+    assert_close(dT, -0.5 * slider["omega"] ** 2 * c7["dI_zS/dalpha [kg m^2/rad]"], 1e-12)  # eq. (15)
+    assert_close(Ieps, c7["I_zS [kg m^2]"] * slider["eps"], 1e-12)
     # virtual work: the gas force F_C pushes the piston down, so lifting it at R_z omega takes F_C R_z
     R, dR = slider_closed_form(alpha, slider["r"], slider["l"])
-    close(T_Su, slider["F"] * R, 1e-10)
+    assert_close(T_Su, slider["F"] * R, 1e-10)
     # power balance: T_S omega = m a_C v_C + F_C v_C with v_C = R_z omega (eta = 1)
     a_C = R * slider["eps"] + dR * slider["omega"] ** 2
-    close(T_S, slider["m"] * R * a_C + slider["F"] * R, 1e-10)
+    assert_close(T_S, slider["m"] * R * a_C + slider["F"] * R, 1e-10)
 
 
 # --- jib, Figs. 13-16 ----------------------------------------------------------------------------
@@ -206,11 +206,11 @@ def test_closed_forms_agree_with_plain_differences(jib):
     x, h = np.linspace(2.2, 3.2, 11), 1e-5
     f = jib_closed_form(x, jib)
     fp, fm = jib_closed_form(x + h, jib), jib_closed_form(x - h, jib)
-    close(f["di_v"], (fp["i_v"] - fm["i_v"]) / (2 * h), 1e-8)
-    close(f["dm_zS"], (fp["m_zS"] - fm["m_zS"]) / (2 * h), 1e-8)
-    close(f["m_zS"], jib["m"] / f["i_v"] ** 2, 1e-13)
-    close(f["i_v"], 1 / (jib["l"] * f["dtheta"]), 1e-13)
-    close(f["d2theta"], (fp["dtheta"] - fm["dtheta"]) / (2 * h), 1e-8)
+    assert_close(f["di_v"], (fp["i_v"] - fm["i_v"]) / (2 * h), 1e-8)
+    assert_close(f["dm_zS"], (fp["m_zS"] - fm["m_zS"]) / (2 * h), 1e-8)
+    assert_close(f["m_zS"], jib["m"] / f["i_v"] ** 2, 1e-13)
+    assert_close(f["i_v"], 1 / (jib["l"] * f["dtheta"]), 1e-13)
+    assert_close(f["d2theta"], (fp["dtheta"] - fm["dtheta"]) / (2 * h), 1e-8)
 
 
 def test_fig13_i_v_is_eq_39_and_falls_over_the_stroke(out, jib):
@@ -218,18 +218,18 @@ def test_fig13_i_v_is_eq_39_and_falls_over_the_stroke(out, jib):
     x = c["x [m]"]
     assert (x[0], x[-1]) == pytest.approx((2.2, 3.2), abs=1e-9)
     f = jib_closed_form(x, jib)
-    close(c["i_v [-]"], f["i_v"], 1e-10)
-    close(c["di_v/dx [1/m]"], f["di_v"], 1e-10)
+    assert_close(c["i_v [-]"], f["i_v"], 1e-10)
+    assert_close(c["di_v/dx [1/m]"], f["di_v"], 1e-10)
     assert np.all(np.diff(c["i_v [-]"]) < 0)
 
 
 def test_fig14_m_zS_is_m_over_i_v_squared_and_its_derivative_is_a_difference_limit(out, jib):
     c13, c14 = read(out, "fig13_i_v"), read(out, "fig14_m_zS")
     x, m_zS, dm_zS = c14["x [m]"], c14["m_zS [kg]"], c14["dm_zS/dx [kg/m]"]
-    close(m_zS, jib["m"] / c13["i_v [-]"] ** 2, 1e-12)   # eq. (41) in terms of eq. (39)
+    assert_close(m_zS, jib["m"] / c13["i_v [-]"] ** 2, 1e-12)   # eq. (41) in terms of eq. (39)
     f = jib_closed_form(x, jib)
-    close(m_zS, f["m_zS"], 1e-10)
-    close(dm_zS, f["dm_zS"], 1e-10)
+    assert_close(m_zS, f["m_zS"], 1e-10)
+    assert_close(dm_zS, f["dm_zS"], 1e-10)
     # second-order differences of the m_zS column (h ~ 5 mm): error O(h^2), ~6e-5 of max|dm_zS/dx|;
     # doubling h must multiply it by ~4 (the column is the derivative, not something near it)
     errors = []
@@ -245,24 +245,24 @@ def test_fig15_tip_acceleration_is_l_times_the_jib_angular_acceleration(out, jib
     c, c13 = read(out, "fig15_tip_acceleration"), read(out, "fig13_i_v")
     x = c["x [m]"]
     i_v, di_v = c13["i_v [-]"], c13["di_v/dx [1/m]"]
-    close(c["a_C0 [m/s^2]"], jib["a"] / i_v, 1e-12)                       # eq. (24)
-    close(c["delta_a_C [m/s^2]"], -jib["v"] ** 2 * di_v / i_v**2, 1e-10)  # eq. (24), di_v/dx
-    close(c["a_C [m/s^2]"], c["a_C0 [m/s^2]"] + c["delta_a_C [m/s^2]"], 1e-12)
+    assert_close(c["a_C0 [m/s^2]"], jib["a"] / i_v, 1e-12)                       # eq. (24)
+    assert_close(c["delta_a_C [m/s^2]"], -jib["v"] ** 2 * di_v / i_v**2, 1e-10)  # eq. (24), di_v/dx
+    assert_close(c["a_C [m/s^2]"], c["a_C0 [m/s^2]"] + c["delta_a_C [m/s^2]"], 1e-12)
     f = jib_closed_form(x, jib)  # tip on a circle of radius l: a_C = l theta'' in time
-    close(c["a_C [m/s^2]"], jib["l"] * (jib["a"] * f["dtheta"] + jib["v"] ** 2 * f["d2theta"]), 1e-10)
+    assert_close(c["a_C [m/s^2]"], jib["l"] * (jib["a"] * f["dtheta"] + jib["v"] ** 2 * f["d2theta"]), 1e-10)
 
 
 def test_fig16_force_balances_the_power_of_the_load(out, jib):
     c, c14 = read(out, "fig16_force_F_S"), read(out, "fig14_m_zS")
     x = c["x [m]"]
     F_Su, ma, dF, F_S = (c[k] for k in ("F_Su [N]", "m_zS*a_S [N]", "dF_S [N]", "F_S [N]"))
-    close(F_S, F_Su + ma - dF, 1e-12)                                          # eq. (37)
-    close(dF, -0.5 * jib["v"] ** 2 * c14["dm_zS/dx [kg/m]"], 1e-12)             # eq. (36)
-    close(ma, c14["m_zS [kg]"] * jib["a"], 1e-12)
+    assert_close(F_S, F_Su + ma - dF, 1e-12)                                          # eq. (37)
+    assert_close(dF, -0.5 * jib["v"] ** 2 * c14["dm_zS/dx [kg/m]"], 1e-12)             # eq. (36)
+    assert_close(ma, c14["m_zS [kg]"] * jib["a"], 1e-12)
     f = jib_closed_form(x, jib)
     # virtual work of the weight: F_Su dx = m g d(l sin theta)
     weight = jib["m"] * jib["g"] * jib["l"] * np.cos(f["theta"]) * f["dtheta"]
-    close(F_Su, weight, 1e-10)
+    assert_close(F_Su, weight, 1e-10)
     # power balance: F_S v_S = m a_C v_C + m g v_Cy, v_C = l theta' v_S
     a_C = jib["l"] * (jib["a"] * f["dtheta"] + jib["v"] ** 2 * f["d2theta"])
-    close(F_S, jib["m"] * a_C * jib["l"] * f["dtheta"] + weight, 1e-10)
+    assert_close(F_S, jib["m"] * a_C * jib["l"] * f["dtheta"] + weight, 1e-10)

@@ -105,7 +105,7 @@ def line(text, needle):
     raise AssertionError(f"{needle!r} not in the text")
 
 
-def fails(text, cls, *words, at=None, path="bad.toml"):
+def assert_fails(text, cls, *words, at=None, path="bad.toml"):
     """Load ``text``; it must raise exactly ``cls`` with all ``words`` in its message, led by
     the file name and, when ``at`` is given, the line of ``at``."""
     with pytest.raises(cls) as info:
@@ -129,113 +129,113 @@ def test_the_base_scenes_are_valid():
 # --- TOML syntax ----------------------------------------------------------------------------
 def test_toml_syntax_error():
     text = mutate(BASE, "r = 0.1", "r = = 0.1")
-    fails(text, SceneError, "TOML syntax error", "Invalid value", at="r = = 0.1")
+    assert_fails(text, SceneError, "TOML syntax error", "Invalid value", at="r = = 0.1")
 
 
 def test_toml_unterminated_string():
     text = mutate(BASE, 'title = "four-bar with a slider"', 'title = "four-bar')
-    fails(text, SceneError, "TOML syntax error", at='title = "four-bar')
+    assert_fails(text, SceneError, "TOML syntax error", at='title = "four-bar')
 
 
 # --- unknown keys -----------------------------------------------------------------------------
 def test_unknown_top_level_table_suggests_the_near_miss():
     text = mutate(BASE, "[sweep]", "[sweeep]")
-    fails(text, SceneError, "unknown top-level table or key 'sweeep'", "did you mean 'sweep'?", at="[sweeep]")
+    assert_fails(text, SceneError, "unknown top-level table or key 'sweeep'", "did you mean 'sweep'?", at="[sweeep]")
 
 
 def test_unknown_top_level_key_without_near_miss_lists_the_keys():
     text = "colour = 3\n" + BASE
-    fails(text, SceneError, "unknown top-level table or key 'colour'", "expected one of: title, source,",
+    assert_fails(text, SceneError, "unknown top-level table or key 'colour'", "expected one of: title, source,",
           at="colour = 3")
 
 
 def test_unknown_key_in_sweep_suggests_samples():
     text = mutate(BASE, "samples = 11", "sampels = 11")
-    fails(text, SceneError, "[sweep] sampels", "unknown key 'sampels'", "did you mean 'samples'?",
+    assert_fails(text, SceneError, "[sweep] sampels", "unknown key 'sampels'", "did you mean 'samples'?",
           at="sampels = 11")
 
 
 def test_unknown_key_in_a_body():
     text = mutate(BASE, 'mass = "m"', 'mas = "m"')
-    fails(text, SceneError, "[[bodies]] 'coupler', mas", "unknown key 'mas'", "did you mean 'mass'?",
+    assert_fails(text, SceneError, "[[bodies]] 'coupler', mas", "unknown key 'mas'", "did you mean 'mass'?",
           at='mas = "m"')
 
 
 def test_unknown_key_in_a_construction():
     text = mutate(BASE, 'side = "left"', 'sied = "left"')
-    fails(text, SceneError, "[points] C, sied", "unknown key 'sied'", "did you mean 'side'?", at="sied")
+    assert_fails(text, SceneError, "[points] C, sied", "unknown key 'sied'", "did you mean 'side'?", at="sied")
 
 
 def test_unknown_construction_kind():
     text = mutate(BASE, "A = { fixed = [0, 0] }", "A = { fixd = [0, 0] }")
-    fails(text, SceneError, "[points] A", "expected exactly one construction kind (fixed, polar, dyad, "
+    assert_fails(text, SceneError, "[points] A", "expected exactly one construction kind (fixed, polar, dyad, "
           "slider, attach, loop)", "found 'fixd'", "did you mean 'fixed'?", at="A = { fixd")
 
 
 def test_unknown_key_in_a_loop_closure():
     text = mutate(LOOP, 'fixed = "D" }', 'fixd = "D" }')
-    fails(text, SceneError, "[points] chain, closure.fixd", "unknown key 'fixd'", "did you mean 'fixed'?",
+    assert_fails(text, SceneError, "[points] chain, closure.fixd", "unknown key 'fixd'", "did you mean 'fixed'?",
           at="closure =")
 
 
 def test_unknown_key_in_a_design_parameter():
     text = mutate(BASE, "min = 0.2", "mn = 0.2")
-    fails(text, SceneError, "[parameters] c, mn", "unknown key 'mn'", "did you mean 'min'?", at="mn = 0.2")
+    assert_fails(text, SceneError, "[parameters] c, mn", "unknown key 'mn'", "did you mean 'min'?", at="mn = 0.2")
 
 
 def test_unknown_key_in_the_drive_and_the_objective():
     text = mutate(BASE, "speed = 10.0", "sped = 10.0")
-    fails(text, SceneError, "[drive] sped", "unknown key 'sped'", "did you mean 'speed'?", at="sped")
+    assert_fails(text, SceneError, "[drive] sped", "unknown key 'sped'", "did you mean 'speed'?", at="sped")
     text = BASE + '\n[objective]\nminimize = "peak(drive)"\n'
-    fails(text, SceneError, "[objective] minimize", "did you mean 'minimise'?", at="minimize")
+    assert_fails(text, SceneError, "[objective] minimize", "did you mean 'minimise'?", at="minimize")
 
 
 # --- unknown names and functions in expressions ----------------------------------------------
 def test_unknown_name_in_an_expression_suggests_the_near_miss():
     text = mutate(BASE, '"A", "r", "alpha"', '"A", "r", "alpah"')
-    fails(text, ExpressionError, "[points] B, polar angle", "'alpah'", "unknown name 'alpah'",
+    assert_fails(text, ExpressionError, "[points] B, polar angle", "'alpah'", "unknown name 'alpah'",
           "did you mean 'alpha'?", at="alpah")
 
 
 def test_unknown_name_without_near_miss_lists_what_is_known():
     text = mutate(BASE, 'mass = "m"', 'mass = "zeta"')
-    fails(text, ExpressionError, "[[bodies]] 'coupler', mass", "unknown name 'zeta'",
+    assert_fails(text, ExpressionError, "[[bodies]] 'coupler', mass", "unknown name 'zeta'",
           "expected one of: alpha, c, l, m, r, pi, deg", at='mass = "zeta"')
 
 
 def test_unknown_function_suggests_the_near_miss():
     text = mutate(BASE, 'expr = "angle(B, C, D)"', 'expr = "angel(B, C, D)"')
-    fails(text, ExpressionError, "[[constraints]] 'transmission', expr", "unknown function 'angel'",
+    assert_fails(text, ExpressionError, "[[constraints]] 'transmission', expr", "unknown function 'angel'",
           "did you mean 'angle'?", at="angel")
 
 
 def test_a_point_used_as_a_number():
     text = mutate(BASE, '"A", "r", "alpha"', '"A", "r", "D"')
-    fails(text, ExpressionError, "[points] B, polar angle", "'D' is a point, not a number", "use x(D), y(D)",
+    assert_fails(text, ExpressionError, "[points] B, polar angle", "'D' is a point, not a number", "use x(D), y(D)",
           at='"A", "r", "D"')
 
 
 def test_the_sweep_in_a_parameter():
     text = mutate(BASE, "m = 2.0", 'm = "2*alpha"')
-    fails(text, ExpressionError, "[parameters] m", "the sweep variable 'alpha' cannot be used here",
+    assert_fails(text, ExpressionError, "[parameters] m", "the sweep variable 'alpha' cannot be used here",
           "expected a value that is the same over the whole stroke", at='m = "2*alpha"')
 
 
 def test_a_parameter_used_before_it_is_defined():
     text = mutate(BASE, "r = 0.1", 'r = "l/3.5"')
-    fails(text, ExpressionError, "[parameters] r", "'l' is defined further down", "move its line",
+    assert_fails(text, ExpressionError, "[parameters] r", "'l' is defined further down", "move its line",
           at='r = "l/3.5"')
 
 
 def test_an_aggregate_outside_a_constraint():
     text = mutate(BASE, '"A", "r", "alpha"', '"A", "r", "max(alpha)"')
-    fails(text, ExpressionError, "[points] B, polar angle", "min() or max() with one argument is the "
+    assert_fails(text, ExpressionError, "[points] B, polar angle", "min() or max() with one argument is the "
           "extreme over the whole stroke", "max(a, b)", at="max(alpha)")
 
 
 def test_a_constraint_that_mixes_aggregate_and_samples():
     text = mutate(BASE, 'expr = "angle(B, C, D)"', 'expr = "max(length(A, C)) - length(A, C)"')
-    fails(text, ExpressionError, "[[constraints]] 'transmission', expr", "mixes one value per stroke",
+    assert_fails(text, ExpressionError, "[[constraints]] 'transmission', expr", "mixes one value per stroke",
           "'A', 'C' outside min/max", at="max(length(A, C))")
 
 
@@ -252,158 +252,158 @@ def test_a_constraint_that_mixes_aggregate_and_samples():
 ])
 def test_malformed_expression_never_reaches_casadi(bad, words):
     text = mutate(BASE, "m = 2.0", f"m = {bad!r}".replace("'", '"') if "'" not in bad else f'm = "{bad}"')
-    message = fails(text, ExpressionError, "[parameters] m", *words, at="m = ")
+    message = assert_fails(text, ExpressionError, "[parameters] m", *words, at="m = ")
     assert bad in message
 
 
 # --- points used before they are built ---------------------------------------------------------
 def test_a_point_used_before_it_is_built():
     text = mutate(BASE, 'B = { polar = ["A", "r", "alpha"] }', 'B = { polar = ["C", "r", "alpha"] }')
-    fails(text, SceneError, "[points] B, polar centre", "point 'C' is used before it is built",
+    assert_fails(text, SceneError, "[points] B, polar centre", "point 'C' is used before it is built",
           "move its line above this one", at='B = { polar = ["C"')
 
 
 def test_a_point_that_is_never_built_suggests_the_near_miss():
     text = mutate(BASE, 'crank = ["A", "B"]', 'crank = ["A", "BB"]')
-    fails(text, SceneError, "[drive] crank", "no point 'BB' is constructed", "did you mean 'B'?", at="crank")
+    assert_fails(text, SceneError, "[drive] crank", "no point 'BB' is constructed", "did you mean 'B'?", at="crank")
 
 
 def test_a_point_that_is_never_built_lists_the_built_ones():
     text = mutate(BASE, '"C", "l", "A", "90 deg"', '"C", "l", "Z", "90 deg"')
-    fails(text, SceneError, "[points] E, slider line origin", "no point 'Z' is constructed",
+    assert_fails(text, SceneError, "[points] E, slider line origin", "no point 'Z' is constructed",
           "points built so far: A, D, B, C", at='"Z"')
 
 
 def test_a_point_in_an_expression_used_before_it_is_built():
     text = mutate(BASE, 'D = { fixed = ["c", 0] }', 'D = { fixed = ["x(B)", 0] }')
-    fails(text, ExpressionError, "[points] D, fixed x", "'x(B)'", "point 'B' is used before it is built",
+    assert_fails(text, ExpressionError, "[points] D, fixed x", "'x(B)'", "point 'B' is used before it is built",
           at="x(B)")
 
 
 def test_a_body_frame_point_never_built():
     text = mutate(BASE, 'frame = ["B", "C"]', 'frame = ["B", "Cc"]')
-    fails(text, SceneError, "[[bodies]] 'coupler', frame", "no point 'Cc' is constructed",
+    assert_fails(text, SceneError, "[[bodies]] 'coupler', frame", "no point 'Cc' is constructed",
           "did you mean 'C'?", at='"Cc"')
 
 
 # --- missing values -----------------------------------------------------------------------------
 def test_missing_sweep_samples():
     text = mutate(BASE, "samples = 11\n", "")
-    fails(text, SceneError, "[sweep] samples", "missing key 'samples'", "a whole number >= 2", at="[sweep]")
+    assert_fails(text, SceneError, "[sweep] samples", "missing key 'samples'", "a whole number >= 2", at="[sweep]")
 
 
 def test_missing_com_of_a_body_with_mass():
     text = mutate(BASE, "com = [0.1, 0]\n", "")
-    fails(text, SceneError, "[[bodies]] 'coupler', com", "a body with mass needs its centre of mass",
+    assert_fails(text, SceneError, "[[bodies]] 'coupler', com", "a body with mass needs its centre of mass",
           "missing key 'com'", "com = [a, b]", at="[[bodies]]")
 
 
 def test_missing_drive_speed():
     text = mutate(BASE, "speed = 10.0\n", "")
-    fails(text, SceneError, "[drive] speed", "missing key 'speed'", "the drive speed in rad/s", at="[drive]")
+    assert_fails(text, SceneError, "[drive] speed", "missing key 'speed'", "the drive speed in rad/s", at="[drive]")
 
 
 def test_missing_dyad_side():
     text = mutate(BASE, ', side = "left"', "")
-    fails(text, SceneError, "[points] C, side", "missing key 'side'", "'left' or 'right'", at="C = { dyad")
+    assert_fails(text, SceneError, "[points] C, side", "missing key 'side'", "'left' or 'right'", at="C = { dyad")
 
 
 def test_missing_title_and_tables():
-    fails(mutate(BASE, 'title = "four-bar with a slider"\n', ""), SceneError, "missing key 'title'")
+    assert_fails(mutate(BASE, 'title = "four-bar with a slider"\n', ""), SceneError, "missing key 'title'")
     text = BASE.split("[points]")[0]
-    fails(text, SceneError, "missing table 'points'", "expected the table [points]")
+    assert_fails(text, SceneError, "missing table 'points'", "expected the table [points]")
 
 
 def test_missing_value_of_a_design_variable():
     text = mutate(BASE, "c = { value = 0.3, min", "c = { min")
-    fails(text, SceneError, "[parameters] c, value", "missing key 'value'", at="c = { min")
+    assert_fails(text, SceneError, "[parameters] c, value", "missing key 'value'", at="c = { min")
 
 
 def test_an_empty_constraint():
     text = mutate(BASE, 'min = "30 deg"\n', "")
-    fails(text, SceneError, "[[constraints]] 'transmission'", "expected min, max or both; found neither",
+    assert_fails(text, SceneError, "[[constraints]] 'transmission'", "expected min, max or both; found neither",
           at="[[constraints]]")
 
 
 # --- non-numbers where numbers belong -------------------------------------------------------------
 def test_samples_must_be_a_whole_number():
     text = mutate(BASE, "samples = 11", 'samples = "many"')
-    fails(text, SceneError, "[sweep] samples", "expected a whole number >= 2", "found 'many'", at="samples")
+    assert_fails(text, SceneError, "[sweep] samples", "expected a whole number >= 2", "found 'many'", at="samples")
     text = mutate(BASE, "samples = 11", "samples = 2.5")
-    fails(text, SceneError, "[sweep] samples", "found 2.5", at="samples")
+    assert_fails(text, SceneError, "[sweep] samples", "found 2.5", at="samples")
     text = mutate(BASE, "samples = 11", "samples = true")
-    fails(text, SceneError, "[sweep] samples", "found true", at="samples")
+    assert_fails(text, SceneError, "[sweep] samples", "found true", at="samples")
 
 
 def test_a_parameter_that_is_a_list():
     text = mutate(BASE, "m = 2.0", "m = [1, 2]")
-    fails(text, ExpressionError, "[parameters] m", "expected a number or an expression string",
+    assert_fails(text, ExpressionError, "[parameters] m", "expected a number or an expression string",
           "found [1, 2] (a list)", at="m = [1, 2]")
 
 
 def test_a_parameter_that_is_a_boolean():
     text = mutate(BASE, "m = 2.0", "m = true")
-    fails(text, ExpressionError, "[parameters] m", "found true (a boolean)", at="m = true")
+    assert_fails(text, ExpressionError, "[parameters] m", "found true (a boolean)", at="m = true")
 
 
 def test_a_body_mass_that_is_a_table():
     text = mutate(BASE, "mass = 1.0", "mass = { kg = 1.0 }")
-    fails(text, ExpressionError, "[[bodies]] 'slider', mass", "found {'kg': 1.0} (a table)", at="mass = {")
+    assert_fails(text, ExpressionError, "[[bodies]] 'slider', mass", "found {'kg': 1.0} (a table)", at="mass = {")
 
 
 def test_a_bound_that_is_not_a_number():
     text = mutate(BASE, "min = 0.2", 'min = "low"')
-    fails(text, ExpressionError, "[parameters] c, min", "unknown name 'low'", at='min = "low"')
+    assert_fails(text, ExpressionError, "[parameters] c, min", "unknown name 'low'", at='min = "low"')
 
 
 def test_a_list_of_the_wrong_length():
     text = mutate(BASE, 'B = { polar = ["A", "r", "alpha"] }', 'B = { polar = ["A", "r"] }')
-    fails(text, SceneError, "[points] B, polar", "expected polar = [centre, length, angle] (3 items)",
+    assert_fails(text, SceneError, "[points] B, polar", "expected polar = [centre, length, angle] (3 items)",
           "found ['A', 'r']", at="B = { polar")
     text = mutate(BASE, "com = [0.1, 0]", "com = [0.1, 0, 0]")
-    fails(text, SceneError, "[[bodies]] 'coupler', com", "expected [a, b] in the body frame (a list of 2",
+    assert_fails(text, SceneError, "[[bodies]] 'coupler', com", "expected [a, b] in the body frame (a list of 2",
           "found [0.1, 0, 0]", at="com = [0.1, 0, 0]")
 
 
 def test_a_point_name_that_is_a_number():
     text = mutate(BASE, 'B = { polar = ["A", "r", "alpha"] }', 'B = { polar = [0, "r", "alpha"] }')
-    fails(text, SceneError, "[points] B, polar centre", "expected a point name", "found 0", at="B = { polar")
+    assert_fails(text, SceneError, "[points] B, polar centre", "expected a point name", "found 0", at="B = { polar")
 
 
 # --- bounds, sides, names -------------------------------------------------------------------------
 def test_design_start_outside_its_bounds():
     text = mutate(BASE, "c = { value = 0.3, min = 0.2, max = 0.5 }", "c = { value = 0.6, min = 0.2, max = 0.5 }")
-    fails(text, SceneError, "[parameters] c, value", "the start value 0.6 lies outside its bounds [0.2, 0.5]",
+    assert_fails(text, SceneError, "[parameters] c, value", "the start value 0.6 lies outside its bounds [0.2, 0.5]",
           "move the start inside or widen the bounds", at="c = { value = 0.6")
 
 
 def test_design_bounds_crossed():
     text = mutate(BASE, "c = { value = 0.3, min = 0.2, max = 0.5 }", "c = { value = 0.3, min = 0.5, max = 0.2 }")
-    fails(text, SceneError, "[parameters] c, min", "min 0.5 must be below max 0.2", at="c = {")
+    assert_fails(text, SceneError, "[parameters] c, min", "min 0.5 must be below max 0.2", at="c = {")
 
 
 def test_dyad_side_must_be_left_or_right():
     text = mutate(BASE, 'side = "left"', 'side = "up"')
-    fails(text, SceneError, "[points] C, side", "expected 'left' or 'right'", "of the directed line P -> Q",
+    assert_fails(text, SceneError, "[points] C, side", "expected 'left' or 'right'", "of the directed line P -> Q",
           "found 'up'", at='side = "up"')
     text = mutate(BASE, 'side = "left"', 'side = "lefft"')
-    fails(text, SceneError, "found 'lefft'", "did you mean 'left'?", at="lefft")
+    assert_fails(text, SceneError, "found 'lefft'", "did you mean 'left'?", at="lefft")
 
 
 def test_slider_side_must_be_ahead_or_behind():
     text = mutate(BASE, 'side = "ahead"', 'side = "left"')
-    fails(text, SceneError, "[points] E, side", "expected 'ahead' or 'behind'", "found 'left'", at='E = {')
+    assert_fails(text, SceneError, "[points] E, side", "expected 'ahead' or 'behind'", "found 'left'", at='E = {')
 
 
 def test_duplicate_point_names_in_the_file():
     text = mutate(BASE, 'P = { attach', 'B = { attach')
-    fails(text, SceneError, "TOML syntax error", "'B' is defined twice in the same table", "rename",
+    assert_fails(text, SceneError, "TOML syntax error", "'B' is defined twice in the same table", "rename",
           at='B = { attach')
 
 
 def test_a_loop_joint_with_the_name_of_a_point():
     text = mutate(LOOP, 'joints = ["B", "C", "D3"]', 'joints = ["B", "D", "D3"]')
-    fails(text, SceneError, "[points] chain", "point 'D' is constructed twice (also at [points] D)",
+    assert_fails(text, SceneError, "[points] chain", "point 'D' is constructed twice (also at [points] D)",
           "rename one of them", at="[points.chain]")
 
 
@@ -417,84 +417,84 @@ def test_duplicate_point_names_built_in_python():
 
 def test_a_point_with_the_name_of_a_parameter():
     text = mutate(BASE, 'P = { attach', 'm = { attach')
-    fails(text, SceneError, "[points] m", "point 'm' has the name of a parameter or of the sweep",
+    assert_fails(text, SceneError, "[points] m", "point 'm' has the name of a parameter or of the sweep",
           at="m = { attach")
 
 
 def test_duplicate_body_and_constraint_names():
     text = mutate(BASE, 'name = "slider"', 'name = "coupler"')
-    fails(text, SceneError, "[[bodies]] 'coupler'", "the body name 'coupler' is used twice")
+    assert_fails(text, SceneError, "[[bodies]] 'coupler'", "the body name 'coupler' is used twice")
     text = BASE + '\n[[constraints]]\nname = "transmission"\nexpr = "length(A, C)"\nmax = 1\n'
-    fails(text, SceneError, "[[constraints]] 'transmission'", "the constraint name 'transmission' is used twice")
+    assert_fails(text, SceneError, "[[constraints]] 'transmission'", "the constraint name 'transmission' is used twice")
 
 
 def test_bad_parameter_names():
-    fails(mutate(BASE, "m = 2.0", '"2m" = 2.0'), SceneError, "[parameters] 2m", "expected a parameter name",
+    assert_fails(mutate(BASE, "m = 2.0", '"2m" = 2.0'), SceneError, "[parameters] 2m", "expected a parameter name",
           at='"2m"')
-    fails(mutate(BASE, "m = 2.0", "pi = 3.0"), SceneError, "[parameters] pi", "'pi' is reserved", at="pi = 3.0")
+    assert_fails(mutate(BASE, "m = 2.0", "pi = 3.0"), SceneError, "[parameters] pi", "'pi' is reserved", at="pi = 3.0")
 
 
 def test_drive_type_suggests_the_near_miss():
     text = mutate(BASE, 'type = "rotary"', 'type = "rotory"')
-    fails(text, SceneError, "[drive] type", "expected 'rotary' or 'linear'", "found 'rotory'",
+    assert_fails(text, SceneError, "[drive] type", "expected 'rotary' or 'linear'", "found 'rotory'",
           "did you mean 'rotary'?", at="type =")
 
 
 def test_efficiency_out_of_range():
     text = mutate(BASE, "acceleration = 0.0\n", "acceleration = 0.0\nefficiency = 1.5\n")
-    fails(text, SceneError, "[drive] efficiency", "expected 0 < eta <= 1, found 1.5", at="efficiency")
+    assert_fails(text, SceneError, "[drive] efficiency", "expected 0 < eta <= 1, found 1.5", at="efficiency")
 
 
 def test_sweep_rate_beside_a_drive():
     text = mutate(BASE, "samples = 11\n", "samples = 11\nrate = 2.0\n")
-    fails(text, SceneError, "[sweep] rate", "the scene has a [drive]", "remove rate from [sweep]", at="rate = 2.0")
+    assert_fails(text, SceneError, "[sweep] rate", "the scene has a [drive]", "remove rate from [sweep]", at="rate = 2.0")
 
 
 def test_empty_stroke():
     text = mutate(BASE, 'to = "80 deg"', 'to = "10 deg"')
-    fails(text, SceneError, "[sweep] to", "the stroke is empty", at='to = "10 deg"')
+    assert_fails(text, SceneError, "[sweep] to", "the stroke is empty", at='to = "10 deg"')
 
 
 # --- loops ------------------------------------------------------------------------------------
 def test_loop_with_too_few_unknowns_for_a_closed_loop():
     text = mutate(LOOP, 'unknowns = { phi2 = "90 deg", phi3 = "pi - phi1" }', 'unknowns = { phi2 = "90 deg" }')
-    fails(text, SceneError, "[points] chain, unknowns", "found 1 unknown angle(s) ['phi2']",
+    assert_fails(text, SceneError, "[points] chain, unknowns", "found 1 unknown angle(s) ['phi2']",
           "a closed loop (closure fixed = POINT) gives 2 equation(s)", "expected 2 unknown(s)", at="unknowns =")
 
 
 def test_loop_with_too_many_unknowns_for_a_semi_closed_loop():
     text = mutate(LOOP, 'closure = { point = "D3", fixed = "D" }', 'closure = { point = "D3", line = ["D", 0] }')
-    fails(text, SceneError, "[points] chain, unknowns", "found 2 unknown angle(s)",
+    assert_fails(text, SceneError, "[points] chain, unknowns", "found 2 unknown angle(s)",
           "a semi-closed loop (closure line = [POINT, angle]) gives 1 equation(s)", "expected 1 unknown(s)",
           at="unknowns =")
 
 
 def test_open_chain_with_unknowns():
     text = mutate(LOOP, 'closure = { point = "D3", fixed = "D" }\n', "")
-    fails(text, SceneError, "[points] chain, unknowns", "no closure (an open chain) gives 0 equation(s)",
+    assert_fails(text, SceneError, "[points] chain, unknowns", "no closure (an open chain) gives 0 equation(s)",
           at="unknowns =")
 
 
 def test_loop_unknown_that_no_angle_uses():
     text = mutate(LOOP, 'angles = ["phi1", "phi2", "phi3"]', 'angles = ["phi1", "phi2", "phi_3"]')
-    fails(text, SceneError, "[points] chain, unknowns", "the unknown 'phi3' appears in none of the angles",
+    assert_fails(text, SceneError, "[points] chain, unknowns", "the unknown 'phi3' appears in none of the angles",
           "did you mean 'phi_3'?", at="unknowns =")
 
 
 def test_loop_closure_point_not_a_joint():
     text = mutate(LOOP, 'point = "D3"', 'point = "D4"')
-    fails(text, SceneError, "[points] chain, closure", "the closure point 'D4' is not one of the loop's joints",
+    assert_fails(text, SceneError, "[points] chain, closure", "the closure point 'D4' is not one of the loop's joints",
           "['B', 'C', 'D3']", at="closure =")
 
 
 def test_loop_lists_of_different_lengths():
     text = mutate(LOOP, 'lengths = ["R", "L", "R"]', 'lengths = ["R", "L"]')
-    fails(text, SceneError, "[points] chain", "found 3 angles, 2 lengths, 3 joints", at="[points.chain]")
+    assert_fails(text, SceneError, "[points] chain", "found 3 angles, 2 lengths, 3 joints", at="[points.chain]")
 
 
 def test_loop_initial_guess_with_an_unknown_name():
     text = mutate(LOOP, 'phi3 = "pi - phi1"', 'phi3 = "pi - ph1"')
-    fails(text, ExpressionError, "[points] chain, unknowns.phi3", "unknown name 'ph1'", "did you mean 'phi1'?",
+    assert_fails(text, ExpressionError, "[points] chain, unknowns.phi3", "unknown name 'ph1'", "did you mean 'phi1'?",
           at="unknowns =")
 
 
