@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 
 from .errors import OptdesignError, SceneError, SolverError
@@ -98,6 +99,13 @@ COMMANDS = {
     "optimise": (cmd_optimise, "minimise the scene's objective over its design variables (IPOPT, multistart)"),
 }
 
+# Commands with many options of their own live in their own module, which must import cheaply
+# (no CasADi at import time) and define HELP, add_arguments(parser) and run(args).
+COMMAND_MODULES = {
+    "simulate": "optdesign.simulate_command",
+    "study": "optdesign.study_command",
+}
+
 
 def parser():
     top = argparse.ArgumentParser(prog="optdesign", description="Optimisation-based design of planar mechanisms.")
@@ -115,6 +123,16 @@ def parser():
             p.add_argument("--seed", type=int, default=0, help="seed of the random starts (default 0)")
             p.add_argument("--out", metavar="DIR", help="results folder (default results/<scene name>)")
         p.set_defaults(func=func)
+    for name, module_name in COMMAND_MODULES.items():
+        try:
+            module = importlib.import_module(module_name)
+        except ModuleNotFoundError as exc:
+            if exc.name != module_name:
+                raise
+            continue  # not built yet
+        p = sub.add_parser(name, help=module.HELP, description=module.HELP)
+        module.add_arguments(p)
+        p.set_defaults(func=module.run)
     return top
 
 
