@@ -436,13 +436,18 @@ class Drive:
     """The driving element: ``kind`` 'rotary' (``pins`` = crank [S, A], drive coordinate the
     crank angle) or 'linear' (``pins`` = the actuator's two pins, drive coordinate their
     distance).  ``speed`` and ``acceleration`` are the drive's rate and its derivative at which
-    the drive load is evaluated; ``efficiency`` is eta_m (absent: 1)."""
+    the drive load is evaluated; ``efficiency`` is eta_m (absent: 1).  For a simulation in
+    time (``optdesign simulate``) ``law`` gives the drive torque or force T_S (F_S) as an
+    expression of the drive coordinate ``q``, its rate ``qd`` and parameters, and ``inertia``
+    the drive's own inertia (rotor [kg m^2] or moving piston mass [kg]; absent: 0)."""
 
     kind: str
     pins: tuple
     speed: Expression
     acceleration: Expression
     efficiency: Expression | None = None
+    law: Expression | None = None
+    inertia: Expression | None = None
 
     def __post_init__(self):
         where = Where("drive")
@@ -464,6 +469,48 @@ class Drive:
         _set(self, "acceleration", _expr(self.acceleration, where.at("acceleration"),
                                          f"the drive acceleration in {unit[1]}"))
         _set(self, "efficiency", _optional_expr(self.efficiency, where.at("efficiency")))
+        # for `optdesign simulate`: the drive torque or force as a law of (q, qd), and the
+        # drive's own inertia (rotor, kg m^2; or moving piston and rod, kg)
+        _set(self, "law", _optional_expr(self.law, where.at("law")))
+        _set(self, "inertia", _optional_expr(self.inertia, where.at("inertia")))
+
+
+LAW_NAMES = ("q", "qd")  # the names a drive law may use besides parameters
+INTEGRATORS = ("bdf", "adams", "rk4")
+
+
+@dataclass(frozen=True)
+class Simulation:
+    """The initial state and span of a motion in time (``optdesign simulate``): the sweep value
+    ``start`` and the drive speed ``speed`` (omega_S [rad/s] or v_S [m/s]) at t = 0, the end
+    time ``t_end`` [s], the number of output ``samples`` over [0, t_end], the ``integrator``
+    ('bdf' implicit, 'adams' non-stiff, 'rk4' explicit fixed-step) and its relative
+    ``tolerance``.  The run also stops where the sweep reaches an end of the stroke."""
+
+    start: Expression
+    speed: Expression
+    t_end: Expression
+    samples: int = 201
+    integrator: str = "bdf"
+    tolerance: Expression | None = None
+
+    def __post_init__(self):
+        where = Where("simulation")
+        _set(self, "start", _expr(self.start, where.at("start"),
+                                  "the sweep value at t = 0 (inside the stroke [sweep] from .. to)"))
+        _set(self, "speed", _expr(self.speed, where.at("speed"),
+                                  "the drive speed at t = 0 (omega_S in rad/s or v_S in m/s)"))
+        _set(self, "t_end", _expr(self.t_end, where.at("t_end"), "the end time in s (> 0)"))
+        n = self.samples
+        if isinstance(n, bool) or not isinstance(n, int) or n < 2:
+            _fail(where.at("samples"), f"expected a whole number >= 2 (output samples over 0 .. t_end), "
+                                       f"found {_show(n)}")
+        if self.integrator not in INTEGRATORS:
+            _fail(where.at("integrator"), f"expected one of {', '.join(map(repr, INTEGRATORS))} ('bdf': "
+                                          "implicit, for stiff cases; 'adams': non-stiff; 'rk4': explicit, "
+                                          f"fixed step), found {_show(self.integrator)}"
+                  + near_miss(self.integrator, INTEGRATORS))
+        _set(self, "tolerance", _optional_expr(self.tolerance, where.at("tolerance")))
 
 
 @dataclass(frozen=True)
@@ -513,6 +560,7 @@ class Scene:
     source: str = ""
     reference: dict = field(default_factory=dict)
     path: str = "<python>"
+    simulation: Simulation | None = None
 
     def __post_init__(self):
         for name in ("parameters", "points", "bodies", "constraints"):
@@ -582,6 +630,8 @@ class Scene:
         if self.drive is not None:
             self._check_drive(values, built)
         self._check_constraints(values, names, built)
+        if self.simulation is not None:
+            self._check_simulation(values)
 
     def _fail(self, where, detail, cls=SceneError):
         _fail(where, detail, cls, self.path)
@@ -595,7 +645,8 @@ class Scene:
                 if not isinstance(item, kinds):
                     self._fail(Where(table, index=i), f"expected {' or '.join(k.__name__ for k in kinds)}, "
                                                       f"found {_show(item)}")
-        for attr, kind in (("sweep", Sweep), ("gravity", Gravity), ("drive", Drive), ("objective", Objective)):
+        for attr, kind in (("sweep", Sweep), ("gravity", Gravity), ("drive", Drive), ("objective", Objective),
+                           ("simulation", Simulation)):
             value = getattr(self, attr)
             if not isinstance(value, kind) and not (value is None and attr != "sweep"):
                 self._fail(Where(attr), f"expected a {kind.__name__}, found {_show(value)}")
@@ -739,6 +790,48 @@ class Scene:
             if getattr(self.sweep, key) is not None:
                 self._fail(Where("sweep", key=key), f"the scene has a [drive], whose speed and acceleration "
                                                     f"set the motion; remove {key} from [sweep]")
+        self._check_drive_law(values)
+
+    def _check_drive_law(self, values):
+        """The simulation keys of [drive]: ``law`` uses parameters, q and qd; ``inertia`` is a
+        number >= 0 of parameters."""
+        d, where = self.drive, Where("drive")
+        if d.law is not None:
+            for name in LAW_NAMES:
+                if name in values or name == self.sweep.name:
+                    what = "parameter" if name in values else "sweep variable"
+                    self._fail(where.at("law"), f"the {what} {name!r} has the name the law uses for the drive "
+                                                f"coordinate (q) or its rate (qd); rename the {what}")
+            self._check_expression(where.at("law"), d.law, set(values) | set(LAW_NAMES), [])
+        if d.inertia is not None:
+            self._check_expression(where.at("inertia"), d.inertia, set(values), [])
+            value = constant_value(d.inertia, values, where.at("inertia"))
+            if value < 0:
+                unit = "kg m^2, the rotor's moment of inertia" if d.kind == "rotary" else "kg, the moving mass"
+                self._fail(where.at("inertia"), f"expected a drive inertia >= 0 ({unit}), found {value:g}")
+
+    def _check_simulation(self, values):
+        """[simulation]: needs a [drive] with a law; start inside the stroke, t_end > 0,
+        tolerance in (0, 0.1]."""
+        sim, where = self.simulation, Where("simulation")
+        if self.drive is None or self.drive.law is None:
+            self._fail(where, "a simulation needs the drive's law: add law = \"...\" to [drive] (a torque "
+                              "or force in q, qd and parameters, e.g. \"T0*(1 - qd/omega0)\")")
+        numbers = {}
+        for key in ("start", "speed", "t_end", "tolerance"):
+            expr = getattr(sim, key)
+            if expr is not None:
+                self._check_expression(where.at(key), expr, set(values), [])
+                numbers[key] = constant_value(expr, values, where.at(key))
+        lo, hi = sorted((constant_value(self.sweep.start, values, ""), constant_value(self.sweep.stop, values, "")))
+        if not lo <= numbers["start"] <= hi:
+            self._fail(where.at("start"), f"the start {numbers['start']:g} lies outside the stroke "
+                                          f"[{lo:g}, {hi:g}] of [sweep] {self.sweep.name}; start inside it")
+        if not numbers["t_end"] > 0:
+            self._fail(where.at("t_end"), f"expected an end time > 0 s, found {numbers['t_end']:g}")
+        if "tolerance" in numbers and not 0 < numbers["tolerance"] <= 0.1:
+            self._fail(where.at("tolerance"), f"expected a relative tolerance in (0, 0.1], e.g. 1e-8, "
+                                              f"found {numbers['tolerance']:g}")
 
     def _check_constraints(self, values, names, built):
         seen = set()

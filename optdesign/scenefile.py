@@ -14,10 +14,10 @@ from pathlib import Path
 from .errors import OptdesignError, SceneError
 from .expressions import located_error, near_miss
 from .scene import (ARRAY_TABLES, DRIVE_PINS, Attach, Body, Closure, Constraint, Drive, Dyad, Fixed,
-                    Gravity, Loop, Objective, Parameter, Polar, Scene, Slider, Sweep, Where)
+                    Gravity, Loop, Objective, Parameter, Polar, Scene, Simulation, Slider, Sweep, Where)
 
 TOP_KEYS = ("title", "source", "parameters", "sweep", "points", "bodies", "gravity", "drive",
-            "constraints", "objective", "reference")
+            "constraints", "objective", "reference", "simulation")
 REQUIRED_TOP = {"title": "a string naming the scene", "sweep": "the table [sweep] (the stroke)",
                 "points": "the table [points] (the constructions)"}
 CLOSED_FORM = {cls.KIND: cls for cls in (Fixed, Polar, Dyad, Slider, Attach)}
@@ -33,6 +33,7 @@ CONSTRUCTION_KEYS = {
 SWEEP_KEYS = ("name", "from", "to", "samples", "rate", "acceleration")
 BODY_KEYS = ("name", "frame", "mass", "com", "inertia", "force", "torque")
 CONSTRAINT_KEYS = ("name", "expr", "min", "max")
+SIMULATION_KEYS = ("start", "speed", "t_end", "samples", "integrator", "tolerance")
 
 
 def load(path, overrides: dict | None = None) -> Scene:
@@ -176,6 +177,7 @@ class _Reader:
             objective=self.objective(data["objective"]) if "objective" in data else None,
             reference=data.get("reference", {}),
             path=path,
+            simulation=self.simulation(data["simulation"]) if "simulation" in data else None,
         )
 
     def parameters(self, data):
@@ -268,11 +270,19 @@ class _Reader:
             _raise(where, f"expected a table, found {data!r}")
         kind = data.get("type")
         pins = DRIVE_PINS.get(kind)
-        allowed = ("type", pins or "crank", "speed", "acceleration", "efficiency")
+        allowed = ("type", pins or "crank", "speed", "acceleration", "efficiency", "law", "inertia")
         if pins is None:
             Drive(kind, None, None, None)  # raises: missing or unknown type, with the near miss
         self.check_keys(where, data, allowed)
-        return Drive(kind, data.get(pins), data.get("speed"), data.get("acceleration"), data.get("efficiency"))
+        return Drive(kind, data.get(pins), data.get("speed"), data.get("acceleration"), data.get("efficiency"),
+                     data.get("law"), data.get("inertia"))
+
+    def simulation(self, data):
+        self.check_keys(Where("simulation"), data, SIMULATION_KEYS)
+        defaults = {f.name: f.default for f in Simulation.__dataclass_fields__.values()}
+        return Simulation(data.get("start"), data.get("speed"), data.get("t_end"),
+                          data.get("samples", defaults["samples"]), data.get("integrator", defaults["integrator"]),
+                          data.get("tolerance"))
 
     def objective(self, data):
         self.check_keys(Where("objective"), data, ("minimise",))
