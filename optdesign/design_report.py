@@ -2,11 +2,12 @@
 from __future__ import annotations
 
 import dataclasses
+import textwrap
 from pathlib import Path
 
 import numpy as np
 
-from .report import SCHEMA, save_figure, to_json, write_atomic
+from .report import SCHEMA, new_figure, save_figure, to_json, write_atomic
 
 
 def optimisation_json(result) -> dict:
@@ -68,11 +69,6 @@ def write_results(result, folder) -> list:
 def figures(result, folder) -> list:
     """Drive load and per-sample constraints over the stroke, before and after, and the
     mechanism drawn at a few positions of the stroke, before and after."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     from .analysis import Analysis
     from .drawing import draw_positions
     from .mechanism import kinematics
@@ -82,13 +78,13 @@ def figures(result, folder) -> list:
     analyses = {"start": Analysis(scene).run(), "optimum": Analysis(after).run()}
     written = []
     per_sample = [k for k, v in analyses["start"].constraints.items() if np.ndim(v)]
-    fig, axes = plt.subplots(1 + len(per_sample), 1, figsize=(7, 3.2 * (1 + len(per_sample))), squeeze=False)
+    fig, axes = new_figure(1 + len(per_sample), 1, figsize=(7, 3.2 * (1 + len(per_sample))), squeeze=False)
     for label, res in analyses.items():
         axes[0, 0].plot(res.columns["s"], res.columns["drive"], label=f"{label}: peak {res.peaks['drive']:.4g}")
         for i, name in enumerate(per_sample):
             axes[i + 1, 0].plot(res.columns["s"], np.degrees(res.constraints[name]) if "angle" in name else res.constraints[name], label=label)
     axes[0, 0].set_ylabel("drive torque T_S [N m]" if scene.drive.kind == "rotary" else "drive force F_S [N]")
-    axes[0, 0].set_title(f"{scene.title}\n{scene.objective.minimise}: start vs optimum")
+    axes[0, 0].set_title(f"{textwrap.fill(scene.title, 80)}\n{scene.objective.minimise}: start vs optimum", fontsize=10)
     for i, name in enumerate(per_sample):
         c = next(c for c in scene.constraints if c.name == name)
         conv = np.degrees if "angle" in name else (lambda v: v)
@@ -104,9 +100,8 @@ def figures(result, folder) -> list:
     axes[-1, 0].set_xlabel(f"sweep {scene.sweep.name}")
     written.append(Path(folder) / "drive_and_constraints.png")
     save_figure(fig, written[-1])
-    plt.close(fig)
 
-    fig, axes = plt.subplots(1, 2, figsize=(11, 5))
+    fig, axes = new_figure(1, 2, figsize=(11, 5))
     for ax, (label, sc) in zip(axes, (("start", scene), ("optimum", after))):
         draw_positions(ax, sc, kinematics(sc), positions=5)
         ax.set_title(f"{label}: " + ", ".join(f"{k}={v:.3g}" for k, v in
@@ -115,5 +110,4 @@ def figures(result, folder) -> list:
                      fontsize=9)
     written.append(Path(folder) / "mechanism.png")
     save_figure(fig, written[-1])
-    plt.close(fig)
     return written

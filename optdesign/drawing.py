@@ -29,12 +29,12 @@ def links(scene):
 
 def draw_positions(ax, scene, kinematics_result, positions=5, colour_map="viridis"):
     """Draw the mechanism at ``positions`` sweep values spread over the stroke."""
-    import matplotlib.pyplot as plt
+    import matplotlib
 
     pts = kinematics_result.points
     n = len(kinematics_result.s)
     idx = np.linspace(0, n - 1, positions).round().astype(int)
-    cmap = plt.get_cmap(colour_map)
+    cmap = matplotlib.colormaps[colour_map]
     pairs = links(scene)
     drive = tuple(scene.drive.pins) if scene.drive is not None else None
     for j, i in enumerate(idx):

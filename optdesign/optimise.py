@@ -79,6 +79,10 @@ class Solver:
 
     def __init__(self, problem: DesignProblem):
         self.pb = problem
+        # the sample points (and their tracking) that certified the last optimum: the next
+        # start begins with them, so that a start that reaches the same optimum needs no
+        # exchange step
+        self.learned = None
 
     def fixed_values(self, fixed=None):
         pb = self.pb
@@ -91,17 +95,18 @@ class Solver:
         pb, st = self.pb, self.pb.settings
         fixed = self.fixed_values(fixed)
         nd = len(pb.design_names)
-        s_pts = np.r_[pb.base_points, pb.initial_slots]
-        x_ref, tracking, rows = np.clip(np.asarray(x0, float), pb.lower, pb.upper), np.zeros((pb.n_points, nd)), {}
+        if self.learned is not None:  # the sample points that certified the last optimum
+            s_pts, x_ref, tracking, rows = self.learned
+        else:
+            s_pts = np.r_[pb.base_points, pb.initial_slots]
+            x_ref, tracking, rows = np.clip(np.asarray(x0, float), pb.lower, pb.upper), np.zeros((pb.n_points, nd)), {}
         w = self._initial_w(x0, fixed, s_pts)
         if isinstance(w, str):
             return w
-        iterations = 0
+        iterations, res = 0, None
         for exchange in range(st.max_exchanges + 1):
-            res = pb.solver(x0=w, p=pb.nlp_parameters(fixed, s_pts, x_ref, tracking),
-                            lbx=pb.lbw, ubx=pb.ubw, lbg=pb.lbg, ubg=pb.ubg)
-            stats = pb.solver.stats()
-            iterations += int(stats.get("iter_count", 0))
+            res, stats, its = self._ipopt(w, pb.nlp_parameters(fixed, s_pts, x_ref, tracking), res)
+            iterations += its
             status = stats["return_status"]
             w = np.asarray(res["x"]).ravel()
             x = pb.to_x(w[:nd])
@@ -110,6 +115,7 @@ class Solver:
                 return self._solution(res, x, fixed, s_now, status, False, iterations, exchange, {}, {}, False)
             violations, certified, sampled = self.continuous_check(x, fixed, w, s_now)
             if not any(v[0] > 0 for v in violations):
+                self.learned = (s_pts, x_ref, tracking, rows)
                 return self._solution(res, x, fixed, s_now, status, True, iterations, exchange, certified, sampled, True)
             slots, rows = self._slots(violations, s_now, rows, np.asarray(res["lam_g"]).ravel())
             s_pts = np.r_[pb.base_points, slots]
@@ -121,6 +127,22 @@ class Solver:
             x_ref = x
         return self._solution(res, x, fixed, s_now, status + " (exchange did not converge)", False,
                               iterations, exchange, certified, sampled, False)
+
+    def _ipopt(self, w, p, last=None):
+        """One IPOPT solve: warm from the last solution's multipliers after an exchange step
+        (cold again if that fails).  Returns (result, stats, iterations)."""
+        pb = self.pb
+        bounds = dict(lbx=pb.lbw, ubx=pb.ubw, lbg=pb.lbg, ubg=pb.ubg)
+        iterations = 0
+        if last is not None:
+            res = pb.warm_solver(x0=w, p=p, lam_x0=last["lam_x"], lam_g0=last["lam_g"], **bounds)
+            stats = pb.warm_solver.stats()
+            iterations += int(stats.get("iter_count", 0))
+            if stats["success"]:
+                return res, stats, iterations
+        res = pb.solver(x0=w, p=p, **bounds)
+        stats = pb.solver.stats()
+        return res, stats, iterations + int(stats.get("iter_count", 0))
 
     def _solution(self, res, x, fixed, s_pts, status, success, iterations, exchanges, certified, sampled, converged):
         return Solution(

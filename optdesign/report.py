@@ -6,6 +6,7 @@ import json
 import math
 import os
 import tempfile
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -48,12 +49,24 @@ def write_atomic(path, text: str | bytes):
         raise
 
 
+def new_figure(nrows=1, ncols=1, figsize=(7, 4), **subplot_kw):
+    """A matplotlib figure and its axes (as ``plt.subplots``) without pyplot: no GUI backend,
+    no global figure registry, nothing to close, and ~0.3 s less import time; laid out by
+    matplotlib's constrained layout when it is drawn."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=figsize, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig, fig.subplots(nrows, ncols, **subplot_kw)
+
+
 def save_figure(fig, path):
-    """Save a matplotlib figure atomically."""
+    """Save a matplotlib figure atomically (one draw: its layout is set when it is made)."""
     import io
 
     buf = io.BytesIO()
-    fig.savefig(buf, format=Path(path).suffix.lstrip(".") or "png", dpi=120, bbox_inches="tight")
+    fig.savefig(buf, format=Path(path).suffix.lstrip(".") or "png", dpi=120)
     write_atomic(path, buf.getvalue())
 
 
@@ -157,11 +170,6 @@ def analysis_table(result) -> str:
 
 def analysis_figures(result, folder) -> list:
     """Figures of the reduced model over the drive coordinate; returns the paths written."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     kind = result.drive_kind
     cols, names, units = result.columns, SEED_NAMES[kind], UNITS[kind]
     q = cols["q"]
@@ -169,21 +177,20 @@ def analysis_figures(result, folder) -> list:
     folder = Path(folder)
     written = []
 
-    fig, ax = plt.subplots(figsize=(7, 4))
+    fig, ax = new_figure(figsize=(7, 4))
     for key in ("static_load", "inertia_term", "velocity_term", "drive"):
         if key in cols:
             ax.plot(q, cols[key], lw=2.2 if key == "drive" else 1.2, label=f"{names[key]} ({key})")
     ax.set_xlabel(qlabel)
     ax.set_ylabel(f"[{units['drive']}]")
-    ax.set_title(f"{result.scene.title}\ndrive load and its components")
+    ax.set_title(f"{textwrap.fill(result.scene.title, 80)}\ndrive load and its components", fontsize=10)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     written.append(folder / "drive.png")
     save_figure(fig, written[-1])
-    plt.close(fig)
 
     if "reduced_inertia" in cols:
-        fig, ax = plt.subplots(figsize=(7, 4))
+        fig, ax = new_figure(figsize=(7, 4))
         ax.plot(q, cols["reduced_inertia"], label=f"{names['reduced_inertia']} [{units['reduced_inertia']}]")
         ax2 = ax.twinx()
         ax2.plot(q, cols["reduced_inertia_dq"], "C1--", label=f"{names['reduced_inertia_dq']} [{units['reduced_inertia_dq']}]")
@@ -193,11 +200,10 @@ def analysis_figures(result, folder) -> list:
         ax.grid(alpha=0.3)
         written.append(folder / "reduced_inertia.png")
         save_figure(fig, written[-1])
-        plt.close(fig)
 
     per_sample = {k: v for k, v in result.constraints.items() if np.ndim(v)}
     if per_sample:
-        fig, ax = plt.subplots(figsize=(7, 3.5))
+        fig, ax = new_figure(figsize=(7, 3.5))
         for k, v in per_sample.items():
             ax.plot(q, v, label=k)
         ax.set_xlabel(qlabel)
@@ -206,5 +212,4 @@ def analysis_figures(result, folder) -> list:
         ax.grid(alpha=0.3)
         written.append(folder / "constraints.png")
         save_figure(fig, written[-1])
-        plt.close(fig)
     return written
