@@ -1,0 +1,340 @@
+"""Design studies: many analyses or optimisations of one scene (front door :class:`Study`).
+
+A study is a list of *cases*, the cartesian product of its axes (the last axis varies
+fastest).  An axis is a sweep of one parameter (:func:`grid`, :func:`values`), a list of cases
+in which several parameters change together (:func:`together`), or the bound of one of the
+scene's constraints (:func:`pareto`): minimising the objective for each bound value traces the
+Pareto front between the objective and the constrained quantity (epsilon-constraint method).
+
+Optimisation cases along the last axis form *chains*: each case starts from the previous
+case's optimum (a warm start, plus ``warm_starts - 1`` of the cold starts), the first case of a
+chain from ``starts`` cold starts.  Chains are cut every ``chain`` cases, a fixed length, so
+that their number, and every result, is the same whatever runs them.  A chain's cases run in
+order; different chains run in parallel: in this process (``workers=1``), over the machine's
+cores (a process pool, the default), or on a Dask cluster (``scheduler=ADDRESS``).  A case's
+result is a pure function of its content (:mod:`optdesign.study_run`), so the three give
+byte-identical CSV files.
+
+Every finished case is appended to ``journal.jsonl`` at once (:mod:`optdesign.study_io`); a
+study that was interrupted (Ctrl-C, a killed process) resumes, when run again with the same
+folder, without redoing any finished case.  ``cases.csv`` (one row per case, in case order),
+figures and ``summary.txt`` are written at the end, atomically.
+
+    >>> study = Study(load("problems/truck_crane.toml"), [grid("mP", 500, 3000, 6), values("L", [5, 6, 7])])
+    >>> result = study.run(out="results/truck_crane_study")     # doctest: +SKIP
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import pickle
+from pathlib import Path
+
+from .errors import SceneError
+from .study_run import Task, scene_digest
+
+MODES = ("optimise", "analyse")
+
+
+class StudyInterrupted(KeyboardInterrupt):
+    """A study stopped by Ctrl-C; ``result`` holds what was finished (and kept)."""
+
+    def __init__(self, message, result):
+        super().__init__(message)
+        self.result = result
+
+
+# --- axes -------------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class Axis:
+    """One axis of a study: ``points`` is a tuple of ((column, value), ...) per point.
+
+    ``kind`` is 'parameter' (one parameter), 'together' (several parameters per point) or
+    'pareto' (the ``side`` bound, 'min' or 'max', of constraint ``constraint``)."""
+
+    kind: str
+    points: tuple
+    constraint: str | None = None
+    side: str | None = None
+
+    @property
+    def columns(self) -> tuple:
+        return tuple(k for k, _ in self.points[0]) if self.points else ()
+
+    @property
+    def column(self) -> str:
+        """The column drawn on a figure's abscissa (the first of a 'together' axis)."""
+        return self.columns[0]
+
+    @property
+    def label(self) -> str:
+        return self.constraint if self.kind == "pareto" else self.column
+
+    def __len__(self):
+        return len(self.points)
+
+
+def values(name: str, items) -> Axis:
+    """An axis over parameter ``name`` taking the given values (numbers or expressions)."""
+    items = [_number(v) for v in items]
+    if not items:
+        raise SceneError(f"axis {name!r}: no values")
+    return Axis("parameter", tuple(((name, v),) for v in items))
+
+
+def grid(name: str, start: float, stop: float, n: int) -> Axis:
+    """``n`` evenly spaced values of parameter ``name`` from ``start`` to ``stop`` (ends included)."""
+    if int(n) < 1:
+        raise SceneError(f"axis {name!r}: expected at least one value, found n = {n}")
+    n = int(n)
+    return values(name, [start + (stop - start) * i / (n - 1) if n > 1 else start for i in range(n)])
+
+
+def together(rows) -> Axis:
+    """An axis of cases in which several parameters change together: a list of dicts with the
+    same keys, e.g. ``[{"L": 5, "mB": 540}, {"L": 6, "mB": 650}]``."""
+    rows = [dict(r) for r in rows]
+    if not rows or not rows[0]:
+        raise SceneError("together(): expected a non-empty list of {parameter: value} dicts")
+    keys = list(rows[0])
+    for i, r in enumerate(rows):
+        if list(r) != keys:
+            raise SceneError(f"together(): case {i} sets {sorted(r)}, the first sets {sorted(keys)}; "
+                             "every case must set the same parameters")
+    return Axis("together", tuple(tuple((k, _number(r[k])) for k in keys) for r in rows))
+
+
+def pareto(constraint: str, bounds, side: str | None = None) -> Axis:
+    """An epsilon-constraint axis: the scene's constraint ``constraint`` gets its ``side``
+    bound ('min' or 'max'; may be left out when the constraint has one bound only) set to each
+    value of ``bounds`` in turn (numbers, or expressions such as "30 deg")."""
+    items = [_constant(b, f"pareto bound of {constraint!r}") for b in bounds]
+    if not items:
+        raise SceneError(f"pareto axis {constraint!r}: no bound values")
+    if side not in (None, "min", "max"):
+        raise SceneError(f"pareto axis {constraint!r}: side must be 'min' or 'max', found {side!r}")
+    return Axis("pareto", tuple(((f"bound:{constraint}:{side or '?'}", v),) for v in items), constraint, side)
+
+
+def _number(v):
+    """Numbers as floats; strings kept as expressions (validated when the scene is changed)."""
+    if isinstance(v, str):
+        try:
+            return float(v)
+        except ValueError:
+            return v.strip()
+    if isinstance(v, bool) or not isinstance(v, (int, float)) and not hasattr(v, "__float__"):
+        raise SceneError(f"expected a number or an expression, found {v!r}")
+    return float(v)
+
+
+def _constant(v, where):
+    v = _number(v)
+    if isinstance(v, str):
+        from .expressions import constant_value, parse
+
+        v = constant_value(parse(v, where), {}, where)
+    return v
+
+
+# --- cases ------------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class Case:
+    """One case: its place in the study, its content and its id (a digest of the content and,
+    for a warm-started case, of the previous case of its chain)."""
+
+    index: int
+    chain: int
+    link: int                 # position in its chain (0: cold start)
+    overrides: tuple          # ((parameter, value), ...)
+    bounds: tuple             # ((constraint, side, value), ...)
+    inputs: tuple             # ((column, value), ...) as in the CSV
+    id: str
+
+
+# --- the study --------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class Study:
+    """Many analyses (``mode='analyse'``) or optimisations (``'optimise'``) of one scene.
+
+    ``axes``: a list of :class:`Axis` (from :func:`grid`, :func:`values`, :func:`together`,
+    :func:`pareto`) or a dict {parameter: values}.  ``starts``/``seed``: the cold starts of an
+    optimisation case (the scene's start, then random points: :func:`optimise.draw_starts`);
+    ``warm``: chain the cases along the last axis, each starting from the previous optimum and
+    ``warm_starts - 1`` cold starts; ``chain``: cases per chain at most; ``settings``: a
+    :class:`~optdesign.design.SolverSettings`."""
+
+    scene: object
+    axes: tuple = ()
+    mode: str = "optimise"
+    starts: int = 8
+    seed: int = 0
+    warm: bool = True
+    warm_starts: int = 1
+    chain: int = 25
+    settings: object = None
+
+    def __post_init__(self):
+        axes = self.axes
+        if isinstance(axes, dict):
+            axes = [values(k, v) for k, v in axes.items()]
+        elif isinstance(axes, Axis):
+            axes = [axes]
+        object.__setattr__(self, "axes", tuple(self._resolve(a) for a in axes))
+        if self.settings is None:
+            from .design import SolverSettings
+
+            object.__setattr__(self, "settings", SolverSettings())
+        self._validate()
+
+    # --- checks ---
+    def _resolve(self, axis: Axis) -> Axis:
+        """A Pareto axis with its side filled in from the scene's constraint."""
+        if axis.kind != "pareto":
+            return axis
+        c = next((c for c in self.scene.constraints if c.name == axis.constraint), None)
+        if c is None:
+            from .expressions import near_miss
+
+            names = [c.name for c in self.scene.constraints]
+            raise SceneError(f"{self.scene.path}: pareto axis: the scene has no constraint {axis.constraint!r}"
+                             + near_miss(axis.constraint, names) + f" (its constraints: {', '.join(names) or 'none'})")
+        side = axis.side
+        if side is None:
+            sides = [s for s, e in (("min", c.lower), ("max", c.upper)) if e is not None]
+            if len(sides) != 1:
+                raise SceneError(f"{self.scene.path}: pareto axis {c.name!r} has both a min and a max bound: "
+                                 f"say which one to sweep ({c.name}.min=... or {c.name}.max=...)")
+            side = sides[0]
+        points = tuple(((f"bound:{c.name}:{side}", p[0][1]),) for p in axis.points)
+        return Axis("pareto", points, c.name, side)
+
+    def _validate(self):
+        sc = self.scene
+        if self.mode not in MODES:
+            raise SceneError(f"study mode must be one of {', '.join(MODES)}, found {self.mode!r}")
+        for what in ("starts", "warm_starts", "chain"):
+            if int(getattr(self, what)) < 1:
+                raise SceneError(f"study: {what} must be at least 1, found {getattr(self, what)!r}")
+        if self.mode == "optimise":
+            if sc.objective is None:
+                raise SceneError(f"{sc.path}: an optimise study needs an [objective] table (or use mode 'analyse')")
+            if not any(p.is_design for p in sc.parameters):
+                raise SceneError(f"{sc.path}: an optimise study needs design variables (parameters with min/max)")
+        elif sc.drive is None:
+            raise SceneError(f"{sc.path}: an analyse study needs a [drive] table")
+        seen = set()
+        for axis in self.axes:
+            if axis.kind == "pareto" and self.mode != "optimise":
+                raise SceneError("a pareto axis needs mode 'optimise' (it minimises the objective for each bound)")
+            for col in axis.columns:
+                if col in seen:
+                    raise SceneError(f"study: {col!r} is on two axes")
+                seen.add(col)
+            if axis.kind != "pareto":
+                for point in axis.points:   # unknown names and bad values fail here, early
+                    sc.with_parameters(**dict(point))
+
+    # --- cases ---
+    @property
+    def input_columns(self) -> list:
+        return [c for a in self.axes for c in a.columns]
+
+    def cases(self) -> list:
+        """The cases in study order (the last axis fastest), with chains and ids."""
+        digest = scene_digest(self.scene)
+        run = self._run_settings()
+        sizes = [len(a) for a in self.axes]
+        total = math.prod(sizes)
+        chained = self.warm and self.mode == "optimise"
+        out, prev, chain = [], None, -1
+        for index in range(total):
+            idx, rest = [], index
+            for n in reversed(sizes):
+                idx.append(rest % n)
+                rest //= n
+            idx.reverse()
+            pos = idx[-1] if sizes else 0
+            link = pos % self.chain if chained else 0
+            if link == 0:
+                chain, prev = chain + 1, None
+            overrides, bounds, inputs = [], [], []
+            for axis, i in zip(self.axes, idx):
+                for col, v in axis.points[i]:
+                    inputs.append((col, v))
+                    if axis.kind == "pareto":
+                        bounds.append((axis.constraint, axis.side, v))
+                    else:
+                        overrides.append((col, v))
+            content = {"scene": digest, "mode": self.mode, "overrides": overrides, "bounds": bounds,
+                       "run": run, "prev": prev}
+            cid = hashlib.sha256(json.dumps(content, sort_keys=True).encode()).hexdigest()[:16]
+            out.append(Case(index, chain, link, tuple(overrides), tuple(bounds), tuple(inputs), cid))
+            prev = cid if chained else None
+        return out
+
+    def _run_settings(self) -> dict:
+        if self.mode == "analyse":
+            return {}
+        return {"starts": int(self.starts), "seed": int(self.seed), "warm_starts": int(self.warm_starts),
+                "settings": dataclasses.asdict(self.settings)}
+
+    def task(self, case: Case, x_warm=None, blob=None, digest=None) -> Task:
+        """The worker's view of a case (see :func:`optdesign.study_run.run_task`)."""
+        return Task(blob if blob is not None else pickle.dumps(self.scene),
+                    digest or scene_digest(self.scene), self.mode, case.overrides, case.bounds,
+                    int(self.starts), int(self.seed), int(self.warm_starts),
+                    tuple(dataclasses.asdict(self.settings).items()),
+                    None if x_warm is None else tuple(x_warm))
+
+    def default_folder(self) -> Path:
+        stem = Path(self.scene.path).stem if self.scene.path not in ("", "<python>") else "scene"
+        return Path("results") / f"{stem}_study"
+
+    def run(self, out=None, workers: int | None = None, scheduler=None, progress=None,
+            restart: bool = False, figures: bool = True) -> "StudyResult":
+        """Run (or resume) the study into folder ``out`` (default ``results/<scene>_study``).
+
+        ``workers``: processes on this machine (default: its cores; 1 runs in this process);
+        ``scheduler``: a Dask scheduler address, or a ``distributed.Client``, to run there
+        instead; ``progress(done, total)`` after each case; ``restart``: forget finished cases.
+        Raises :class:`StudyInterrupted` on Ctrl-C after keeping every finished case."""
+        from .study_exec import execute
+
+        return execute(self, Path(out) if out else self.default_folder(), workers, scheduler,
+                       progress, restart, figures)
+
+
+@dataclasses.dataclass(frozen=True)
+class StudyResult:
+    """What a study run produced: ``rows`` (one dict per finished case, in case order: the
+    CSV's columns with numbers as numbers), the folder and its files, and counts."""
+
+    study: Study
+    folder: Path
+    rows: list
+    complete: bool
+    computed: int            # cases computed by this run
+    reused: int              # finished cases found in the journal
+    wall_s: float
+    paths: list
+
+    def column(self, name):
+        """A column as a float array (missing values as nan)."""
+        import numpy as np
+
+        return np.array([_as_float(r.get(name)) for r in self.rows], dtype=float)
+
+
+def _as_float(v):
+    if v is None:
+        return math.nan
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        return math.nan
+
+
+__all__ = ["Study", "StudyResult", "StudyInterrupted", "Axis", "Case", "grid", "values", "together", "pareto"]

@@ -1,0 +1,285 @@
+"""Running a study: which case runs next, where (this process, a process pool, Dask), the
+journal, Ctrl-C, and the files written at the end.
+
+Scheduling: every chain has at most one case in flight; when it finishes it is journalled
+and the chain's next case is submitted with its optimum as the warm start.  A resumed chain
+takes the warm start from the journal (JSON keeps floats exact), so a resumed study computes
+exactly what an uninterrupted one would have."""
+from __future__ import annotations
+
+import concurrent.futures as cf
+import json
+import multiprocessing
+import os
+import pickle
+import signal
+import sys
+import time
+from pathlib import Path
+
+from . import study_io
+from .report import write_atomic
+from .study_run import run_task, scene_digest
+
+
+def execute(study, folder: Path, workers, scheduler, progress, restart, figures):
+    from .study import StudyInterrupted, StudyResult
+
+    t0 = time.perf_counter()
+    cases = study.cases()
+    if restart and folder.exists():
+        for name in (study_io.JOURNAL, study_io.CSV, "pareto.csv", "study.png", "pareto.png",
+                     "study.json", "summary.txt"):
+            (folder / name).unlink(missing_ok=True)
+    with study_io.Journal(folder) as journal:
+        write_atomic(folder / "study.json", json.dumps(definition(study, cases), indent=1) + "\n")
+        reused = sum(1 for c in cases if c.id in journal.records)
+        chains = {}
+        for c in cases:
+            chains.setdefault(c.chain, []).append(c)
+        todo = [ch for ch in chains.values() if any(c.id not in journal.records for c in ch)]
+        executor = _executor(workers, scheduler, len(todo))
+        computed, interrupted = 0, False
+        try:
+            computed = _schedule(study, todo, journal, executor, progress, reused, len(cases))
+        except KeyboardInterrupt:
+            interrupted = True
+            computed = executor.stop(journal)
+        finally:
+            where = executor.describe()
+            executor.close()
+        rows = merged_rows(cases, journal.records)
+        complete = len(rows) == len(cases)
+        paths = [study_io.write_csv(folder, rows, study.input_columns)]
+        if complete and figures:
+            paths += study_io.figures(study, rows, folder)
+            if study.axes and study.axes[-1].kind == "pareto":
+                paths.append(study_io.pareto_csv(study, rows, folder))
+        wall = time.perf_counter() - t0
+        result = StudyResult(study, folder, rows, complete, computed, reused, wall, paths)
+        paths.append(write_summary(result, where))
+    if interrupted:
+        raise StudyInterrupted(
+            f"study interrupted: {len(rows)} of {len(cases)} cases are finished and kept in "
+            f"{folder / study_io.JOURNAL} ({folder / study_io.CSV} holds them); run the same study "
+            "again with the same folder to resume (finished cases are not redone)", result)
+    return result
+
+
+def merged_rows(cases, records) -> list:
+    """One dict per finished case, in case order: identification, inputs, results."""
+    rows = []
+    for c in cases:
+        rec = records.get(c.id)
+        if rec is not None:
+            rows.append({"case": c.index, "id": c.id, "chain": c.chain, "link": c.link,
+                         **dict(c.inputs), **rec["row"]})
+    return rows
+
+
+def definition(study, cases) -> dict:
+    """study.json: what the study is (not how long it took)."""
+    import dataclasses
+
+    return {"schema": "optdesign/study/1", "title": study.scene.title, "file": study.scene.path,
+            "scene_digest": scene_digest(study.scene), "mode": study.mode, "cases": len(cases),
+            "chains": len({c.chain for c in cases}),
+            "axes": [{"kind": a.kind, "columns": list(a.columns), "constraint": a.constraint, "side": a.side,
+                      "points": [[v for _, v in p] for p in a.points]} for a in study.axes],
+            "starts": study.starts, "seed": study.seed, "warm": study.warm, "warm_starts": study.warm_starts,
+            "chain": study.chain, "settings": dataclasses.asdict(study.settings)}
+
+
+def write_summary(result, where) -> Path:
+    rows = result.rows
+    ok = sum(1 for r in rows if r.get("success"))
+    lines = [f"{result.study.scene.title}",
+             f"{result.study.mode} study of {len(result.study.cases())} cases: {len(rows)} finished "
+             f"({ok} successful, {len(rows) - ok} failed), {'complete' if result.complete else 'INCOMPLETE: run again to resume'}",
+             f"this run: {result.computed} computed, {result.reused} taken from the journal, "
+             f"{result.wall_s:.2f} s wall ({where})"]
+    if result.computed:
+        lines.append(f"cases per second (this run): {result.computed / result.wall_s:.3g}")
+    bad = [r for r in rows if not r.get("success")]
+    for r in bad[:20]:
+        lines.append(f"  case {r['case']} failed: {r.get('status')}")
+    lines.append(f"files: {', '.join(p.name for p in result.paths)}")
+    path = result.folder / "summary.txt"
+    write_atomic(path, "\n".join(lines) + "\n")
+    return path
+
+
+# --- the scheduling loop -------------------------------------------------------------------
+def _schedule(study, chains, journal, executor, progress, done, total) -> int:
+    blob, digest = pickle.dumps(study.scene), scene_digest(study.scene)
+    state = {}   # chain number -> position of its case in flight
+    computed = 0
+    if progress is not None:
+        progress(done, total)
+
+    def submit(chain, pos):
+        """Submit the chain's first unfinished case at or after ``pos``; False if none."""
+        while pos < len(chain) and chain[pos].id in journal.records:
+            pos += 1
+        if pos == len(chain):
+            return False
+        case = chain[pos]
+        prev = journal.records.get(chain[pos - 1].id) if pos > 0 else None
+        x_warm = prev.get("x") if prev is not None else None
+        executor.submit(case, study.task(case, x_warm, blob, digest))
+        state[case.chain] = (chain, pos)
+        return True
+
+    for chain in chains:
+        submit(chain, 0)
+    for case, out in executor.results():
+        journal.add({"id": case.id, "case": case.index, "row": out["row"], "x": out["x"], "time_s": out["time_s"]})
+        computed += 1
+        executor.finished += 1
+        if progress is not None:
+            progress(done + computed, total)
+        chain, pos = state.pop(case.chain)
+        submit(chain, pos + 1)
+    return computed
+
+
+# --- executors: submit(case, task), results() yields (case, output) as cases finish --------------
+class _Inline:
+    """In this process, one case after another."""
+
+    def __init__(self):
+        self.queue, self.finished = [], 0
+
+    def submit(self, case, task):
+        self.queue.append((case, task))
+
+    def results(self):
+        while self.queue:
+            case, task = self.queue.pop(0)
+            yield case, run_task(task)
+
+    def stop(self, journal):
+        return self.finished
+
+    def close(self):
+        pass
+
+    def describe(self):
+        return "1 worker, in process"
+
+
+class _Futures:
+    """Shared by the process pool and Dask: futures mapped to their cases."""
+
+    def __init__(self):
+        self.pending, self.finished = {}, 0
+
+    def results(self):
+        while self.pending:
+            done = self._wait_first(list(self.pending))
+            for f in done:
+                case = self.pending.pop(f)
+                yield case, f.result()
+
+    def stop(self, journal):
+        """Ctrl-C: cancel what has not started, keep what finishes."""
+        for f in list(self.pending):
+            if f.cancel():
+                self.pending.pop(f)
+        if self.pending:
+            print(f"\nstopping: waiting for {len(self.pending)} running case(s) to finish (they are kept); "
+                  "Ctrl-C again to abandon them", file=sys.stderr)
+        try:
+            for case, out in self.results():
+                journal.add({"id": case.id, "case": case.index, "row": out["row"], "x": out["x"],
+                             "time_s": out["time_s"]})
+                self.finished += 1
+        except (KeyboardInterrupt, cf.CancelledError, cf.process.BrokenProcessPool):
+            pass   # abandoned, cancelled or lost with its worker: nothing to keep
+        return self.finished
+
+
+def _ignore_sigint():
+    """Pool workers leave Ctrl-C to the parent, which stops the study cleanly."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+class _Pool(_Futures):
+    """A process pool on this machine; each worker builds the scene's model once."""
+
+    def __init__(self, workers):
+        super().__init__()
+        # fork where there is one: workers start at once with the modules already imported, and
+        # a script without an `if __name__ == "__main__":` guard is not run again in each worker
+        methods = multiprocessing.get_all_start_methods()
+        ctx = multiprocessing.get_context("fork" if "fork" in methods else "spawn")
+        self.workers = workers
+        self.pool = cf.ProcessPoolExecutor(workers, mp_context=ctx, initializer=_ignore_sigint)
+
+    def submit(self, case, task):
+        self.pending[self.pool.submit(run_task, task)] = case
+
+    @staticmethod
+    def _wait_first(futures):
+        return cf.wait(futures, return_when=cf.FIRST_COMPLETED).done
+
+    def close(self):
+        self.pool.shutdown(wait=not self.pending, cancel_futures=True)
+
+    def describe(self):
+        return f"{self.workers} worker processes"
+
+
+class _Dask(_Futures):
+    """A Dask distributed cluster: ``scheduler`` is its address or a ``distributed.Client``."""
+
+    def __init__(self, scheduler):
+        super().__init__()
+        import distributed
+
+        self.distributed = distributed
+        if isinstance(scheduler, distributed.Client):
+            self.client, self.own = scheduler, False
+        else:
+            try:
+                self.client, self.own = distributed.Client(scheduler, timeout="20s"), True
+            except OSError as exc:
+                from .errors import OptdesignError
+
+                raise OptdesignError(f"--scheduler {scheduler}: cannot reach the Dask scheduler ({exc})") from None
+        self.address = self.client.scheduler.address
+
+    def submit(self, case, task):
+        self.pending[self.client.submit(run_task, task, pure=False)] = case
+
+    def _wait_first(self, futures):
+        return self.distributed.wait(futures, return_when="FIRST_COMPLETED").done
+
+    def stop(self, journal):
+        """Ctrl-C: cancel every case on the cluster (finished ones are already journalled)."""
+        self.client.cancel(list(self.pending))
+        self.pending.clear()
+        return self.finished
+
+    def close(self):
+        if self.own:
+            self.client.close()
+
+    def describe(self):
+        n = len(self.client.scheduler_info().get("workers", {}))
+        return f"Dask cluster at {self.address}, {n} workers"
+
+
+def _executor(workers, scheduler, n_chains):
+    if scheduler is not None:
+        return _Dask(scheduler)
+    workers = (os.cpu_count() or 1) if workers is None else int(workers)
+    if workers < 1:
+        from .errors import OptdesignError
+
+        raise OptdesignError(f"workers must be at least 1, found {workers}")
+    workers = min(workers, max(n_chains, 1))
+    return _Inline() if workers == 1 else _Pool(workers)
+
+
+__all__ = ["execute", "merged_rows"]
