@@ -327,14 +327,16 @@ class Simulator:
         if x_end is None:
             name = self.scene.sweep.name
             qd = float(self.outputs(x_prev, self.mech.parameter_values)[1])
+            what = ("its solution blew up (NaN or inf): the fixed step is beyond RK4's stability limit, the "
+                    "motion is stiff here" if method == "rk4" else
+                    "CVODES gave up (too many steps, or repeated error-test or convergence failures)")
             hint = {"bdf": "tighten or loosen the tolerance, or check the law and the loads for a blow-up",
                     "adams": "use the implicit integrator (integrator = \"bdf\"), which handles stiff cases",
                     "rk4": "use more steps per sample or the implicit integrator (integrator = \"bdf\")"}[method]
             raise SolverError(
                 f"{self.scene.path}: the {method} integrator failed between t = {grid[i - 1]:.6g} s and "
                 f"{grid[i]:.6g} s, from {name} = {_fmt_s(x_prev[0])}, drive speed {qd:.6g}, "
-                f"d{name}/dt = {x_prev[1]:.6g} (it diverged or gave up: too many steps or no convergence); "
-                f"{hint}.")
+                f"d{name}/dt = {x_prev[1]:.6g}: {what}; {hint}.")
         end = "to" if target == self.ends["to"] else "from"
         x_end[0] = target
         t = np.append(grid[:i], grid[i - 1] + h)
