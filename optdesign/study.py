@@ -182,7 +182,12 @@ class Study:
             axes = [values(k, v) for k, v in axes.items()]
         elif isinstance(axes, Axis):
             axes = [axes]
-        object.__setattr__(self, "axes", tuple(self._resolve(a) for a in axes))
+        axes = [self._resolve(a) for a in axes]
+        # a Pareto axis is the last one: the front is drawn along it and its chain runs along it
+        axes = [a for a in axes if a.kind != "pareto"] + [a for a in axes if a.kind == "pareto"]
+        if sum(a.kind == "pareto" for a in axes) > 1:
+            raise SceneError("study: at most one pareto axis (a front between the objective and one constraint)")
+        object.__setattr__(self, "axes", tuple(axes))
         if self.settings is None:
             from .design import SolverSettings
 

@@ -173,7 +173,7 @@ def figures(study, rows, folder) -> list:
         groups.setdefault(tuple(r.get(a.column) for a in outer), []).append(r)
     drive = "torque [N m]" if study.scene.drive and study.scene.drive.kind == "rotary" else "force [N]"
     written = []
-    fig, axes = plt.subplots(len(quantities), 1, figsize=(7, 2.8 * len(quantities) + 0.8), squeeze=False, sharex=True)
+    fig, axes = plt.subplots(len(quantities), 1, figsize=(7, 2.2 * len(quantities) + 0.9), squeeze=False, sharex=True)
     for key, rs in groups.items():
         label = ", ".join(f"{a.label}={_fmt(v)}" for a, v in zip(outer, key)) or None
         ok = [r for r in rs if r.get("success") and r.get(goal) is not None]
