@@ -21,6 +21,7 @@ Formulation (what makes it fast and regular):
 """
 from __future__ import annotations
 
+import functools
 import math
 import re
 from dataclasses import dataclass
@@ -200,8 +201,14 @@ class DesignProblem:
         v = ca.vertcat(*rows)
         dv = mech.ds(v)
         self.quantity_derivatives = mech.function("quantities_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)})
-        # how each row's extrema move with the parameters: d(dv/ds)/dp, for peak tracking
-        self.quantity_tracking = mech.function("quantities_tracking", {"d2v": mech.ds(dv), "dvdp": ca.jacobian(dv, mech.p)})
+        self._dv = dv
+
+    @functools.cached_property
+    def quantity_tracking(self):
+        """How each row's extrema move with the parameters: d2v/ds2 and d(dv/ds)/dp, for peak
+        tracking (built on first use: only exchange steps need it)."""
+        mech, dv = self.mech, self._dv
+        return mech.function("quantities_tracking", {"d2v": mech.ds(dv), "dvdp": ca.jacobian(dv, mech.p)})
 
     def _bounds(self, c):
         """A constraint's (lower, upper) as numbers (they may name fixed parameters)."""
@@ -385,14 +392,7 @@ class DesignProblem:
             opts["ipopt.hessian_approximation"] = "limited-memory"
         self._nlp_dict = nlp
         self.solver = ca.nlpsol("design", "ipopt", nlp, opts)
-        # an exchange step moves a few sample points and solves again from the last solution:
-        # started there with its multipliers and a small barrier parameter, IPOPT needs a third
-        # of the iterations of a cold start (truck crane: 6 instead of 16)
-        warm = dict(opts, **{"ipopt.warm_start_init_point": "yes", "ipopt.mu_strategy": "monotone",
-                             "ipopt.mu_init": 1e-6, **{f"ipopt.warm_start_{k}": 1e-8 for k in (
-                                 "bound_push", "bound_frac", "slack_bound_push", "slack_bound_frac",
-                                 "mult_bound_push")}})
-        self.warm_solver = ca.nlpsol("design_warm", "ipopt", nlp, warm)
+        self._opts = opts
         self.lbg, self.ubg = np.array(lbg), np.array(ubg)
         # an aggregate keeps the sign it has at the start design: this keeps outer expressions
         # such as max(L)/min(L) regular and monotone (a min(...) cannot run to zero or below)
@@ -405,6 +405,18 @@ class DesignProblem:
         mids = 0.5 * (base[:-1] + base[1:])
         self.base_points = base
         self.initial_slots = mids[np.linspace(0, len(mids) - 1, st.slots).round().astype(int)] if st.slots else np.zeros(0)
+
+    @functools.cached_property
+    def warm_solver(self):
+        """IPOPT for an exchange step, which moves a few sample points and solves again from
+        the last solution: started there with its multipliers and a small barrier parameter it
+        needs a third of the iterations of a cold start (truck crane: 6 instead of 16).  Built
+        on first use: with the sample points learned from earlier starts most runs need none."""
+        warm = dict(self._opts, **{"ipopt.warm_start_init_point": "yes", "ipopt.mu_strategy": "monotone",
+                                   "ipopt.mu_init": 1e-6, **{f"ipopt.warm_start_{k}": 1e-8 for k in (
+                                       "bound_push", "bound_frac", "slack_bound_push", "slack_bound_frac",
+                                       "mult_bound_push")}})
+        return ca.nlpsol("design_warm", "ipopt", self._nlp_dict, warm)
 
     def _outer(self, expr, a, p):
         values = self._parameter_values(p)
