@@ -1,7 +1,7 @@
 """Benchmark of the design optimiser (issue 4): ours against what a user would otherwise do.
 
     python benchmarks/bench_optimise.py [--scene A.toml B.toml ...] [--starts 20] [--seed 0]
-                                        [--repeats 3] [--out results/bench_optimise.md]
+                                        [--repeats 3] [--out results/bench.md]
 
 On each scene (a missing scene file is skipped with a note), every method gets the same
 ``--starts`` starts drawn by ``optdesign.optimise.draw_starts`` (the scene's own start, then
@@ -26,7 +26,7 @@ of each constraint's scale) follow; each method's best design is cross-checked o
 ``optdesign.analysis.Analysis``).  Timings are repeated ``--repeats`` times (the machine is
 shared) and reported as medians; ratios are formed from medians measured in the same run.
 
-Not a test (pytest does not collect it); it writes ``results/bench_optimise.md`` atomically.
+Not a test (pytest does not collect it); it rewrites its section of ``results/bench.md`` atomically.
 """
 from __future__ import annotations
 
@@ -56,7 +56,7 @@ from optdesign.analysis import Analysis  # noqa: E402
 from optdesign.design import DesignProblem  # noqa: E402
 from optdesign.errors import OptdesignError  # noqa: E402
 from optdesign.optimise import Solver, draw_starts, optimise  # noqa: E402
-from optdesign.report import write_atomic  # noqa: E402
+from benchmarks.benchfile import write_section  # noqa: E402
 from optdesign.scenefile import load  # noqa: E402
 
 DEFAULT_SCENES = ("problems/seed1_jib.toml", "problems/truck_crane.toml", "problems/seed1_jib_design.toml")
@@ -860,7 +860,7 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=3, help="timing repeats of ours and SLSQP (median)")
     ap.add_argument("--de-repeats", type=int, default=3, help="timing repeats of differential evolution")
     ap.add_argument("--no-command", action="store_true", help="skip timing the optdesign optimise command")
-    ap.add_argument("--out", default=str(ROOT / "results" / "bench_optimise.md"))
+    ap.add_argument("--out", default=str(ROOT / "results" / "bench.md"), help="the file whose section 'optimise' is rewritten")
     args = ap.parse_args(argv)
     git = git_state()   # before measuring: the code that was measured
     sections, skipped = [], []
@@ -878,7 +878,7 @@ def main(argv=None):
         sections.append(f"The `optdesign optimise {COMMAND_SCENE}` command was not timed: "
                         + ("the scene is missing." if COMMAND_SCENE in skipped else "not among the scenes of this run."))
     text = header(args, skipped, git) + "\n\n" + "\n\n".join(sections) + "\n"
-    write_atomic(args.out, text)
+    write_section("optimise", text, args.out)
     print(f"wrote {args.out}")
     return 0
 

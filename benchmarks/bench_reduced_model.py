@@ -53,7 +53,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from optdesign.analysis import Analysis  # noqa: E402
-from optdesign.report import write_atomic  # noqa: E402
+from benchmarks.benchfile import write_section  # noqa: E402
 from optdesign.scenefile import load  # noqa: E402
 
 SCENE = ROOT / "problems" / "level_luffing_crane.toml"
@@ -404,7 +404,7 @@ def main(argv=None):
 
     text = report(args, n, git, started, load_start, load_end, build, builds, analysis, worst, med,
                   options_table, cmd_times, cmd_text, have_gcc, breakdown, vm_floor)
-    write_atomic(args.out, text)
+    write_section("reduced_model", text, args.out)
     print(text)
     print(f"wrote {args.out}", file=sys.stderr)
 

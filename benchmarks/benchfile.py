@@ -15,8 +15,10 @@ TITLE = "# Benchmarks\n\nEach section is written by the script it names, in one 
 
 
 def write_section(name: str, markdown: str, path: Path = BENCH_MD) -> Path:
-    """Replace (or add) section ``name`` of ``path`` with ``markdown``."""
+    """Replace (or add) section ``name`` of ``path`` with ``markdown`` (its headings one level
+    down, under the file's title)."""
     path = Path(path)
+    markdown = re.sub(r"^#", "##", markdown, flags=re.M)
     text = path.read_text() if path.exists() else ""
     sections = {m.group(1): m.group(0) for m in
                 re.finditer(r"<!-- begin (\w+) -->\n.*?<!-- end \1 -->\n", text, flags=re.S)}

@@ -59,7 +59,7 @@ def reference(J, T0, omega0, stiff):
         dw = (np.array(f(t, [a, om + e * om])) - np.array(f(t, [a, om - e * om]))) / (2 * e * om)
         return np.column_stack([da, dw])
 
-    end = lambda t, x: x[0] - END  # noqa: E731
+    end = lambda t, x: x[0] - END
     end.terminal = True
     opts = dict(method="Radau", rtol=1e-11, atol=1e-11, jac=jac) if stiff else dict(method="DOP853", rtol=1e-13, atol=1e-13)
     t0 = time.perf_counter()
