@@ -408,7 +408,7 @@ class Simulator:
                 f"{self.scene.path}: the rk4 integrator with {steps} steps per output sample is not accurate "
                 f"enough: its estimated error {error:.3g} (relative to the stroke length and the reference "
                 f"rate; from a run with half the steps) exceeds the tolerance {tol:.3g}. Use about "
-                f"{int(math.ceil(need))} steps per sample (--steps), or the implicit integrator (bdf).")
+                f"{math.ceil(need)} steps per sample (--steps), or the implicit integrator (bdf).")
         return error
 
     def _columns(self, X):

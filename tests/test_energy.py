@@ -43,14 +43,17 @@ def test_free_slider_crank_keeps_its_energy(integrator, rotor):
 
 
 # --- linear: the jib of seed 1, section 3.5, cylinder with a moving rod mass ---
-def jib_geometry(theta, l=4.0, e=1.6, b=2.4, psi=math.radians(-60)):
+PSI = math.radians(-60)
+
+
+def jib_geometry(theta, e=1.6, b=2.4, psi=PSI):
     """x = |DB| with B = b (cos theta, sin theta), D = e (cos psi, sin psi), and dx/dtheta."""
     x = np.sqrt(b**2 + e**2 - 2 * b * e * np.cos(theta - psi))
     return x, b * e * np.sin(theta - psi) / x
 
 
 def jib_energy(theta, theta_d, mC=500.0, l=4.0, m_rod=60.0):
-    x, dx = jib_geometry(theta)
+    _, dx = jib_geometry(theta)
     return 0.5 * mC * (l * theta_d) ** 2 + 0.5 * m_rod * (dx * theta_d) ** 2
 
 

@@ -123,7 +123,7 @@ def radau_reference(J, t_eval):
         dw = (np.array(f(t, [a, om + e * om])) - np.array(f(t, [a, om - e * om]))) / (2 * e * om)
         return np.column_stack([da, dw])
 
-    end = lambda t, x: x[0] - 4.5 * math.pi  # noqa: E731
+    end = lambda t, x: x[0] - 4.5 * math.pi
     end.terminal = True
     sol = solve_ivp(f, (0, 0.15), [0.5, 100.0], method="Radau", rtol=1e-10, atol=1e-10, jac=jac,
                     events=end, t_eval=t_eval)
