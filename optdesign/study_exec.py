@@ -242,7 +242,8 @@ class _Dask(_Futures):
             self.client, self.own = scheduler, False
         else:
             try:
-                self.client, self.own = distributed.Client(scheduler, timeout="20s"), True
+                # connect timeout: dask's config distributed.comm.timeouts.connect (30 s by default)
+                self.client, self.own = distributed.Client(scheduler), True
             except OSError as exc:
                 from .errors import OptdesignError
 
