@@ -324,13 +324,24 @@ class Simulator:
             target = self.hi if X[0, i] > self.hi else self.lo
         else:
             target = self.hi if x_prev[1] >= 0 else self.lo
-        h, x_end = self._locate(method, tol, steps, x_prev, dt, target, X[:, i], counts)
+        h, x_end = None, None
+        sdd = float(self.outputs(x_prev, self.mech.parameter_values)[3])
+        reach = abs(x_prev[1]) * dt + 0.5 * abs(sdd) * dt**2  # how far s can plausibly get in dt
+        if np.isfinite(X[:, i]).all() or abs(target - x_prev[0]) <= 4 * reach:
+            h, x_end = self._locate(method, tol, steps, x_prev, dt, target, X[:, i], counts)
         if x_end is None:
             name = self.scene.sweep.name
             qd = float(self.outputs(x_prev, self.mech.parameter_values)[1])
             what = ("its solution blew up (NaN or inf): the fixed step is beyond RK4's stability limit, the "
                     "motion is stiff here" if method == "rk4" else
                     "CVODES gave up (too many steps, or repeated error-test or convergence failures)")
+            if self.model.uses_efficiency and abs(x_prev[1]) < 1e-2 * np.nanmax(np.abs(X[1, :i])):
+                raise SolverError(
+                    f"{self.scene.path}: the drive stalls at t = {grid[i - 1]:.6g} s, {name} = {_fmt_s(x_prev[0])}: "
+                    f"the speed has fallen to {qd:.3g} and the efficiency switch holds the mechanism there "
+                    "(moving on, the drive load divided by eta is too small; moving back, the load times eta "
+                    "pushes it forward again: a self-locking drive). The motion has no continuation in this "
+                    "model: raise the drive's force or torque, or the efficiency.")
             hint = {"bdf": "tighten or loosen the tolerance, or check the law and the loads for a blow-up",
                     "adams": "use the implicit integrator (integrator = \"bdf\"), which handles stiff cases",
                     "rk4": "use more steps per sample or the implicit integrator (integrator = \"bdf\")"}[method]

@@ -94,3 +94,30 @@ def test_slider_crank_work_energy_with_gas_force_and_constant_torque():
     E = slider_crank_energy(a, res.sd, J=0.02)
     work = T * (a - a[0]) - FC * (y - y[0])
     assert np.max(np.abs(E - E[0] - work)) < 1e-8 * T * (a[-1] - a[0])
+
+
+def test_jib_with_efficiency_loses_one_minus_eta_of_the_transmitted_work():
+    """eta = 0.9 while the cylinder lifts (power into the mechanism throughout): the mechanism
+    gets eta of the work passed on by the rod, so KE_jib change + mC g (y_C - y_C0)
+    = eta (F (x - x0) - KE_rod change), all from hand-written positions; to 1e-8 of F (x - x0)."""
+    text = (PROBLEMS / "sim_jib.toml").read_text().replace('inertia = "m_rod"', 'inertia = "m_rod"\nefficiency = 0.9')
+    res = simulate(optdesign.loads(text, "jib_eta.toml").with_parameters(F=16000.0), tolerance=1e-11)
+    F, mC, g, l, m_rod, eta = 16000.0, 500.0, 9.81, 4.0, 60.0, 0.9
+    x, dx = jib_geometry(res.s)
+    ke_jib = 0.5 * mC * (l * res.sd) ** 2
+    ke_rod = 0.5 * m_rod * (dx * res.sd) ** 2
+    assert np.all(res.transmitted * res.qd > 0) and np.all(res.efficiency_factor == 1 / eta)
+    lhs = ke_jib - ke_jib[0] + mC * g * l * (np.sin(res.s) - np.sin(res.s[0]))
+    rhs = eta * (F * (x - x[0]) - (ke_rod - ke_rod[0]))
+    assert np.max(np.abs(lhs - rhs)) < 1e-8 * F * (x[-1] - x[0])
+    assert res.stop == "stroke end"
+
+
+def test_self_locking_drive_is_a_clear_error():
+    """eta F = 12.6 kN is below the static load (12.0 .. 12.9 kN) and F/eta above it: the jib slows
+    to rest and the efficiency switch holds it there; a clear error, not a chattering answer."""
+    from optdesign.errors import SolverError
+
+    text = (PROBLEMS / "sim_jib.toml").read_text().replace('inertia = "m_rod"', 'inertia = "m_rod"\nefficiency = 0.9')
+    with pytest.raises(SolverError, match=r"the drive stalls at t = 1\.\d+ s, theta = 0\.129.*self-locking"):
+        simulate(optdesign.loads(text, "jib_eta.toml"), tolerance=1e-8, t_end=2.0)
