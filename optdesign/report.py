@@ -62,11 +62,13 @@ def new_figure(nrows=1, ncols=1, figsize=(7, 4), **subplot_kw):
 
 
 def save_figure(fig, path):
-    """Save a matplotlib figure atomically (one draw: its layout is set when it is made)."""
+    """Save a matplotlib figure atomically.  A figure from :func:`new_figure` is laid out in
+    the one draw that saving makes; any other is cropped to its contents (a second draw)."""
     import io
 
     buf = io.BytesIO()
-    fig.savefig(buf, format=Path(path).suffix.lstrip(".") or "png", dpi=120)
+    tight = None if fig.get_layout_engine() is not None else "tight"
+    fig.savefig(buf, format=Path(path).suffix.lstrip(".") or "png", dpi=120, bbox_inches=tight)
     write_atomic(path, buf.getvalue())
 
 
