@@ -248,7 +248,7 @@ def figure(case, path):
     ax2.set_xlabel(f"run time per stroke of {case['samples']} samples [s] (median)")
     ax2.set_ylabel(f"max error of {case['quantity']} / peak")
     ax2.set_title(f"{case['name']}: error against run time (faint: every step)")
-    ax2.legend(fontsize=7)
+    ax2.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # outside: no point hidden
     for ax in (ax1, ax2):
         ax.grid(True, which="both", alpha=0.3)
     save_figure(fig, path)
