@@ -84,7 +84,7 @@ def test_ctrl_c_stops_cleanly_says_how_to_resume_and_resumes(tmp_path, reference
     proc = start(tmp_path, workers=2)
     wait_for_cases(proc, tmp_path, 2)
     os.killpg(proc.pid, signal.SIGINT)                # what a terminal does on Ctrl-C
-    out, err = proc.communicate(timeout=60)
+    _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
     assert "interrupted" in err and "again with the same folder to resume" in err
     assert "Traceback" not in err
