@@ -14,6 +14,7 @@ import os
 import pickle
 import signal
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -40,14 +41,15 @@ def execute(study, folder: Path, workers, scheduler, progress, restart, figures)
         todo = [ch for ch in chains.values() if any(c.id not in journal.records for c in ch)]
         executor = _executor(workers, scheduler, len(todo))
         computed, interrupted = 0, False
-        try:
-            computed = _schedule(study, todo, journal, executor, progress, reused, len(cases))
-        except KeyboardInterrupt:
-            interrupted = True
-            computed = executor.stop(journal)
-        finally:
-            where = executor.describe()
-            executor.close()
+        with _CtrlC() as ctrl_c:
+            try:
+                computed = _schedule(study, todo, journal, executor, progress, reused, len(cases), ctrl_c)
+            except KeyboardInterrupt:
+                interrupted = True
+                computed = executor.stop(journal)
+            finally:
+                where = executor.describe()
+                executor.close()
         rows = merged_rows(cases, journal.records)
         complete = len(rows) == len(cases)
         paths = [study_io.write_csv(folder, rows, study.input_columns)]
@@ -110,7 +112,36 @@ def write_summary(result, where) -> Path:
 
 
 # --- the scheduling loop -------------------------------------------------------------------
-def _schedule(study, chains, journal, executor, progress, done, total) -> int:
+class _CtrlC:
+    """Ctrl-C during a study.  The first press asks to stop once the running case(s) finish
+    (they are kept); only a second press interrupts at once.  The first press must not raise:
+    CasADi catches an exception raised inside IPOPT and returns a failed solve (status
+    NonIpopt_Exception_Thrown), which would be journalled as the case's result.  A case that
+    was running in this process when the second press came is therefore never journalled."""
+
+    def __init__(self):
+        self.presses, self.abandoned, self._old = 0, False, None
+
+    def __enter__(self):
+        if threading.current_thread() is threading.main_thread():
+            self._old = signal.signal(signal.SIGINT, self._handler)
+        return self
+
+    def __exit__(self, *exc):
+        if self._old is not None:
+            signal.signal(signal.SIGINT, self._old)
+
+    def _handler(self, signum, frame):
+        self.presses += 1
+        if self.presses == 1:
+            print("\nstopping once the running case(s) finish (they are kept); Ctrl-C again to abandon them",
+                  file=sys.stderr)
+            return
+        self.abandoned = True
+        raise KeyboardInterrupt
+
+
+def _schedule(study, chains, journal, executor, progress, done, total, ctrl_c) -> int:
     blob, digest = pickle.dumps(study.scene), scene_digest(study.scene)
     state = {}   # chain number -> position of its case in flight
     computed = 0
@@ -133,11 +164,15 @@ def _schedule(study, chains, journal, executor, progress, done, total) -> int:
     for chain in chains:
         submit(chain, 0)
     for case, out in executor.results():
+        if ctrl_c.abandoned:   # computed while the second Ctrl-C was raised: maybe not a result
+            raise KeyboardInterrupt
         journal.add({"id": case.id, "case": case.index, "row": out["row"], "x": out["x"], "time_s": out["time_s"]})
         computed += 1
         executor.finished += 1
         if progress is not None:
             progress(done + computed, total)
+        if ctrl_c.presses:
+            raise KeyboardInterrupt
         chain, pos = state.pop(case.chain)
         submit(chain, pos + 1)
     return computed
@@ -186,9 +221,6 @@ class _Futures:
         for f in list(self.pending):
             if f.cancel():
                 self.pending.pop(f)
-        if self.pending:
-            print(f"\nstopping: waiting for {len(self.pending)} running case(s) to finish (they are kept); "
-                  "Ctrl-C again to abandon them", file=sys.stderr)
         try:
             for case, out in self.results():
                 journal.add({"id": case.id, "case": case.index, "row": out["row"], "x": out["x"],

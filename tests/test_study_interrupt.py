@@ -80,8 +80,12 @@ def test_killed_study_resumes_to_the_same_csv(tmp_path, reference):
     assert (tmp_path / "cases.csv").read_bytes() == reference
 
 
-def test_ctrl_c_stops_cleanly_says_how_to_resume_and_resumes(tmp_path, reference):
-    proc = start(tmp_path, workers=2)
+@pytest.mark.parametrize("workers", [1, 2])
+def test_ctrl_c_stops_cleanly_says_how_to_resume_and_resumes(tmp_path, reference, workers):
+    """In process (workers=1) Ctrl-C arrives while IPOPT runs: CasADi would turn an exception
+    raised there into a failed solve, so the study must finish the running case instead and
+    never journal a solve cut short; with a pool the parent stops and keeps running cases."""
+    proc = start(tmp_path, workers=workers)
     wait_for_cases(proc, tmp_path, 2)
     os.killpg(proc.pid, signal.SIGINT)                # what a terminal does on Ctrl-C
     _, err = proc.communicate(timeout=60)
@@ -92,6 +96,8 @@ def test_ctrl_c_stops_cleanly_says_how_to_resume_and_resumes(tmp_path, reference
     assert 2 <= before < N
     # every journal line is whole, and the partial cases.csv holds exactly the finished cases
     assert len(journal_ids(tmp_path)) == before
+    statuses = [json.loads(line)["row"]["status"] for line in (tmp_path / "journal.jsonl").read_text().splitlines()]
+    assert set(statuses) == {"Solve_Succeeded"}, statuses
     partial = (tmp_path / "cases.csv").read_text().splitlines()
     assert len(partial) == before + 1
     assert set(partial[1:]) <= set(reference.decode().splitlines()[1:])
