@@ -40,10 +40,11 @@ def add_arguments(p):
     p.add_argument("scene", help="scene file (TOML), e.g. problems/truck_crane.toml")
     p.add_argument("--mode", choices=("optimise", "analyse"), default="optimise",
                    help="optimise each case (default) or analyse it (peaks over the stroke)")
-    for flag, meta in (("--grid", "NAME=START:STOP:N"), ("--values", "NAME=V1,V2,..."),
-                       ("--pareto", "CONSTRAINT[.min|.max]=START:STOP:N")):
-        p.add_argument(flag, action=_AxisAction, dest="axes", metavar=meta, default=[],
-                       help=argparse.SUPPRESS if flag != "--grid" else "an axis of the study (repeatable; see below)")
+    for flag, meta, text in (("--grid", "NAME=START:STOP:N", "an axis: N evenly spaced values of a parameter"),
+                             ("--values", "NAME=V1,V2,...", "an axis: listed values of a parameter"),
+                             ("--pareto", "CONSTRAINT[.min|.max]=START:STOP:N",
+                              "an axis: a constraint's bound (Pareto front; or =V1,V2,...)")):
+        p.add_argument(flag, action=_AxisAction, dest="axes", metavar=meta, default=[], help=text + " (repeatable; see below)")
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter for every case (repeatable)")
     p.add_argument("--starts", type=int, default=8, help="starts of a cold optimisation case (default 8)")
     p.add_argument("--seed", type=int, default=0, help="seed of the random starts (default 0)")
