@@ -31,6 +31,13 @@ class Margin:
     construction: str
     kind: str
     expr: object
+    scale: object = None  # the margin's size far from lock-up (dyad 4 d^2 Lp^2, slider L^2)
+
+
+# A dyad or slider whose margin is below this fraction of its scale is at (or numerically at)
+# its limit position: velocities there grow like 1/sqrt(margin) and the derivatives lose about
+# eps/(relative margin) of their accuracy, so such a stroke is refused rather than evaluated.
+LOCKUP_MARGIN = 1e-10
 
 
 class Mechanism:
@@ -83,11 +90,13 @@ class Mechanism:
         elif isinstance(c, Polar):
             pts[c.name] = geo.polar(pts[c.centre], ev(c.length, "polar[1]"), ev(c.angle, "polar[2]"))
         elif isinstance(c, Dyad):
-            pts[c.name], m = geo.dyad(pts[c.p], ev(c.length_p, "dyad[1]"), pts[c.q], ev(c.length_q, "dyad[3]"), c.side)
-            self.margins.append(Margin(c.name, "dyad", m))
+            length_p = ev(c.length_p, "dyad[1]")
+            pts[c.name], m = geo.dyad(pts[c.p], length_p, pts[c.q], ev(c.length_q, "dyad[3]"), c.side)
+            self.margins.append(Margin(c.name, "dyad", m, 4 * ca.sumsqr(pts[c.q] - pts[c.p]) * length_p**2))
         elif isinstance(c, Slider):
-            pts[c.name], m = geo.slider(pts[c.p], ev(c.length, "slider[1]"), pts[c.origin], ev(c.angle, "slider[3]"), c.side)
-            self.margins.append(Margin(c.name, "slider", m))
+            length = ev(c.length, "slider[1]")
+            pts[c.name], m = geo.slider(pts[c.p], length, pts[c.origin], ev(c.angle, "slider[3]"), c.side)
+            self.margins.append(Margin(c.name, "slider", m, length**2))
         elif isinstance(c, Attach):
             pts[c.name] = geo.attach(pts[c.origin], pts[c.toward], ev(c.a, "attach[2]"), ev(c.b, "attach[3]"))
         elif isinstance(c, Loop):
@@ -151,7 +160,7 @@ class Mechanism:
         """Raise :class:`AssemblyError` naming the construction and the first sweep value where
         it cannot assemble (negative margin, Newton residual, or a jump to another branch)."""
         p_values = self.parameter_values if p_values is None else p_values
-        outs = {f"m{i}": m.expr for i, m in enumerate(self.margins)}
+        outs = {f"m{i}": m.expr / m.scale for i, m in enumerate(self.margins) if m.kind != "loop"}
         for j, loop in enumerate(self.loops):
             if loop.solution is not None:
                 outs[f"r{j}"] = loop.residual
@@ -169,13 +178,20 @@ class Mechanism:
         for i, m in enumerate(self.margins):
             if m.kind == "loop":
                 continue
-            vals = np.asarray(res[f"m{i}"]).ravel()
-            bad = np.flatnonzero(~(vals >= 0))
+            vals = np.asarray(res[f"m{i}"]).ravel()  # relative margin
+            bad = np.flatnonzero(~(vals > LOCKUP_MARGIN))
             if bad.size:
                 k = bad[0]
+                if vals[k] >= 0:
+                    raise AssemblyError(
+                        f"{self.scene.path}: [points] {m.construction} ({m.kind}) is at its limit "
+                        f"(lock-up) position at {name} = {_fmt_s(s_values[k])} (relative margin "
+                        f"{vals[k]:.3g} <= {LOCKUP_MARGIN:g}): its velocities are infinite there. "
+                        "Narrow the sweep so that it stops short of this position, or change its lengths."
+                    )
                 raise AssemblyError(
                     f"{self.scene.path}: [points] {m.construction} ({m.kind}) cannot assemble at "
-                    f"{name} = {_fmt_s(s_values[k])}: its circles/line do not meet (margin "
+                    f"{name} = {_fmt_s(s_values[k])}: its circles/line do not meet (relative margin "
                     f"{vals[k]:.3g} < 0). Change its lengths or narrow the sweep."
                 )
         for j, loop in enumerate(self.loops):

@@ -22,8 +22,8 @@ downstream carries a relative error ~ eps 4 rho^2 c^2 / m = eps / kappa, kappa =
 
 The errors: sweeping past the lock-up is an AssemblyError naming the dyad, the sweep value and a
 fix.  A stroke ending exactly at the lock-up (the margin rounds to exactly 0.0 at the last
-sample) gives a table of NaN today: the test says what it should do and is marked xfail (strict)
-until optdesign raises a clear error there (reported to the lead).
+sample) is an AssemblyError too, saying that the dyad is at its lock-up position (optdesign
+refuses relative margins below 1e-10, where eps/kappa would exceed 1e-6).
 """
 from __future__ import annotations
 
@@ -182,8 +182,6 @@ def _margin_zero_angle():
     pytest.fail("no float angle with a margin of exactly 0.0 near the lock-up")
 
 
-@pytest.mark.xfail(strict=True, reason="optdesign returns NaN columns when the stroke ends exactly at a "
-                                       "dyad's lock-up (margin == 0.0 passes check_assembly); reported to the lead")
 def test_stroke_ending_exactly_at_lock_up_is_a_clear_error():
     alpha_end = _margin_zero_angle()
     try:
@@ -191,6 +189,7 @@ def test_stroke_ending_exactly_at_lock_up_is_a_clear_error():
     except OptdesignError as exc:  # what it should do: a clear error naming the dyad
         assert isinstance(exc, AssemblyError)
         assert "[points] C" in str(exc)
+        assert "lock-up" in str(exc) and "Narrow the sweep" in str(exc)
         return
     bad = [k for k, v in res.columns.items() if not np.all(np.isfinite(v))]
     assert not bad, f"columns {bad} hold NaN/inf at the lock-up, and no error was raised"
