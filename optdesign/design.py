@@ -319,7 +319,11 @@ class DesignProblem:
         x = ca.DM(self.z_offset) + ca.DM(self.z_scale) * z
         p = self.full_parameters(x, fixed)
         t = sym.sym("t", 1 if self.objective_kind == "peak" else 0)
-        a = sym.sym("a", len(self.aggregates))
+        # each stroke aggregate's variable is scaled by its size at the start design (a length
+        # of 1e-4 m must not become a column 1e4 times larger than the others)
+        self.a_scale = np.array([ag.scale for ag in self.aggregates])
+        a_hat = sym.sym("a", len(self.aggregates))
+        a = a_hat * ca.DM(self.a_scale) if self.aggregates else a_hat
         nb = st.grid  # base points stay put: tracking only the slots keeps the Hessian small
         moved = s_pts[nb:] + ca.mtimes(G[nb:, :], x - x_ref)
         s_eff = ca.vertcat(s_pts[:nb], ca.fmin(ca.fmax(moved, self.s_grid[0]), self.s_grid[-1]))
@@ -364,7 +368,7 @@ class DesignProblem:
             add(b.name, b.kind, row, b.lower / b.scale, b.upper / b.scale, b.scale)
         for i, ag in enumerate(self.aggregates):
             row = Q[ag.index, :].T / ag.scale
-            diff = row - a[i] / ag.scale
+            diff = row - a_hat[i]
             add(ag.name, "aggregate", diff, -math.inf, 0.0) if ag.func == "max" else add(ag.name, "aggregate", diff, 0.0, math.inf)
         for c, outer in self.stroke_constraints:
             scale = max(abs(float(self._outer_start(outer))), 1e-12)
@@ -373,7 +377,7 @@ class DesignProblem:
             self.stroke_outer[c.name] = outer
             add(c.name, "stroke constraint", self._outer(outer, a, p) / scale, lo, hi, scale)
         add("dead centre", "dead centre", self.k_sign * Q[self.k_row, :].T / self.k_ref, st.dead_centre_margin, math.inf)
-        w = ca.vertcat(z, t, a)
+        w = ca.vertcat(z, t, a_hat)
         self.nw = int(w.numel())
         self.n_t = int(t.numel())
         nlp = {"x": w, "p": ca.vertcat(fixed, s_pts, x_ref, ca.vec(G)), "f": f, "g": ca.vertcat(*g)}
@@ -399,8 +403,8 @@ class DesignProblem:
         a_start = np.array([self.aggregate_start(ag) for ag in self.aggregates])
         a_lo = np.where(a_start > 0, 1e-3 * a_start, -np.inf)
         a_hi = np.where(a_start < 0, 1e-3 * a_start, np.inf)
-        self.lbw = np.r_[np.where(np.isfinite(self.lower), 0.0, -np.inf), np.zeros(self.n_t), a_lo]
-        self.ubw = np.r_[np.where(np.isfinite(self.upper), 1.0, np.inf), np.full(self.n_t, np.inf), a_hi]
+        self.lbw = np.r_[np.where(np.isfinite(self.lower), 0.0, -np.inf), np.zeros(self.n_t), a_lo / self.a_scale]
+        self.ubw = np.r_[np.where(np.isfinite(self.upper), 1.0, np.inf), np.full(self.n_t, np.inf), a_hi / self.a_scale]
         base = np.linspace(self.s_grid[0], self.s_grid[-1], st.grid)
         mids = 0.5 * (base[:-1] + base[1:])
         self.base_points = base
@@ -417,6 +421,11 @@ class DesignProblem:
                                        "bound_push", "bound_frac", "slack_bound_push", "slack_bound_frac",
                                        "mult_bound_push")}})
         return ca.nlpsol("design_warm", "ipopt", self._nlp_dict, warm)
+
+    def aggregates_of(self, w) -> np.ndarray:
+        """The stroke aggregates' values (physical units) in an NLP solution vector ``w``."""
+        nd = len(self.design_names)
+        return np.asarray(w[nd + self.n_t:], float) * self.a_scale
 
     def _outer(self, expr, a, p):
         values = self._parameter_values(p)

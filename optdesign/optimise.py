@@ -163,7 +163,7 @@ class Solver:
         if pb.n_t:
             t = [float(np.max(np.abs(q[pb.objective_quantity]))) / pb.f_ref]
         a = [float(np.max(q[ag.index]) if ag.func == "max" else np.min(q[ag.index])) for ag in pb.aggregates]
-        return np.r_[pb.to_z(x0), t, a]
+        return np.r_[pb.to_z(x0), t, np.asarray(a) / pb.a_scale]
 
     def continuous_check(self, x, fixed, w, s_points):
         """Worst values of every block over the continuous stroke at design x.
@@ -185,7 +185,7 @@ class Solver:
 
         nd = len(pb.design_names)
         t = float(w[nd]) if pb.n_t else None
-        a = w[nd + pb.n_t:]
+        a = pb.aggregates_of(w)
         out, certified, sampled = [], {}, {}
 
         def check(name, row, sense, scale, bound, tol, upper=True):

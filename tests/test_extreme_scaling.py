@@ -141,12 +141,9 @@ def base_optimum():
     return r
 
 
-AGGREGATE_SCALING = ("optdesign/design.py keeps the epigraph variables of stroke aggregates (max/min of "
-                     "length(D, B)) unscaled, in metres: at L = 2.5e-4 they are 1e-4 and IPOPT ends in the "
-                     "other local optimum (J / (m g) 0.6 % worse); reported to the lead")
-
-
-@pytest.mark.parametrize("L, m", [(12.5, 1e-3), pytest.param(2.5e-4, 1e6, marks=pytest.mark.xfail(strict=True, reason=AGGREGATE_SCALING))])
+# 2.5e-4 m: the stroke aggregates (max/min of length(D, B), ~1e-4 m) must be scaled in the NLP,
+# or IPOPT ends in the other local optimum (J / (m g) 0.6 % worse; it did before they were)
+@pytest.mark.parametrize("L, m", [(12.5, 1e-3), (2.5e-4, 1e6)])
 def test_the_optimiser_finds_the_same_scaled_optimum(base_optimum, L, m):
     L0, m0 = FAMILY[0]
     base = base_optimum
