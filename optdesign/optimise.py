@@ -285,8 +285,10 @@ class Repair:
         p = pb.full_parameters(x, fixed)
         rows = ca.vertcat(*[pb.rows[b.index] / b.scale for b in margins])
         f = pb.mech.function("margins", {"m": rows})
-        pts = np.linspace(pb.s_grid[0], pb.s_grid[-1], max(pb.settings.grid * 2, 25))
-        g = ca.vertcat(*[f(s, p) for s in pts])
+        # the scene's samples and the NLP's own points: a repaired start must assemble wherever
+        # the solve will evaluate it
+        pts = np.unique(np.r_[pb.s_grid, pb.base_points, pb.initial_slots])
+        g = ca.vec(f.map(len(pts))(ca.DM(pts).T, p))
         nlp = {"x": z, "p": ca.vertcat(z0, fixed), "f": ca.sumsqr(z - z0), "g": g}
         self.solver = ca.nlpsol("repair", "ipopt", nlp, {
             "ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "error_on_fail": False})
@@ -322,6 +324,8 @@ def solve_start(solver: Solver, repair: Repair, index, x0, fixed=None) -> tuple:
         x0, repaired = fixed_x, True
     sol = solver.solve(x0, fixed_v)
     if isinstance(sol, str):
+        if repaired:
+            sol = "skipped: the repaired start still does not assemble at the sample points"
         return StartReport(index, start, sol, False, None, repaired, 0, 0, time.perf_counter() - t0), None
     objective = objective_value(pb, sol) if sol.success else None
     report = StartReport(index, start, sol.status, sol.success, objective, repaired, sol.iterations,
