@@ -146,7 +146,7 @@ class DesignProblem:
         rows, self.blocks, self.aggregates = [], [], []
         self.objective_text = scene.objective.minimise
         m = _OBJECTIVE.match(self.objective_text)
-        self.objective_quantity = None
+        self.objective_quantity = self.objective_fraction = None
         if m:
             self.objective_kind, what = m.group(1), m.group(2)
             expr = outputs.get(what)
@@ -154,7 +154,6 @@ class DesignProblem:
                 expr = mech.value(_parse(what, "[objective] minimise"), "[objective] minimise")
             self.objective_quantity = len(rows)
             rows.append(expr)
-            self.objective_fraction = None
             if what in ("drive", "power") and self.objective_kind == "peak":
                 k_ref = self._k_ref_start()
                 numerator, denominator = self.model.drive_numerator(k_ref)
@@ -273,15 +272,26 @@ class DesignProblem:
         k = np.asarray(f.map(len(self.s_grid))(self.s_grid[None, :], self.mech.parameter_values)).ravel()
         return max(float(np.median(np.abs(k))), 1e-12)
 
+    def _row_name(self, row):
+        """What a per-sample quantity row is, in the scene's words."""
+        names = {b.index: b.name for b in self.blocks}
+        names.update({a.index: a.inner.source for a in self.aggregates})
+        if self.objective_fraction is not None:
+            names.update(dict(zip(self.objective_fraction, ("the drive load times k^4", "k^4"))))
+        names[self.k_row] = "k = dq/ds"
+        return names.get(row, f"row {row}")
+
     # --- scaling from the start design ---
     def _scales(self):
         v = self.evaluate_grid(self.start)
         if not np.all(np.isfinite(v)):
             bad = [r for r in range(v.shape[0]) if not np.all(np.isfinite(v[r]))]
+            first = int(np.flatnonzero(~np.all(np.isfinite(v), axis=0))[0])
             raise SceneError(
-                f"{self.scene.path}: the start design does not assemble over the whole stroke "
-                f"(non-finite quantities in rows {bad}); run `optdesign analyse` on it to see where, "
-                "and move the start values"
+                f"{self.scene.path}: the start design does not assemble over the whole stroke: "
+                f"{', '.join(self._row_name(r) for r in bad)} not finite, first at "
+                f"{self.scene.sweep.name} = {self.s_grid[first]:.6g}; run `optdesign analyse` on it "
+                "to see where, and move the start values"
             )
         def scale_of(row):
             return max(float(np.max(np.abs(v[row]))), 1e-12)
