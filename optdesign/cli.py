@@ -67,7 +67,15 @@ def cmd_optimise(args):
     from .optimise import optimise
 
     scene = _load(args)
-    result = optimise(scene, starts=args.starts, seed=args.seed, progress=_progress("starts"))
+    bar = _progress("starts")
+
+    def progress(done, total):
+        if bar is not None:
+            bar(done, total)
+        interrupted.check()
+
+    with deferred_interrupt() as interrupted:
+        result = optimise(scene, starts=args.starts, seed=args.seed, progress=progress)
     if result.success:
         folder = Path(args.out or Path("results") / Path(args.scene).stem)
         for path in design_report.write_results(result, folder):
@@ -77,6 +85,37 @@ def cmd_optimise(args):
     if not result.success:
         raise SolverError(f"{scene.path}: no optimum: {result.status}. {result.message} "
                           "(nothing was written to the results folder)")
+
+
+class deferred_interrupt:
+    """Ctrl-C while a long loop runs takes effect at the loop's next ``check()`` (after a start,
+    a case): inside IPOPT, CasADi would catch the KeyboardInterrupt and report a failed solve,
+    and the loop would go on.  A second Ctrl-C interrupts at once."""
+
+    def __enter__(self):
+        import signal
+        import threading
+
+        self.pending, self.previous = False, None
+        if threading.current_thread() is threading.main_thread():
+            self.previous = signal.signal(signal.SIGINT, self._handler)
+        return self
+
+    def _handler(self, signum, frame):
+        if self.pending:
+            raise KeyboardInterrupt
+        self.pending = True
+
+    def check(self):
+        if self.pending:
+            raise KeyboardInterrupt
+
+    def __exit__(self, *exc):
+        import signal
+
+        if self.previous is not None:
+            signal.signal(signal.SIGINT, self.previous)
+        return False
 
 
 def _progress(what):
@@ -143,6 +182,9 @@ def main(argv=None):
     except OptdesignError as exc:
         print(f"optdesign {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print(f"\noptdesign {args.command}: interrupted (no result file was written or changed)", file=sys.stderr)
+        return 130
     return 0
 
 
