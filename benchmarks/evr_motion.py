@@ -138,7 +138,7 @@ def section(out_dir: Path) -> str:
     from optdesign.simulate import Simulator
 
     out_dir = Path(out_dir)
-    lines = ["## Motion in time (`optdesign simulate`): work-precision", "",
+    lines = ["## (c) Motion in time (`optdesign simulate`): work-precision", "",
              "Slider-crank of `problems/sim_slider_crank.toml` on a motor curve T = T0 (1 - omega/omega0), from "
              "alpha = 0.5 rad at 100 rad/s to the stroke end alpha = 9 pi/2 (through four dead centres). "
              "Error: largest crank-speed error at the output samples relative to the peak speed, against a "
@@ -178,7 +178,7 @@ def section(out_dir: Path) -> str:
         lines.append("")
     save_figure(fig, out_dir / "motion_work_precision.png")
     plt.close(fig)
-    lines += ["![work-precision](motion_work_precision.png)", ""]
+    lines += [f"![work-precision]({out_dir.name}/motion_work_precision.png)", ""]
 
     rows = _free_energy(out_dir)
     fig, ax = plt.subplots(figsize=(7, 4.2))
@@ -202,7 +202,7 @@ def section(out_dir: Path) -> str:
     ax.legend(fontsize=7)
     save_figure(fig, out_dir / "motion_energy_drift.png")
     plt.close(fig)
-    lines += ["", "![energy drift](motion_energy_drift.png)", ""]
+    lines += ["", f"![energy drift]({out_dir.name}/motion_energy_drift.png)", ""]
     return "\n".join(lines)
 
 
