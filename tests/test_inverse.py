@@ -125,7 +125,8 @@ def round_trip(scene):
 
 def assert_round_trip(scene, label, a_scale):
     qdd, back, has_inertia, power = round_trip(scene)
-    assert has_inertia.sum() >= len(has_inertia) - 3, f"{label}: too many samples without inertia"
+    # (a dead centre falls on a sample at most once per half turn: sim_slider_crank has five)
+    assert has_inertia.sum() >= 0.98 * len(has_inertia), f"{label}: too many samples without inertia"
     tol = TOL * max(abs(qdd), a_scale)
     err = np.abs(back - qdd)
     bad = np.flatnonzero(has_inertia & ~(err <= tol))
