@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
 from .errors import OptdesignError, SceneError, SolverError
@@ -28,6 +29,16 @@ def _samples(text):
         n = 0
     if n < 2:
         raise argparse.ArgumentTypeError(f"expected a whole number >= 2, found {text!r}")
+    return n
+
+
+def _workers(text):
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, found {text!r}")
     return n
 
 
@@ -75,10 +86,10 @@ def cmd_optimise(args):
         interrupted.check()
 
     with deferred_interrupt() as interrupted:
-        result = optimise(scene, starts=args.starts, seed=args.seed, progress=progress)
+        result = optimise(scene, starts=args.starts, seed=args.seed, progress=progress, workers=args.workers)
     if result.success:
         folder = Path(args.out or Path("results") / Path(args.scene).stem)
-        for path in design_report.write_results(result, folder):
+        for path in design_report.write_results(result, folder, workers=args.workers):
             print(f"wrote {path}", file=sys.stderr)
     _emit(args, report.to_json(design_report.optimisation_json(result)) if args.json else "",
           design_report.summary(result))
@@ -160,6 +171,8 @@ def parser():
         if name == "optimise":
             p.add_argument("--starts", type=int, default=20, help="number of starts (default 20)")
             p.add_argument("--seed", type=int, default=0, help="seed of the random starts (default 0)")
+            p.add_argument("--workers", type=_workers, default=os.cpu_count() or 1,
+                           help="processes that share the starts (default: the machine's cores; 1 = in this process)")
             p.add_argument("--out", metavar="DIR", help="results folder (default results/<scene name>)")
         p.set_defaults(func=func)
     for name, module_name in COMMAND_MODULES.items():

@@ -3,6 +3,7 @@ multipliers and sensitivities.  Front door: :func:`optimise`."""
 from __future__ import annotations
 
 import math
+import multiprocessing
 import time
 from dataclasses import dataclass, field
 
@@ -363,25 +364,71 @@ def draw_starts(problem: DesignProblem, starts: int, seed: int) -> np.ndarray:
 
 
 def optimise(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSettings | None = None,
-             progress=None, x_starts=None) -> OptimisationResult:
+             progress=None, x_starts=None, workers: int = 1) -> OptimisationResult:
     """Minimise the scene's objective over its design variables (front door).
 
     ``starts`` reproducible starts (the scene's start, then random points of the design box
     drawn with ``seed``) or explicit ``x_starts``; ``progress(done, total)`` is called after
-    each start."""
+    each start; ``workers`` > 1 solves the starts in that many forked processes (where the
+    platform can fork; the result for a given number of workers does not depend on timing)."""
     t0 = time.perf_counter()
     problem = DesignProblem(scene, settings)
     solver, repair = Solver(problem), Repair(problem)
     t_build = time.perf_counter() - t0
     xs = draw_starts(problem, starts, seed) if x_starts is None else np.atleast_2d(np.asarray(x_starts, float))
-    reports, solutions = [], []
-    for i, x0 in enumerate(xs):
-        report, sol = solve_start(solver, repair, i, x0)
-        reports.append(report)
-        solutions.append(sol)
-        if progress is not None:
-            progress(i + 1, len(xs))
+    runs = solve_starts(solver, repair, xs, workers, progress)
+    reports, solutions = [r for r, _ in runs], [s for _, s in runs]
     return summarise(problem, solver, reports, solutions, {"build_s": t_build, "total_s": time.perf_counter() - t0})
+
+
+def solve_starts(solver: Solver, repair: Repair, xs, workers=1, progress=None) -> list:
+    """(StartReport, Solution) of every start, in order: in this process, or shared among
+    ``workers`` forked processes, worker w taking starts w, w + workers, ... in turn (each
+    worker's solver carries what it learned from one start to its next, as the serial loop
+    does, so a given number of workers always gives the same result)."""
+    n = len(xs)
+    workers = max(1, min(int(workers), n))
+    if workers == 1 or "fork" not in multiprocessing.get_all_start_methods():
+        runs = []
+        for i, x0 in enumerate(xs):
+            runs.append(solve_start(solver, repair, i, x0))
+            if progress is not None:
+                progress(i + 1, n)
+        return runs
+    global _FORKED
+    ctx = multiprocessing.get_context("fork")
+    done_queue = ctx.SimpleQueue()
+    _FORKED = (solver, repair, xs, workers, done_queue)
+    try:
+        with ctx.Pool(workers) as pool:
+            shares = pool.map_async(_solve_share, range(workers))
+            done = 0
+            while done < n:
+                shares.wait(0.01)
+                while not done_queue.empty():
+                    done_queue.get()
+                    done += 1
+                    if progress is not None:
+                        progress(done, n)
+                if shares.ready() and done_queue.empty():
+                    break
+            results = shares.get()  # a worker's exception is raised here
+    finally:
+        _FORKED = None
+    runs = dict(item for share in results for item in share)
+    return [runs[i] for i in range(n)]
+
+
+_FORKED = None  # what forked workers inherit: (solver, repair, starts, workers, done queue)
+
+
+def _solve_share(w):
+    solver, repair, xs, workers, done_queue = _FORKED
+    out = []
+    for i in range(w, len(xs), workers):
+        out.append((i, solve_start(solver, repair, i, xs[i])))
+        done_queue.put(i)
+    return out
 
 
 def summarise(problem, solver, reports, solutions, timings) -> OptimisationResult:
