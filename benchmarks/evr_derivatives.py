@@ -29,7 +29,6 @@ import statistics
 import time
 from pathlib import Path
 
-import casadi as ca
 import matplotlib
 
 matplotlib.use("Agg")
@@ -37,7 +36,6 @@ import matplotlib.pyplot as plt  # noqa: E402
 import mpmath  # noqa: E402
 import numpy as np  # noqa: E402
 
-from optdesign.expressions import constant_value  # noqa: E402
 from optdesign.mechanism import Mechanism  # noqa: E402
 from optdesign.reduction import ReducedModel  # noqa: E402
 from optdesign.report import save_figure  # noqa: E402
