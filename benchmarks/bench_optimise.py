@@ -56,7 +56,7 @@ from optdesign.analysis import Analysis  # noqa: E402
 from optdesign.design import DesignProblem  # noqa: E402
 from optdesign.errors import OptdesignError  # noqa: E402
 from optdesign.optimise import Solver, draw_starts, optimise  # noqa: E402
-from benchmarks.benchfile import write_section  # noqa: E402
+from benchmarks.benchfile import git_state, write_section  # noqa: E402
 from optdesign.scenefile import load  # noqa: E402
 
 DEFAULT_SCENES = ("problems/seed1_jib.toml", "problems/truck_crane.toml", "problems/seed1_jib_design.toml")
@@ -797,17 +797,6 @@ def start_table(res) -> list:
 
 
 LOAD_AT_START = os.getloadavg() if hasattr(os, "getloadavg") else None
-
-
-def git_state() -> str:
-    """The commit measured, and whether optdesign/ had uncommitted changes (other agents work
-    in the same tree)."""
-    try:
-        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True, check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--", "optdesign"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "git state unknown"
-    return f"commit {head}" + (" with uncommitted changes in optdesign/ (" + ", ".join(l[3:] for l in dirty.splitlines()) + ")" if dirty else "")
 
 
 def header(args, skipped, git) -> str:

@@ -53,7 +53,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from optdesign.analysis import Analysis  # noqa: E402
-from benchmarks.benchfile import write_section  # noqa: E402
+from benchmarks.benchfile import cpu_model, git_state, write_section  # noqa: E402
 from optdesign.scenefile import load  # noqa: E402
 
 SCENE = ROOT / "problems" / "level_luffing_crane.toml"
@@ -265,27 +265,6 @@ def command_time(repeats: int):
             times[label].append(time.perf_counter() - t0)
     out = {k: statistics.median(v) for k, v in times.items()}
     return out, " ".join(Path(cmd[0]).name if i == 0 else a for i, a in enumerate(cmd))
-
-
-def git_state() -> str:
-    try:
-        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
-                              text=True, check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--", "optdesign"], cwd=ROOT,
-                               capture_output=True, text=True).stdout.strip()
-        return f"commit {head}" + (" (optdesign/ modified)" if dirty else "")
-    except (OSError, subprocess.CalledProcessError):
-        return "git state unknown"
-
-
-def cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
 
 
 # --- the run --------------------------------------------------------------------------------

@@ -1,9 +1,12 @@
-"""``results/bench.md`` holds one section per benchmark script; each script rewrites only its own
+"""What the benchmark scripts share: the machine and commit they ran on, and
+``results/bench.md``, which holds one section per benchmark script; each script rewrites only its own
 section (between ``<!-- begin NAME -->`` and ``<!-- end NAME -->``) and leaves the others as
 they were, atomically (the file is never half-written)."""
 from __future__ import annotations
 
+import platform
 import re
+import subprocess
 from pathlib import Path
 
 from optdesign.report import write_atomic
@@ -26,3 +29,29 @@ def write_section(name: str, markdown: str, path: Path = BENCH_MD) -> Path:
     names = [n for n in ORDER if n in sections] + sorted(n for n in sections if n not in ORDER)
     write_atomic(path, TITLE + "\n" + "\n".join(sections[n] for n in names))
     return path
+
+
+def git_state(paths=("optdesign",)) -> str:
+    """The commit measured, and whether ``paths`` had uncommitted changes (other people may
+    work in the same tree)."""
+    try:
+        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
+                              text=True, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--", *paths], cwd=ROOT,
+                               capture_output=True, text=True).stdout.rstrip()
+    except (OSError, subprocess.CalledProcessError):
+        return "git state unknown"
+    if not dirty:
+        return f"commit {head}"
+    return f"commit {head} with uncommitted changes in " + ", ".join(line[3:] for line in dirty.splitlines())
+
+
+def cpu_model() -> str:
+    """The processor's model name (Linux), else what platform knows."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()

@@ -24,7 +24,6 @@ import datetime
 import os
 import platform
 import shutil
-import subprocess
 import sys
 import tempfile
 import time
@@ -38,32 +37,12 @@ sys.path.insert(0, str(HERE))
 import casadi as ca  # noqa: E402
 import numpy as np  # noqa: E402
 
+from benchfile import cpu_model, git_state  # noqa: E402
 from optdesign.report import write_atomic  # noqa: E402
 
 FIGURES = "error_vs_runtime"
 SECTIONS = (("derivatives", "evr_derivatives"), ("peak", "evr_peak"), ("motion", "evr_motion"),
             ("optimise", "evr_optimise"))
-
-
-def git_state() -> str:
-    try:
-        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
-                              text=True, check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--", "optdesign", "benchmarks"], cwd=ROOT,
-                               capture_output=True, text=True).stdout.strip()
-        return f"commit {head}" + (" (optdesign/ or benchmarks/ modified)" if dirty else "")
-    except (OSError, subprocess.CalledProcessError):
-        return "git state unknown"
-
-
-def cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
 
 
 def header(started, load_start, load_end, git, durations) -> str:
@@ -126,7 +105,7 @@ def main(argv=None):
     out.parent.mkdir(parents=True, exist_ok=True)
     started = datetime.datetime.now(datetime.timezone.utc)
     load_start = os.getloadavg()
-    git = git_state()
+    git = git_state(("optdesign", "benchmarks"))
     staging = Path(tempfile.mkdtemp(prefix=".evr.", dir=out.parent))
     try:
         figures = staging / FIGURES  # the folder's final name, so that links are right
