@@ -57,6 +57,7 @@ from .scene import INTEGRATORS, Scene
 DEFAULT_TOLERANCE = 1e-8
 DEFAULT_RK4_STEPS = 20
 MAX_STEPS = 20000  # CVODES steps per output interval before it gives up ("too much work")
+STALL_STEPS = 1000  # steps per trial while locating the instant a self-locking drive comes to rest
 
 
 @dataclass(frozen=True)
@@ -68,7 +69,8 @@ class SimulationResult:
     ``drive``: the law's torque/force T_m; ``transmitted``: T_m - J_d qdd, what reaches the
     mechanism (the seed's T_S or F_S); ``kinetic_energy``: 1/2 M_s sd^2 + 1/2 J_d qd^2 (mechanism
     and drive); ``power``: T_m qd; ``efficiency_factor`` (only with eta < 1).  ``stop`` is
-    'stroke end' or 't_end'; ``stop_end`` 'from' or 'to' (which end of [sweep]) or None.
+    'stroke end', 't_end' or 'stalled' (a self-locking drive under eta < 1 brought the
+    mechanism to rest, where it stays); ``stop_end`` 'from' or 'to' (which end of [sweep]) or None.
     ``stats``: integrator counts (steps, rhs_evaluations, error_test_failures,
     nonlinear_iterations) summed over every integrator call of the run, and ``timings``."""
 
@@ -222,7 +224,7 @@ class Simulator:
         scale = [length, rate] + ([abs(self.x0[2]) + length] if self.rotary else [])
         return np.array(scale)
 
-    def _integrator(self, method, tolerance, tau, total_steps=None):
+    def _integrator(self, method, tolerance, tau, total_steps=None, max_steps=None):
         """A CasADi integrator over the tau grid (0 .. 1) of the time-scaled ODE
         dy/dtau = h f(y * scale) / scale: the state y is scaled to order one (so that one
         absolute tolerance fits s, its rate and q), and the interval length h is a parameter
@@ -236,7 +238,7 @@ class Simulator:
         if method == "rk4":
             opts = {"number_of_finite_elements": int(total_steps), "show_eval_warnings": False}
             return ca.integrator("simulate", "rk", dae, 0.0, list(tau), opts), scale
-        opts = {"abstol": tolerance, "reltol": tolerance, "max_num_steps": MAX_STEPS,
+        opts = {"abstol": tolerance, "reltol": tolerance, "max_num_steps": max_steps or MAX_STEPS,
                 "disable_internal_warnings": True, "show_eval_warnings": False}
         if method == "bdf":
             opts.update(linear_multistep_method="bdf", nonlinear_solver_iteration="newton")
@@ -336,12 +338,14 @@ class Simulator:
                     "motion is stiff here" if method == "rk4" else
                     "CVODES gave up (too many steps, or repeated error-test or convergence failures)")
             if self.model.uses_efficiency and abs(x_prev[1]) < 1e-2 * np.nanmax(np.abs(X[1, :i])):
+                stall = self._stall(method, tol, steps, x_prev, dt, X[:, i], counts, np.nanmax(np.abs(X[1, :i])))
+                if stall is not None:
+                    t = np.append(grid[:i], grid[i - 1] + stall[0])
+                    return t, np.column_stack([X[:, :i], stall[1]]), "stalled", None
                 raise SolverError(
-                    f"{self.scene.path}: the drive stalls at t = {grid[i - 1]:.6g} s, {name} = {_fmt_s(x_prev[0])}: "
-                    f"the speed has fallen to {qd:.3g} and the efficiency switch holds the mechanism there "
-                    "(moving on, the drive load divided by eta is too small; moving back, the load times eta "
-                    "pushes it forward again: a self-locking drive). The motion has no continuation in this "
-                    "model: raise the drive's force or torque, or the efficiency.")
+                    f"{self.scene.path}: the drive stalls near t = {grid[i - 1]:.6g} s, {name} = {_fmt_s(x_prev[0])}, "
+                    f"speed {qd:.3g}, but the instant the mechanism comes to rest could not be located: "
+                    "tighten the tolerance or use more samples.")
             hint = {"bdf": "tighten or loosen the tolerance, or check the law and the loads for a blow-up",
                     "adams": "use the implicit integrator (integrator = \"bdf\"), which handles stiff cases",
                     "rk4": "use more steps per sample or the implicit integrator (integrator = \"bdf\")"}[method]
@@ -354,21 +358,41 @@ class Simulator:
         t = np.append(grid[:i], grid[i - 1] + h)
         return t, np.column_stack([X[:, :i], x_end]), "stroke end", end
 
-    def _locate(self, method, tol, steps, x_prev, dt, target, x_next, counts):
-        """The time h in (0, dt] after which s reaches ``target``, by re-integrating from x_prev
-        (Illinois regula falsi where both ends are finite, bisection past a failure)."""
-        F, scale = self._integrator(method, tol, [1.0], steps)
-        length = self.hi - self.lo
+    def _stall(self, method, tol, steps, x_prev, dt, x_next, counts, speed_scale):
+        """A self-locking drive brought the mechanism to rest: (h, state) at the instant in
+        (0, dt] where ds/dt reaches zero, or None if that instant cannot be located.
+
+        Under eta < 1 with the exact power-flow switch, a mechanism at rest whose drive load
+        lies between eta and 1/eta times the static load cannot move either way (moving on,
+        the drive divided by eta is too small; moving back, the load times eta pushes it
+        forward again): it stays where it stopped, held by the drive's friction."""
+        # past the instant of rest the switch chatters and the integrator gives up: a small step
+        # budget makes those trials cheap (up to rest, within one sample, the motion is smooth)
+        h, x = self._locate(method, tol, steps, x_prev, dt, 0.0, x_next, counts, component=1, size=speed_scale,
+                            max_steps=STALL_STEPS)
+        if x is None:
+            return None
+        x = np.array(x, float)
+        x[1] = 0.0  # at rest (the located speed is zero to 1e-9 of the run's largest)
+        return h, x
+
+    def _locate(self, method, tol, steps, x_prev, dt, target, x_next, counts, component=0, size=None,
+                max_steps=None):
+        """The time h in (0, dt] after which the state's ``component`` (0: s, 1: ds/dt) reaches
+        ``target``, to 1e-9 of ``size`` (default: the stroke's length), by re-integrating from
+        x_prev (Illinois regula falsi where both ends are finite, bisection past a failure)."""
+        F, scale = self._integrator(method, tol, [1.0], steps, max_steps)
+        length = self.hi - self.lo if size is None else size
 
         def g(h):
             try:
                 x = self._call(F, scale, x_prev, h, counts, method)[:, 0]
             except _IntegratorFailed:
                 return None, None
-            return (x[0] - target if np.isfinite(x).all() else None), x
+            return (x[component] - target if np.isfinite(x).all() else None), x
 
-        a, ga, xa = 0.0, x_prev[0] - target, x_prev
-        b, gb = dt, (x_next[0] - target if np.isfinite(x_next).all() else None)
+        a, ga, xa = 0.0, x_prev[component] - target, x_prev
+        b, gb = dt, (x_next[component] - target if np.isfinite(x_next).all() else None)
         xb = x_next
         side = 0
         for _ in range(200):

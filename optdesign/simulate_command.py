@@ -74,8 +74,10 @@ def summary(result) -> str:
     from .report import table
 
     units = UNITS[result.drive_kind]
-    where = (f"stroke end ({result.stop_end}: {result.scene.sweep.name} = {result.s[-1]:.6g})"
-             if result.stop == "stroke end" else "t_end")
+    where = {"stroke end": f"stroke end ({result.stop_end}: {result.scene.sweep.name} = {result.s[-1]:.6g})",
+             "stalled": f"stalled: the mechanism came to rest at {result.scene.sweep.name} = {result.s[-1]:.6g} and "
+                        "the self-locking drive holds it there (under eta < 1 its load cannot move it either way)",
+             "t_end": "t_end"}[result.stop]
     st = result.stats
     lines = [table(_columns(result)), "",
              f"{result.scene.title}",
