@@ -338,7 +338,7 @@ class Simulator:
                     "motion is stiff here" if method == "rk4" else
                     "CVODES gave up (too many steps, or repeated error-test or convergence failures)")
             if self.model.uses_efficiency and abs(x_prev[1]) < 1e-2 * np.nanmax(np.abs(X[1, :i])):
-                stall = self._stall(method, tol, steps, x_prev, dt, X[:, i], counts, np.nanmax(np.abs(X[1, :i])))
+                stall = self._stall(method, tol, steps, x_prev, dt, counts, np.nanmax(np.abs(X[1, :i])))
                 if stall is not None:
                     t = np.append(grid[:i], grid[i - 1] + stall[0])
                     return t, np.column_stack([X[:, :i], stall[1]]), "stalled", None
@@ -358,41 +358,60 @@ class Simulator:
         t = np.append(grid[:i], grid[i - 1] + h)
         return t, np.column_stack([X[:, :i], x_end]), "stroke end", end
 
-    def _stall(self, method, tol, steps, x_prev, dt, x_next, counts, speed_scale):
+    def _stall(self, method, tol, steps, x_prev, dt, counts, speed_scale):
         """A self-locking drive brought the mechanism to rest: (h, state) at the instant in
-        (0, dt] where ds/dt reaches zero, or None if that instant cannot be located.
+        (0, dt] where ds/dt reaches zero, or None if it does not come to rest and stay there.
 
         Under eta < 1 with the exact power-flow switch, a mechanism at rest whose drive load
         lies between eta and 1/eta times the static load cannot move either way (moving on,
         the drive divided by eta is too small; moving back, the load times eta pushes it
-        forward again): it stays where it stopped, held by the drive's friction."""
-        # past the instant of rest the switch chatters and the integrator gives up: a small step
-        # budget makes those trials cheap (up to rest, within one sample, the motion is smooth)
-        h, x = self._locate(method, tol, steps, x_prev, dt, 0.0, x_next, counts, component=1, size=speed_scale,
-                            max_steps=STALL_STEPS)
-        if x is None:
+        forward again): it stays where it stopped, held by the drive's friction.  Past that
+        instant the switch chatters and the integrator gives up (CVODES steps beyond the
+        requested time, so it gives up a step before it, too): bisection finds the last time
+        a that it integrates to with the motion still on, and the motion is closed from there
+        with the constant deceleration at a (its speed there is a few steps' worth)."""
+        F, scale = self._integrator(method, tol, [1.0], steps, STALL_STEPS)
+        direction = math.copysign(1.0, x_prev[1])
+        a, xa, b = 0.0, np.asarray(x_prev, float), dt
+        while b - a > 1e-12 * dt:
+            c = 0.5 * (a + b)
+            try:
+                x = self._call(F, scale, x_prev, c, counts, method)[:, 0]
+            except _IntegratorFailed:
+                x = None
+            if x is not None and np.isfinite(x).all() and direction * x[1] > 0:
+                a, xa = c, x
+            else:
+                b = c
+        p = self.mech.parameter_values
+        sdd = float(self.outputs(xa, p)[3])
+        if not direction * sdd < 0 or abs(xa[1]) > 1e-3 * speed_scale:
             return None
-        x = np.array(x, float)
-        x[1] = 0.0  # at rest (the located speed is zero to 1e-9 of the run's largest)
-        return h, x
+        tau = -xa[1] / sdd
+        x = xa.copy()
+        x[0] += 0.5 * xa[1] * tau
+        x[1] = 0.0
+        nudge = 1e-9 * speed_scale  # held: either way out of rest decelerates back to it
+        ahead, back = (float(self.outputs(np.r_[x[0], d * nudge, x[2:]], p)[3]) for d in (direction, -direction))
+        if not (direction * ahead < 0 and direction * back > 0):
+            return None
+        return a + tau, x
 
-    def _locate(self, method, tol, steps, x_prev, dt, target, x_next, counts, component=0, size=None,
-                max_steps=None):
-        """The time h in (0, dt] after which the state's ``component`` (0: s, 1: ds/dt) reaches
-        ``target``, to 1e-9 of ``size`` (default: the stroke's length), by re-integrating from
-        x_prev (Illinois regula falsi where both ends are finite, bisection past a failure)."""
-        F, scale = self._integrator(method, tol, [1.0], steps, max_steps)
-        length = self.hi - self.lo if size is None else size
+    def _locate(self, method, tol, steps, x_prev, dt, target, x_next, counts):
+        """The time h in (0, dt] after which s reaches ``target``, by re-integrating from x_prev
+        (Illinois regula falsi where both ends are finite, bisection past a failure)."""
+        F, scale = self._integrator(method, tol, [1.0], steps)
+        length = self.hi - self.lo
 
         def g(h):
             try:
                 x = self._call(F, scale, x_prev, h, counts, method)[:, 0]
             except _IntegratorFailed:
                 return None, None
-            return (x[component] - target if np.isfinite(x).all() else None), x
+            return (x[0] - target if np.isfinite(x).all() else None), x
 
-        a, ga, xa = 0.0, x_prev[component] - target, x_prev
-        b, gb = dt, (x_next[component] - target if np.isfinite(x_next).all() else None)
+        a, ga, xa = 0.0, x_prev[0] - target, x_prev
+        b, gb = dt, (x_next[0] - target if np.isfinite(x_next).all() else None)
         xb = x_next
         side = 0
         for _ in range(200):

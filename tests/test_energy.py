@@ -113,7 +113,8 @@ def test_jib_with_efficiency_loses_one_minus_eta_of_the_transmitted_work():
     assert res.stop == "stroke end"
 
 
-def test_self_locking_drive_stalls_where_the_work_is_used_up():
+@pytest.mark.parametrize("tolerance, balance_tol", [(1e-8, 1e-6), (1e-10, 1e-8)])
+def test_self_locking_drive_stalls_where_the_work_is_used_up(tolerance, balance_tol):
     """eta F = 12.6 kN is below the static load (12.0 .. 12.9 kN) and F/eta above it: the jib slows
     to rest and the efficiency switch holds it there.  The run stops 'stalled' at the instant of
     rest, at the angle theta* where the work balance (hand-written positions) is used up:
@@ -123,7 +124,7 @@ def test_self_locking_drive_stalls_where_the_work_is_used_up():
     from scipy.optimize import brentq
 
     text = (PROBLEMS / "sim_jib.toml").read_text().replace('inertia = "m_rod"', 'inertia = "m_rod"\nefficiency = 0.9')
-    res = simulate(optdesign.loads(text, "jib_eta.toml"), tolerance=1e-10, t_end=2.0)
+    res = simulate(optdesign.loads(text, "jib_eta.toml"), tolerance=tolerance, t_end=2.0)
     F, mC, g, l, m_rod, eta = 14000.0, 500.0, 9.81, 4.0, 60.0, 0.9
     theta0 = res.s[0]
     x0, dx0 = jib_geometry(theta0)
@@ -137,10 +138,11 @@ def test_self_locking_drive_stalls_where_the_work_is_used_up():
     theta_star = brentq(balance, theta0 + 1e-9, 0.5, xtol=1e-15)
     assert res.stop == "stalled" and res.stop_end is None
     # the balance is flat near theta* (its slope dx/dtheta (F_Su - eta F) nearly vanishes):
-    # judge the stop by the balance's residual, to 1e-8 of the drive's work as the tests above
+    # judge the stop by the balance's residual, to 1e-8 of the drive's work at tolerance 1e-10
+    # as the tests above (1e-6 at the default tolerance 1e-8)
     x_star, _ = jib_geometry(theta_star)
-    assert abs(balance(res.s[-1])) < 1e-8 * F * (x_star - x0)
-    assert abs(res.s[-1] - theta_star) < 1e-6 * theta_star
+    assert abs(balance(res.s[-1])) < balance_tol * F * (x_star - x0)
+    assert abs(res.s[-1] - theta_star) < 100 * balance_tol * theta_star
     assert res.sd[-1] == 0.0 and np.all(res.sd[:-1] > 0)
     _, dx = jib_geometry(theta_star)
     F_Su = mC * g * l * np.cos(theta_star) / dx
