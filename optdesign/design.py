@@ -18,10 +18,15 @@ Formulation (what makes it fast and regular):
   that the bound makes conservative; this is checked at the start and an error explains otherwise.
 * Everything is scaled to order one by its value at the scene's start design: F_ref for the
   drive load, the start's range for each constraint and margin.
+* Constraint bounds are only the NLP's lbg/ubg (passed at solve time): every named constraint
+  keeps its rows in g with +-inf on an open side, so :meth:`DesignProblem.with_bounds` gives a
+  problem with other bounds that shares the built NLP and solvers (a Pareto front by the
+  epsilon-constraint method needs no rebuild per point).
 """
 from __future__ import annotations
 
-import functools
+import copy
+import dataclasses
 import math
 import re
 from dataclasses import dataclass
@@ -30,7 +35,7 @@ import casadi as ca
 import numpy as np
 
 from .errors import SceneError
-from .expressions import Call, Expression, Name, evaluate
+from .expressions import Call, Expression, Name, evaluate, near_miss
 from .mechanism import Mechanism
 from .reduction import ReducedModel
 from .scene import Scene
@@ -61,8 +66,8 @@ class Block:
     name: str
     kind: str       # 'peak', 'constraint', 'aggregate', 'margin', 'dead centre'
     index: int      # row in the per-sample quantity vector
-    lower: float    # bounds on the scaled quantity (+-inf when open); for 'peak' unused
-    upper: float
+    lower: float    # bounds in physical units (+-inf when open); the NLP's rows are
+    upper: float    # quantity/scale in [lower/scale, upper/scale]; for 'peak' unused
     scale: float
 
 
@@ -104,6 +109,9 @@ class DesignProblem:
         self.z_offset = np.where(finite, self.lower, 0.0)
         self.z_scale = np.where(finite, self.upper - self.lower, np.maximum(np.abs(self.start), 1.0))
         self.s_grid = mech.stroke()
+        # what is built on first use (warm solver, tracking function), shared with every
+        # problem derived by with_bounds (a shallow copy keeps this dict)
+        self._built = {}
         self.model = self._model()
         self._quantities()
         self._scales()
@@ -202,12 +210,19 @@ class DesignProblem:
         self.quantity_derivatives = mech.function("quantities_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)})
         self._dv = dv
 
-    @functools.cached_property
+    def _once(self, key, build):
+        """``build()``, called once for this problem and every problem derived from it."""
+        if key not in self._built:
+            self._built[key] = build()
+        return self._built[key]
+
+    @property
     def quantity_tracking(self):
         """How each row's extrema move with the parameters: d2v/ds2 and d(dv/ds)/dp, for peak
         tracking (built on first use: only exchange steps need it)."""
         mech, dv = self.mech, self._dv
-        return mech.function("quantities_tracking", {"d2v": mech.ds(dv), "dvdp": ca.jacobian(dv, mech.p)})
+        return self._once("tracking", lambda: mech.function(
+            "quantities_tracking", {"d2v": mech.ds(dv), "dvdp": ca.jacobian(dv, mech.p)}))
 
     def _bounds(self, c):
         """A constraint's (lower, upper) as numbers (they may name fixed parameters)."""
@@ -380,9 +395,11 @@ class DesignProblem:
             row = Q[ag.index, :].T / ag.scale
             diff = row - a_hat[i]
             add(ag.name, "aggregate", diff, -math.inf, 0.0) if ag.func == "max" else add(ag.name, "aggregate", diff, 0.0, math.inf)
+        self.stroke_bounds = {}   # name -> (lower, upper) in physical units
         for c, outer in self.stroke_constraints:
             scale = max(abs(float(self._outer_start(outer))), 1e-12)
-            lo, hi = (v / scale for v in self._bounds(c))
+            self.stroke_bounds[c.name] = self._bounds(c)
+            lo, hi = (v / scale for v in self.stroke_bounds[c.name])
             self._check_monotone(outer, f"[[constraints]] {c.name!r}", c.expr.source, lo, hi)
             self.stroke_outer[c.name] = outer
             add(c.name, "stroke constraint", self._outer(outer, a, p) / scale, lo, hi, scale)
@@ -426,17 +443,128 @@ class DesignProblem:
         self.base_points = base
         self.initial_slots = mids[np.linspace(0, len(mids) - 1, st.slots).round().astype(int)] if st.slots else np.zeros(0)
 
-    @functools.cached_property
+    @property
     def warm_solver(self):
         """IPOPT for an exchange step, which moves a few sample points and solves again from
         the last solution: started there with its multipliers and a small barrier parameter it
         needs a third of the iterations of a cold start (truck crane: 6 instead of 16).  Built
-        on first use: with the sample points learned from earlier starts most runs need none."""
+        on first use (once for this problem and those derived by with_bounds): with the sample
+        points learned from earlier starts most runs need none."""
+        return self._once("warm solver", self._build_warm_solver)
+
+    def _build_warm_solver(self):
         warm = dict(self._opts, **{"ipopt.warm_start_init_point": "yes", "ipopt.mu_strategy": "monotone",
                                    "ipopt.mu_init": 1e-6, **{f"ipopt.warm_start_{k}": 1e-8 for k in (
                                        "bound_push", "bound_frac", "slack_bound_push", "slack_bound_frac",
                                        "mult_bound_push")}})
         return ca.nlpsol("design_warm", "ipopt", self._nlp_dict, warm)
+
+    # --- other bounds on the same NLP ---
+    def with_bounds(self, bounds) -> DesignProblem:
+        """This problem with other bounds on some of the scene's constraints, without a rebuild.
+
+        ``bounds``: ((constraint name, 'min'|'max', value), ...), values in physical units:
+        numbers, or expressions such as "30 deg" (which may name parameters); +-inf opens a
+        side.  The new problem is a shallow copy: it shares the built NLP, its solvers and
+        functions with this one (and what either builds on first use); its own are ``lbg``,
+        ``ubg``, the constraint blocks' bounds (read by the continuous check),
+        ``stroke_bounds`` and ``scene`` (its constraints carry the new bounds).  Every named
+        constraint keeps its rows in g whether a side is open or not, so any side may change.
+
+        Scales stay this build's.  A per-sample constraint is scaled by the larger of its range
+        at the start design and the bounds *of the scene that was built*, where a fresh build of
+        the new scene takes the new bounds; the two scaled problems then differ by a constant
+        factor in that constraint's rows, and their optima agree within IPOPT's tolerance on
+        the scaled problem, not bit for bit (bit for bit where the new bound does not change
+        that maximum, and always for stroke constraints, scaled by their start value alone).
+        Multipliers are reported per unit of the physical bound, so their meaning is the same.
+
+        A stroke constraint (max(...)/min(...) over the stroke) is exact only on a side where
+        its bound is conservative (it limits a max from above or a min from below); a new
+        finite side that is not raises SceneError, as a fresh build of the new scene would.
+        """
+        new_bounds, requested = self._requested_bounds(bounds)
+        if not new_bounds:
+            return self
+        pb = copy.copy(self)
+        pb.lbg, pb.ubg = self.lbg.copy(), self.ubg.copy()
+        pb.blocks = list(self.blocks)
+        pb.stroke_bounds = dict(self.stroke_bounds)
+        rows = {name: (start, n) for name, kind, start, n in self.g_blocks
+                if kind in ("constraint", "design constraint", "stroke constraint")}
+        for name, (lo, hi) in new_bounds.items():
+            start, n = rows[name]
+            scale = self.g_scale[name]
+            if name in self.stroke_bounds:
+                self._check_monotone(self.stroke_outer[name], f"with_bounds: [[constraints]] {name!r} "
+                                     f"(min = {lo:.6g}, max = {hi:.6g})", self._constraint(name).expr.source,
+                                     lo / scale, hi / scale)
+                pb.stroke_bounds[name] = (lo, hi)
+            else:
+                i = next(i for i, b in enumerate(self.blocks)
+                         if b.name == name and b.kind in ("constraint", "design constraint"))
+                pb.blocks[i] = dataclasses.replace(self.blocks[i], lower=lo, upper=hi)
+            # the same arithmetic as the build's (bound / scale): bit for bit what a fresh
+            # build with the same scale passes to IPOPT
+            pb.lbg[start:start + n] = lo / scale
+            pb.ubg[start:start + n] = hi / scale
+        pb.scene = scene_with_bounds(self.scene, requested)
+        return pb
+
+    def constraint_bounds(self, name) -> tuple:
+        """(lower, upper) of the scene's constraint ``name`` in physical units (+-inf when open)."""
+        if name in self.stroke_bounds:
+            return self.stroke_bounds[name]
+        self._constraint(name)
+        return next((b.lower, b.upper) for b in self.blocks
+                    if b.name == name and b.kind in ("constraint", "design constraint"))
+
+    def _constraint(self, name):
+        c = next((c for c in self.scene.constraints if c.name == name), None)
+        if c is None:
+            names = [c.name for c in self.scene.constraints]
+            raise SceneError(f"{self.scene.path}: with_bounds: the scene has no constraint {name!r}"
+                             + near_miss(name, names) + f" (its constraints: {', '.join(names) or 'none'})")
+        return c
+
+    def _requested_bounds(self, bounds) -> tuple:
+        """({constraint: (lower, upper)} after applying ``bounds`` to this problem's bounds,
+        [(constraint, side, value as a number), ...])."""
+        from .expressions import constant_value, parse
+
+        out, seen, requested = {}, set(), []
+        for item in bounds:
+            try:
+                name, side, value = item
+            except (TypeError, ValueError):
+                raise SceneError(f"with_bounds: expected (constraint name, 'min' or 'max', value), found {item!r}") from None
+            where = f"{self.scene.path}: with_bounds: [[constraints]] {name!r} {side}"
+            self._constraint(name)
+            if side not in ("min", "max"):
+                raise SceneError(f"{where}: the side must be 'min' or 'max', found {side!r}")
+            if (name, side) in seen:
+                raise SceneError(f"{where}: given twice; give each bound once")
+            seen.add((name, side))
+            if isinstance(value, str):
+                value = constant_value(parse(value, where), self.scene.parameter_values(), where)
+            try:
+                value = float(value)
+            except (TypeError, ValueError):
+                raise SceneError(f"{where}: expected a number or an expression, found {value!r}") from None
+            if math.isnan(value) or value == (-math.inf if side == "max" else math.inf):
+                raise SceneError(f"{where} = {value}: expected a finite number (or {'+' if side == 'max' else '-'}inf "
+                                 "to open the side)")
+            lo, hi = out.get(name, self.constraint_bounds(name))
+            out[name] = (value, hi) if side == "min" else (lo, value)
+            requested.append((name, side, value))
+        for name, (lo, hi) in out.items():
+            where = f"{self.scene.path}: with_bounds: [[constraints]] {name!r}"
+            if not (math.isfinite(lo) or math.isfinite(hi)):
+                raise SceneError(f"{where}: both sides would be open; a constraint needs min, max or both "
+                                 "(remove it from the scene to drop it)")
+            if lo > hi:
+                raise SceneError(f"{where}: min = {lo:.6g} exceeds max = {hi:.6g}; no design can satisfy it")
+        return out, requested
 
     def aggregates_of(self, w) -> np.ndarray:
         """The stroke aggregates' values (physical units) in an NLP solution vector ``w``."""
@@ -518,11 +646,22 @@ class DesignProblem:
             ok_upper = increasing == (ag.func == "max")
             if (math.isfinite(hi) and not ok_upper) or (math.isfinite(lo) and ok_upper):
                 raise SceneError(
-                    f"{self.scene.path}: {where}: a {'lower' if math.isfinite(lo) else 'upper'} "
+                    f"{self.scene.path}: {where}: a {'lower' if ok_upper else 'upper'} "
                     f"bound on {source!r} is not conservative in its {ag.func}(...) over the stroke; "
                     "write it so that the bound limits a max from above or a min from below "
                     "(e.g. max(L)/min(L) <= r, or max(L) - r*min(L) <= 0)"
                 )
+
+
+def scene_with_bounds(scene: Scene, bounds) -> Scene:
+    """A copy of ``scene`` with constraint bounds replaced: ((name, 'min'|'max', value), ...),
+    values as numbers (+-inf: the side is open)."""
+    new = {}
+    for name, side, value in bounds:
+        value = float(value)
+        new.setdefault(name, {})["lower" if side == "min" else "upper"] = repr(value) if math.isfinite(value) else None
+    constraints = tuple(dataclasses.replace(c, **new[c.name]) if c.name in new else c for c in scene.constraints)
+    return dataclasses.replace(scene, constraints=constraints)
 
 
 def quadrature(a, b, panels, order=4):

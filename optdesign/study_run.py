@@ -15,6 +15,12 @@ sweep's range, constraint bounds, stroke expressions, design variables' starts) 
 The reused problem keeps the scaling of the scene's own parameter values; its optimum agrees
 with a fresh ``optimise(scene.with_parameters(...))`` to IPOPT's tolerance (tests check 1e-7
 relative; 4e-10 was seen on the truck crane from half to three times the payload).
+
+The bounds of a Pareto axis need no build either: they are the NLP's lbg/ubg, and
+:meth:`~optdesign.design.DesignProblem.with_bounds` derives each point's problem from the one
+built for the scene's own bounds (sharing its NLP, solvers and start repair).  That problem
+keeps the base build's scales (a per-sample constraint's scale counts the scene's bounds, not
+the swept one), so a case's numbers still depend on nothing but its task.
 """
 from __future__ import annotations
 
@@ -27,7 +33,7 @@ import threading
 import time
 
 _LOCAL = threading.local()   # per thread: a Dask worker may run tasks in several threads
-_CACHE_SIZE = 8              # models kept per thread (a Pareto sweep builds one per bound)
+_CACHE_SIZE = 8              # models kept per thread (one per structural variant; bounds need none)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -65,9 +71,8 @@ def structural_names(scene, mode: str) -> set:
             if c.expr.is_aggregate:
                 used |= c.expr.outside_aggregates()[0]
         if scene.objective is not None:
-            from .expressions import parse
-
             from .errors import OptdesignError
+            from .expressions import parse
 
             try:
                 used |= parse(scene.objective.minimise, "[objective]").names()
@@ -93,15 +98,9 @@ def with_bounds(scene, bounds):
     """A copy of ``scene`` with constraint bounds replaced: ((name, 'min'|'max', value), ...)."""
     if not bounds:
         return scene
-    from .scene import Constraint
+    from .design import scene_with_bounds
 
-    new = {name: {} for name, _, _ in bounds}
-    for name, side, value in bounds:
-        new[name]["lower" if side == "min" else "upper"] = repr(float(value))
-    constraints = tuple(dataclasses.replace(c, **new[c.name]) if c.name in new else c
-                        for c in scene.constraints)
-    assert all(isinstance(c, Constraint) for c in constraints)
-    return dataclasses.replace(scene, constraints=constraints)
+    return scene_with_bounds(scene, bounds)
 
 
 # --- per-process caches ----------------------------------------------------------------------
@@ -119,14 +118,24 @@ def _scene(task: Task):
 
 
 def _model(task: Task, base, structural: dict):
-    """The built problem (optimise) or analysis (analyse) for the structural part of a case."""
+    """The problem and its start repair (optimise) or the analysis (analyse) of a case."""
+    if task.mode != "optimise":
+        return _built(task, base, structural, task.bounds)
+    problem, repair = _built(task, base, structural, ())
+    # the case's bounds on the problem built for the scene's own: no rebuild (the repair
+    # depends on the design box and the assembly margins only, not on constraint bounds)
+    return problem.with_bounds(task.bounds), repair
+
+
+def _built(task: Task, base, structural: dict, bounds: tuple):
+    """The built problem and repair (optimise) or analysis (analyse), cached per thread."""
     c = _cache()
-    key = json.dumps([task.scene_digest, task.mode, sorted(structural.items()), task.bounds,
+    key = json.dumps([task.scene_digest, task.mode, sorted(structural.items()), bounds,
                       task.settings], default=repr)
     if key in c.models:
         c.models[key] = c.models.pop(key)   # most recently used last
         return c.models[key]
-    scene = with_bounds(base.with_parameters(**structural), task.bounds)
+    scene = with_bounds(base.with_parameters(**structural), bounds)
     if task.mode == "optimise":
         from .design import DesignProblem, SolverSettings
         from .optimise import Repair
