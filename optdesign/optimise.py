@@ -11,7 +11,7 @@ import casadi as ca
 import numpy as np
 
 from .design import DesignProblem, SolverSettings
-from .peaks import continuous_maxima
+from .peaks import Request, continuous_maxima_rows
 from .scene import Scene
 
 
@@ -74,6 +74,96 @@ class OptimisationResult:
     settings: SolverSettings = field(default_factory=SolverSettings)
 
 
+# --- evaluation at many sweep values --------------------------------------------------------
+class MappedFunction:
+    """A CasADi Function (s, p) evaluated at a row of sweep values with one parameter vector.
+
+    CasADi's map over the values, called through its buffer interface: the arguments and
+    results are numpy arrays it reads and writes in place, so a call costs the evaluation
+    alone (about 3 us for the quantities and their s-derivatives at one s) instead of the
+    ~40 us of converting to and from DM; the numbers are CasADi's own.  One mapped Function
+    and buffer per number of values, built on first use (cheap).  Not for concurrent use:
+    each :class:`Solver` has its own."""
+
+    def __init__(self, func: ca.Function):
+        self.func = func
+        self._maps = {}
+        # the buffers hold an output's structural nonzeros only: where they go in the dense
+        # output (column-major), per output
+        self._dense = [(func.size1_out(j), func.sparsity_out(j).find()) for j in range(func.n_out())]
+        self._buffered = (all(func.sparsity_in(j).is_dense() for j in range(func.n_in()))
+                          and all(func.size2_out(j) == 1 for j in range(func.n_out())))
+
+    def __call__(self, s, p) -> list:
+        """Every output at every value of ``s``: a list of arrays (output rows x len(s))."""
+        s = np.asarray(s, float).ravel()
+        n = len(s)
+        mapped, buffer, run, s_in, p_in, outs = self._mapped(n)
+        if self._buffered:
+            s_in[:] = s
+            p_in[:] = np.asarray(p, float).ravel()
+            try:
+                run()
+                if buffer.ret() == 0:
+                    return [self._densify(o, j, n) for j, o in enumerate(outs)]
+            except RuntimeError:
+                pass
+        # CasADi's ordinary call: it reports a failure (or returns its NaNs) as it always has
+        return [np.asarray(o) for o in mapped(s[None, :], p)]
+
+    def _densify(self, nonzeros, j, n):
+        """Output j (rows x n, dense) from the n evaluations' structural nonzeros."""
+        rows, where = self._dense[j]
+        if len(where) == rows:  # a dense column: the nonzeros are the output itself
+            return nonzeros.reshape(n, rows).T.copy()
+        dense = np.zeros((n, rows))
+        dense[:, where] = nonzeros.reshape(n, len(where))
+        return dense.T
+
+    def _mapped(self, n):
+        if n not in self._maps:
+            mapped = self.func.map(f"{self.func.name()}_{n}", "serial", n, [1], [])
+            buffer, run = mapped.buffer()
+            s_in, p_in = np.zeros(n), np.zeros(self.func.nnz_in(1))
+            outs = [np.zeros(mapped.nnz_out(j)) for j in range(mapped.n_out())]
+            buffer.set_arg(0, memoryview(s_in))
+            buffer.set_arg(1, memoryview(p_in))
+            for j, out in enumerate(outs):
+                buffer.set_res(j, memoryview(out))
+            self._maps[n] = (mapped, buffer, run, s_in, p_in, outs)
+        return self._maps[n]
+
+
+@dataclass(frozen=True)
+class _Check:
+    """One comparison of the continuous check: the extrema of quantity row ``row`` (|v|, max
+    or min: ``sense``) against ``bound`` (an upper bound unless ``upper`` is False), in units
+    of ``scale``, with tolerance ``tol``.  kind 'rms': the rms block's peak, certified only."""
+
+    name: str
+    row: int
+    sense: str
+    scale: float
+    bound: float
+    tol: float
+    upper: bool = True
+    kind: str = "bound"
+
+    @property
+    def request(self) -> Request:
+        """Refine only the extrema within 10 % of the scale of the bound: the others cannot matter."""
+        sign = 1.0 if self.upper else -1.0
+        limit = sign * self.bound / self.scale - 0.1 if math.isfinite(self.bound) else None
+        return Request(self.row, self.sense, None if limit is None else limit * self.scale)
+
+    def amount(self, value) -> float:
+        """By how much ``value`` exceeds the bound, in units of the scale (< 0: within it)."""
+        if self.sense == "abs":
+            return (abs(value) - self.bound) / self.scale
+        sign = 1.0 if self.upper else -1.0
+        return (sign * value - sign * self.bound) / self.scale
+
+
 # --- one start -----------------------------------------------------------------------------
 class Solver:
     """Solves a :class:`DesignProblem` from one start by exchange of sample points."""
@@ -84,6 +174,30 @@ class Solver:
         # start begins with them, so that a start that reaches the same optimum needs no
         # exchange step
         self.learned = None
+        # the per-sample quantities, and with their s-derivatives, at many sweep values
+        self.quantities = MappedFunction(problem.quantity)
+        self.derivatives = MappedFunction(problem.quantity_derivatives)
+        self._start_memo = None  # (key, quantities) of the last start_quantities call
+
+    def quantities_at(self, x, fixed, s_values=None) -> np.ndarray:
+        """Per-sample quantities (rows x values) at design x: ``DesignProblem.evaluate_grid``'s
+        numbers, at a fraction of its cost (no DM conversions)."""
+        pb = self.pb
+        s_values = pb.s_grid if s_values is None else s_values
+        return self.quantities(s_values, pb.full_parameters(x, fixed))[0]
+
+    def start_quantities(self, x0, fixed, s_points) -> np.ndarray:
+        """The quantities at a start (clipped into the design bounds) at sample points
+        ``s_points``.  :func:`solve_start` asks to see whether the start assembles, then
+        :meth:`solve` at the same points for the start's epigraph and aggregates: the last
+        answer is kept, so asking again costs nothing.  Read only."""
+        pb = self.pb
+        x0 = np.clip(np.asarray(x0, float), pb.lower, pb.upper)
+        s_points = np.asarray(s_points, float)
+        key = (x0.tobytes(), np.asarray(fixed, float).tobytes(), s_points.tobytes())
+        if self._start_memo is None or self._start_memo[0] != key:
+            self._start_memo = (key, self.quantities_at(x0, fixed, s_points))
+        return self._start_memo[1]
 
     def fixed_values(self, fixed=None):
         pb = self.pb
@@ -133,7 +247,7 @@ class Solver:
         """One IPOPT solve: warm from the last solution's multipliers after an exchange step
         (cold again if that fails).  Returns (result, stats, iterations)."""
         pb = self.pb
-        bounds = dict(lbx=pb.lbw, ubx=pb.ubw, lbg=pb.lbg, ubg=pb.ubg)
+        bounds = {"lbx": pb.lbw, "ubx": pb.ubw, "lbg": pb.lbg, "ubg": pb.ubg}
         iterations = 0
         if last is not None:
             res = pb.warm_solver(x0=w, p=p, lam_x0=last["lam_x"], lam_g0=last["lam_g"], **bounds)
@@ -157,7 +271,7 @@ class Solver:
     def _initial_w(self, x0, fixed, s_pts):
         pb = self.pb
         x0 = np.clip(np.asarray(x0, float), pb.lower, pb.upper)
-        q = pb.evaluate_grid(x0, fixed, s_pts)
+        q = self.start_quantities(x0, fixed, s_pts)
         if not np.all(np.isfinite(q)):
             return "skipped: the start does not assemble and could not be repaired"
         t = []
@@ -169,67 +283,63 @@ class Solver:
     def continuous_check(self, x, fixed, w, s_points):
         """Worst values of every block over the continuous stroke at design x.
 
-        Returns (violations, certified, sampled): violations is a list of (amount, s) with
+        Returns (violations, certified, sampled): violations is a list of (amount, s, row) with
         amount > 0 where a bound (or the epigraph) is exceeded by more than its tolerance,
-        sorted largest first, near-active extrema included with amount <= 0."""
+        sorted largest first, near-active extrema included with amount <= 0.  The extrema of
+        all blocks are refined together (:func:`~optdesign.peaks.continuous_maxima_rows`: one
+        evaluation of every row per Newton step of all brackets)."""
         pb, st = self.pb, self.pb.settings
         p = pb.full_parameters(x, fixed)
         grid = pb.s_grid
-        V = pb.evaluate_grid(x, fixed)
-        d = pb.quantity_derivatives
+        V = self.quantities(grid, p)[0]
+        checks = self._checks(p, w, s_points)
+        extrema = continuous_maxima_rows(lambda s: self.derivatives(s, p), grid, V, [c.request for c in checks])
+        out, certified, sampled = [], {}, {}
+        for c, ext in zip(checks, extrema):
+            vals = V[c.row]
+            certified[(c.name, c.sense)] = ext[0].value
+            sampled[(c.name, c.sense)] = float(np.max(np.abs(vals)) if c.sense == "abs" else (np.max(vals) if c.sense == "max" else np.min(vals)))
+            if c.kind == "rms":
+                # the quadrature of the NLP against one with twice the panels
+                rms, finer = pb.rms(x, fixed), pb.rms(x, fixed, 2 * pb.rms_panels)
+                certified[(c.name, "rms")], sampled[(c.name, "rms")] = finer, pb.rms_sampled(x, fixed)
+                out.append((abs(rms - finer) / max(finer, 1e-300) - st.rms_tol, 0.5 * (grid[0] + grid[-1]), None))
+            else:
+                out += [(c.amount(e.value) - c.tol, e.s, c.row) for e in ext]
+        out.sort(key=lambda v: v[0], reverse=True)
+        return out, certified, sampled
 
-        def at(row):
-            def evaluate(s):
-                out = d(s, p)
-                return float(out[0][row]), float(out[1][row]), float(out[2][row])
-            return evaluate
-
+    def _checks(self, p, w, s_points) -> list:
+        """What the continuous check compares, in the order it reports: the epigraph of the
+        peak (or the rms block's peak, bound-free), each constraint's upper then lower bound,
+        each aggregate against its NLP value, and the dead-centre guard."""
+        pb, st = self.pb, self.pb.settings
         nd = len(pb.design_names)
         t = float(w[nd]) if pb.n_t else None
         a = pb.aggregates_of(w)
-        out, certified, sampled = [], {}, {}
-
-        def check(name, row, sense, scale, bound, tol, upper=True):
-            vals = V[row]
-            # only extrema near the bound can matter: refine those within 10 % of the scale
-            sign = 1.0 if upper else -1.0
-            limit = sign * bound / scale - 0.1 if math.isfinite(bound) else None
-            ext = continuous_maxima(at(row), grid, vals, sense, only_above=None if limit is None else limit * scale)
-            certified[(name, sense)] = ext[0].value
-            sampled[(name, sense)] = float(np.max(np.abs(vals)) if sense == "abs" else (np.max(vals) if sense == "max" else np.min(vals)))
-            for e in ext:
-                amount = (sign * e.value - sign * bound) / scale if sense != "abs" else (abs(e.value) - bound) / scale
-                out.append((amount - tol, e.s, row))
-
-        at_points = pb.evaluate_grid(x, fixed, s_points)
+        checks = []
         for b in pb.blocks:
             if b.kind == "peak":
                 # the epigraph's own value: the largest |v| at the NLP's points (IPOPT may leave t
                 # a hair below it, within its constraint tolerance)
+                at_points = self.quantities(s_points, p)[0]
                 reference = max(t * pb.f_ref, float(np.max(np.abs(at_points[b.index]))))
-                check(b.name, b.index, "abs", pb.f_ref, reference, st.peak_tol * reference / pb.f_ref)
+                checks.append(_Check(b.name, b.index, "abs", pb.f_ref, reference, st.peak_tol * reference / pb.f_ref))
             elif b.kind == "rms":
-                ext = continuous_maxima(at(b.index), grid, V[b.index], "abs")
-                certified[(b.name, "abs")] = ext[0].value
-                sampled[(b.name, "abs")] = float(np.max(np.abs(V[b.index])))
-                # the quadrature of the NLP against one with twice the panels
-                rms, finer = pb.rms(x, fixed), pb.rms(x, fixed, 2 * pb.rms_panels)
-                certified[(b.name, "rms")], sampled[(b.name, "rms")] = finer, pb.rms_sampled(x, fixed)
-                out.append((abs(rms - finer) / max(finer, 1e-300) - st.rms_tol, 0.5 * (grid[0] + grid[-1]), None))
+                checks.append(_Check(b.name, b.index, "abs", 1.0, math.inf, 0.0, kind="rms"))
             elif b.kind in ("constraint", "design constraint", "margin"):
                 if math.isfinite(b.upper):
-                    check(b.name, b.index, "max", b.scale, b.upper, st.constraint_tol)
+                    checks.append(_Check(b.name, b.index, "max", b.scale, b.upper, st.constraint_tol))
                 if math.isfinite(b.lower):
-                    check(b.name, b.index, "min", b.scale, b.lower, st.constraint_tol, upper=False)
+                    checks.append(_Check(b.name, b.index, "min", b.scale, b.lower, st.constraint_tol, upper=False))
         for i, ag in enumerate(pb.aggregates):
             if ag.func == "max":
-                check(ag.name, ag.index, "max", ag.scale, float(a[i]), st.constraint_tol)
+                checks.append(_Check(ag.name, ag.index, "max", ag.scale, float(a[i]), st.constraint_tol))
             else:
-                check(ag.name, ag.index, "min", ag.scale, float(a[i]), st.constraint_tol, upper=False)
-        check("dead centre", pb.k_row, "min" if pb.k_sign > 0 else "max", pb.k_ref,
-              pb.k_sign * st.dead_centre_margin * pb.k_ref, 0.0, upper=pb.k_sign < 0)
-        out.sort(key=lambda v: v[0], reverse=True)
-        return out, certified, sampled
+                checks.append(_Check(ag.name, ag.index, "min", ag.scale, float(a[i]), st.constraint_tol, upper=False))
+        checks.append(_Check("dead centre", pb.k_row, "min" if pb.k_sign > 0 else "max", pb.k_ref,
+                             pb.k_sign * st.dead_centre_margin * pb.k_ref, 0.0, upper=pb.k_sign < 0))
+        return checks
 
     def _slots(self, violations, s_now, rows, lam_g):
         """Sample points for the slots, and the row whose extremum each one follows.
@@ -315,8 +425,7 @@ def solve_start(solver: Solver, repair: Repair, index, x0, fixed=None) -> tuple:
     fixed_v = solver.fixed_values(fixed)
     repaired = False
     start = dict(zip(pb.design_names, map(float, x0)))
-    q = pb.evaluate_grid(np.clip(x0, pb.lower, pb.upper), fixed_v,
-                         np.r_[pb.base_points, pb.initial_slots])
+    q = solver.start_quantities(x0, fixed_v, np.r_[pb.base_points, pb.initial_slots])
     if not np.all(np.isfinite(q)):
         fixed_x = repair(np.asarray(x0, float), fixed_v)
         if fixed_x is None:
