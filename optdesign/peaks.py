@@ -155,7 +155,10 @@ def _refinement(lo, hi, s0, sign, s_tol):
     It yields a tuple of sweep values and is sent back [(v, dv/ds, d2v/ds2)] at them; it
     returns (s, v(s)).  First it asks for the bracket's ends and its grid point at once (dv/ds
     must change sign on [lo, hi], else the grid point is the answer), then for one value per
-    step (its last step's value, or the point it converged to)."""
+    step (its last step's value, or the point it converged to).  A Newton step is taken when
+    it stays in the closed bracket: one that lands on the end just moved to s is a step of
+    (about) nothing, i.e. convergence (rejecting it, as a strict test would, leaves some 45
+    bisections of the whole bracket to find the same point again)."""
     (_, d_lo, _), (_, d_hi, _), at_s0 = yield (lo, hi, s0)
     if sign * float(d_lo) <= 0 or sign * float(d_hi) >= 0:
         return float(s0), float(at_s0[0])
@@ -166,7 +169,7 @@ def _refinement(lo, hi, s0, sign, s_tol):
             lo = s
         else:
             hi = s
-        s_new = s - d1 / d2 if d2 < 0 and lo < s - d1 / d2 < hi else 0.5 * (lo + hi)
+        s_new = s - d1 / d2 if d2 < 0 and lo <= s - d1 / d2 <= hi else 0.5 * (lo + hi)
         if abs(s_new - s) <= s_tol * max(1.0, abs(s)) or hi - lo <= s_tol * max(1.0, abs(s)):
             (v_new, _, _), = yield (s_new,)
             return s_new, float(v_new)

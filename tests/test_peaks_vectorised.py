@@ -164,6 +164,21 @@ def test_newton_falls_back_to_bisection(f, c):
     assert abs(ext[0].s - c) <= 1e-12
 
 
+def test_a_newton_step_that_does_not_move_is_convergence():
+    """On -(s - c)^2 Newton lands on c in one step; there dv/ds = 0 (or a round-off), so the
+    next step is no step at all and lies on the bracket's new end: that is convergence, not a
+    step out of the bracket to be replaced by some 45 bisections."""
+    asked = []
+
+    def evaluate(s):
+        asked.append(float(s))
+        return quadratic(0.13)(s)
+
+    s, v = refine(evaluate, 0.0, 0.2, 0.1, 1.0)
+    assert abs(s - 0.13) <= 1e-15 and abs(v) <= 1e-30
+    assert len(asked) <= 6  # the bracket's ends and grid point, the Newton point, the answer
+
+
 def test_no_sign_change_gives_the_grid_point():
     """dv/ds > 0 on the whole bracket (v = s): the grid point itself, not a refined one."""
     assert refine(lambda s: (s, 1.0, 0.0), 0.1, 0.3, 0.2, 1.0) == (0.2, 0.2)
