@@ -195,9 +195,14 @@ class DesignProblem:
         for a in self.aggregates:
             a.index = len(rows)
             rows.append(mech.value(a.inner, a.name))
+        # a construction that does not move with the sweep has one margin, not one per point
+        # (repeated rows would be degenerate and cost time)
+        self.constant_margins = set()
         for margin in mech.margins:
             if margin.kind == "loop":
                 continue
+            if not ca.depends_on(margin.expr, mech.s):
+                self.constant_margins.add(len(rows))
             self.blocks.append(Block(f"assembly of {margin.construction}", "margin", len(rows), 0.0, math.inf, 1.0))
             rows.append(margin.expr)
         self.k_row = len(rows)
@@ -389,7 +394,8 @@ class DesignProblem:
         for b in self.blocks:
             if b.kind in ("peak", "rms"):
                 continue
-            row = (Q[b.index, 0] if b.kind == "design constraint" else Q[b.index, :].T) / b.scale
+            one = b.kind == "design constraint" or b.index in self.constant_margins
+            row = (Q[b.index, 0] if one else Q[b.index, :].T) / b.scale
             add(b.name, b.kind, row, b.lower / b.scale, b.upper / b.scale, b.scale)
         for i, ag in enumerate(self.aggregates):
             row = Q[ag.index, :].T / ag.scale
