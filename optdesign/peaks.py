@@ -15,6 +15,7 @@ of one per Newton step of every bracket).  Both drivers give the same numbers.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -135,11 +136,11 @@ def refine_all(evaluate_many, brackets, s_tol=1e-13):
     results = [None] * len(runs)
     asks = {k: run.send(None) for k, run in enumerate(runs)}
     while asks:
-        points = [s for ask in asks.values() for s in ask]
-        V, D1, D2 = (np.asarray(a, float) for a in evaluate_many(np.array(points, float)))
+        distinct, column = _distinct(s for ask in asks.values() for s in ask)
+        V, D1, D2 = (np.asarray(a, float) for a in evaluate_many(np.array(distinct, float)))
         taken, next_asks = 0, {}
         for k, ask in asks.items():
-            row, cols = brackets[k][0], range(taken, taken + len(ask))
+            row, cols = brackets[k][0], column[taken:taken + len(ask)]
             taken += len(ask)
             try:
                 next_asks[k] = runs[k].send([(V[row, c], D1[row, c], D2[row, c]) for c in cols])
@@ -147,6 +148,17 @@ def refine_all(evaluate_many, brackets, s_tol=1e-13):
                 results[k] = done.value
         asks = next_asks
     return results
+
+
+def _distinct(points):
+    """The distinct values among ``points`` and the index of each point among them.  Brackets
+    share grid points (neighbouring maxima, rows with maxima at the same samples, every
+    sample of a flat row): each is evaluated once.  +0.0 and -0.0 are kept apart, so every
+    bracket is answered at exactly the value it asked for."""
+    index, column = {}, []
+    for s in points:
+        column.append(index.setdefault((s, math.copysign(1.0, s)), len(index)))
+    return [s for s, _ in index], column
 
 
 def _refinement(lo, hi, s0, sign, s_tol):

@@ -144,6 +144,21 @@ def test_a_plateau_gives_its_grid_points():
     assert interior == [(s, 1.0) for s in on_plateau]
 
 
+def test_a_flat_row_costs_one_evaluation_per_sample():
+    """A constant row: every interior sample is a grid maximum, with no sign change of v' on
+    its bracket.  The brackets share their samples: one call, each sample evaluated once."""
+    grid = np.linspace(0.0, 1.0, 21)
+    calls = []
+
+    def evaluate_many(s):
+        calls.append(sorted(s))
+        return many(lambda x: (2.5, 0.0, 0.0))(s)
+
+    ext = continuous_maxima_rows(evaluate_many, grid, np.full((1, 21), 2.5), [Request(0, "max")])[0]
+    assert sorted(e.s for e in ext) == sorted(grid) and all(e.value == 2.5 for e in ext)
+    assert calls == [sorted(grid)]
+
+
 @pytest.mark.parametrize("f, c", [(lorentzian(0.53, 0.01), 0.53), (hyperbola(0.47, 0.004), 0.47)])
 def test_newton_falls_back_to_bisection(f, c):
     """The grid point 0.5 is the grid maximum; its bracket is [0.4, 0.6].  Newton is refused at
