@@ -428,6 +428,9 @@ class DesignProblem:
                 "ipopt.mumps_scaling": 0, "ipopt.mumps_permuting_scaling": 0,
                 # no iterative refinement unless the residual asks for it
                 "ipopt.min_refinement_steps": 0,
+                # IPOPT steps back from a trial design that does not assemble (NaN rows): a
+                # normal event of the line search, not a warning for the user
+                "show_eval_warnings": False,
                 "error_on_fail": False}
         if self.objective_kind == "rms":
             # the exact Hessian of hundreds of mapped quadrature nodes costs more than the

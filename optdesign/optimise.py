@@ -377,6 +377,9 @@ class Solver:
 
 
 # --- repair of starts that do not assemble ---------------------------------------------------
+IPOPT_BOUND_PUSH = 0.01  # IPOPT's default bound_push and bound_frac, on the design scaled to [0, 1]
+
+
 class Repair:
     """Projects a start onto designs whose constructions assemble at the sample points:
     min |z - z0|^2 subject to every dyad/slider margin >= 1e-3 of its start scale."""
@@ -402,7 +405,8 @@ class Repair:
         g = ca.vec(f.map(len(pts))(ca.DM(pts).T, p))
         nlp = {"x": z, "p": ca.vertcat(z0, fixed), "f": ca.sumsqr(z - z0), "g": g}
         self.solver = ca.nlpsol("repair", "ipopt", nlp, {
-            "ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "error_on_fail": False})
+            "ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "error_on_fail": False,
+            "show_eval_warnings": False})
         self.n_g = int(g.numel())
 
     def __call__(self, x0, fixed):
@@ -410,8 +414,12 @@ class Repair:
         if not self.ok:
             return None
         z0 = pb.to_z(np.clip(x0, pb.lower, pb.upper))
-        lb = np.where(np.isfinite(pb.lower), 0.0, -np.inf)
-        ub = np.where(np.isfinite(pb.upper), 1.0, np.inf)
+        # inside the box that IPOPT starts in: it moves a start closer than bound_push = 0.01
+        # (of the scaled box) to a bound inward, where a repair made at the bound can fail to
+        # assemble (level-luffing path scene: repaired onto xE's bound, moved 0.035 m inward,
+        # NaN at iteration 0)
+        lb = np.where(np.isfinite(pb.lower), IPOPT_BOUND_PUSH, -np.inf)
+        ub = np.where(np.isfinite(pb.upper), 1.0 - IPOPT_BOUND_PUSH, np.inf)
         res = self.solver(x0=z0, p=np.r_[z0, fixed], lbx=lb, ubx=ub, lbg=1e-3, ubg=np.inf)
         if not self.solver.stats()["success"]:
             return None

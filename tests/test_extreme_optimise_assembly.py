@@ -154,3 +154,30 @@ def test_start_reports_do_not_contradict_themselves(result):
         if report.status.startswith("skipped"):
             assert ("repaired start" in report.status) == report.repaired, report
             assert not report.repaired, report
+
+
+def test_a_repaired_start_lies_where_ipopt_will_start():
+    """IPOPT moves a start closer than bound_push (0.01 of the scaled box) to a bound inward; a
+    repair must land inside that box, or the design IPOPT actually starts from may not
+    assemble.  problems/level_luffing_path.toml, whose connector box admits four-bars that do
+    not assemble: random start 2 used to be repaired onto xE's lower bound, moved 0.035 m
+    inward by IPOPT, and failed with NaN at iteration 0.  Every repaired start lies inside the
+    box and its solve succeeds."""
+    from pathlib import Path
+
+    from optdesign.design import DesignProblem
+    from optdesign.optimise import Repair, Solver, draw_starts, solve_start
+    from optdesign.scenefile import load
+
+    pb = DesignProblem(load(Path(__file__).resolve().parents[1] / "problems" / "level_luffing_path.toml"))
+    solver, repair = Solver(pb), Repair(pb)
+    fixed = pb.mech.parameter_values[pb.fixed_index]
+    repaired = 0
+    for i, x0 in enumerate(draw_starts(pb, 6, 0)):
+        report, sol = solve_start(solver, repair, i, x0)
+        if report.repaired:
+            z = pb.to_z(repair(x0, fixed))
+            assert np.all(z >= 0.01 - 1e-9) and np.all(z <= 0.99 + 1e-9), (i, z)
+            assert report.success, (i, report.status)
+            repaired += 1
+    assert repaired >= 2
