@@ -13,8 +13,7 @@ them would take minutes, so an evenly spread sample of them is timed and its mea
 
     python benchmarks/bench_study.py [--sample 50]
 
-writes its section of results/bench.md (benchmarks/benchfile.py) and the same text to
-results/study_bench.md."""
+writes its section of results/bench.md (benchmarks/benchfile.py)."""
 from __future__ import annotations
 
 import argparse
@@ -111,11 +110,8 @@ graphs, derivatives, IPOPT): mean {np.mean(times) * 1e3:.0f} ms per call (min {n
 {rel:.1e} relative (both certified over the continuous stroke).
 """
     path = write_section("study", md)
-    from optdesign.report import write_atomic
-
-    write_atomic(ROOT / "results" / "study_bench.md", md)
     print(md)
-    print(f"wrote {path} and results/study_bench.md", file=sys.stderr)
+    print(f"wrote {path}", file=sys.stderr)
 
 
 if __name__ == "__main__":
