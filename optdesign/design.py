@@ -36,6 +36,7 @@ import numpy as np
 
 from .errors import SceneError
 from .expressions import Call, Expression, Name, evaluate, near_miss
+from .mapped import MappedFunction
 from .mechanism import Mechanism
 from .reduction import ReducedModel
 from .scene import Scene
@@ -209,7 +210,7 @@ class DesignProblem:
         rows.append(self.model.k)
         self.rows = rows
         self.quantity = mech.function("quantities", {"v": ca.vertcat(*rows)})
-        self._maps = {}  # number of samples -> the mapped quantity function
+        self._quantity_many = MappedFunction(self.quantity)  # at many samples (evaluate_grid)
         v = ca.vertcat(*rows)
         dv = mech.ds(v)
         self.quantity_derivatives = mech.function("quantities_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)})
@@ -262,11 +263,7 @@ class DesignProblem:
     def evaluate_grid(self, x, fixed=None, s_values=None):
         """Per-sample quantities (rows x samples) at design x on the scene's grid."""
         s_values = self.s_grid if s_values is None else np.asarray(s_values, float)
-        p = self.full_parameters(x, fixed)
-        n = len(s_values)
-        if n not in self._maps:
-            self._maps[n] = self.quantity.map(n)
-        return np.asarray(self._maps[n](s_values[None, :], p))
+        return self._quantity_many(s_values, self.full_parameters(x, fixed))[0]
 
     def nlp_parameters(self, fixed, s_points, x_ref=None, tracking=None):
         """The NLP's parameter vector: fixed parameters, sample points, tracking of the points."""

@@ -11,6 +11,7 @@ import casadi as ca
 import numpy as np
 
 from .design import DesignProblem, SolverSettings
+from .mapped import MappedFunction
 from .peaks import Request, continuous_maxima_rows
 from .scene import Scene
 
@@ -74,66 +75,6 @@ class OptimisationResult:
     settings: SolverSettings = field(default_factory=SolverSettings)
 
 
-# --- evaluation at many sweep values --------------------------------------------------------
-class MappedFunction:
-    """A CasADi Function (s, p) evaluated at a row of sweep values with one parameter vector.
-
-    CasADi's map over the values, called through its buffer interface: the arguments and
-    results are numpy arrays it reads and writes in place, so a call costs the evaluation
-    alone (about 3 us for the quantities and their s-derivatives at one s) instead of the
-    ~40 us of converting to and from DM; the numbers are CasADi's own.  One mapped Function
-    and buffer per number of values, built on first use (cheap).  Not for concurrent use:
-    each :class:`Solver` has its own."""
-
-    def __init__(self, func: ca.Function):
-        self.func = func
-        self._maps = {}
-        # the buffers hold an output's structural nonzeros only: where they go in the dense
-        # output (column-major), per output
-        self._dense = [(func.size1_out(j), func.sparsity_out(j).find()) for j in range(func.n_out())]
-        self._buffered = (all(func.sparsity_in(j).is_dense() for j in range(func.n_in()))
-                          and all(func.size2_out(j) == 1 for j in range(func.n_out())))
-
-    def __call__(self, s, p) -> list:
-        """Every output at every value of ``s``: a list of arrays (output rows x len(s))."""
-        s = np.asarray(s, float).ravel()
-        n = len(s)
-        mapped, buffer, run, s_in, p_in, outs = self._mapped(n)
-        if self._buffered:
-            s_in[:] = s
-            p_in[:] = np.asarray(p, float).ravel()
-            try:
-                run()
-                if buffer.ret() == 0:
-                    return [self._densify(o, j, n) for j, o in enumerate(outs)]
-            except RuntimeError:
-                pass
-        # CasADi's ordinary call: it reports a failure (or returns its NaNs) as it always has
-        return [np.asarray(o) for o in mapped(s[None, :], p)]
-
-    def _densify(self, nonzeros, j, n):
-        """Output j (rows x n, dense) from the n evaluations' structural nonzeros."""
-        rows, where = self._dense[j]
-        if len(where) == rows:  # a dense column: the nonzeros are the output itself
-            return nonzeros.reshape(n, rows).T.copy()
-        dense = np.zeros((n, rows))
-        dense[:, where] = nonzeros.reshape(n, len(where))
-        return dense.T
-
-    def _mapped(self, n):
-        if n not in self._maps:
-            mapped = self.func.map(f"{self.func.name()}_{n}", "serial", n, [1], [])
-            buffer, run = mapped.buffer()
-            s_in, p_in = np.zeros(n), np.zeros(self.func.nnz_in(1))
-            outs = [np.zeros(mapped.nnz_out(j)) for j in range(mapped.n_out())]
-            buffer.set_arg(0, memoryview(s_in))
-            buffer.set_arg(1, memoryview(p_in))
-            for j, out in enumerate(outs):
-                buffer.set_res(j, memoryview(out))
-            self._maps[n] = (mapped, buffer, run, s_in, p_in, outs)
-        return self._maps[n]
-
-
 @dataclass(frozen=True)
 class _Check:
     """One comparison of the continuous check: the extrema of quantity row ``row`` (|v|, max
@@ -174,30 +115,8 @@ class Solver:
         # start begins with them, so that a start that reaches the same optimum needs no
         # exchange step
         self.learned = None
-        # the per-sample quantities, and with their s-derivatives, at many sweep values
-        self.quantities = MappedFunction(problem.quantity)
+        # the per-sample quantities' s-derivatives at many sweep values (the continuous check)
         self.derivatives = MappedFunction(problem.quantity_derivatives)
-        self._start_memo = None  # (key, quantities) of the last start_quantities call
-
-    def quantities_at(self, x, fixed, s_values=None) -> np.ndarray:
-        """Per-sample quantities (rows x values) at design x: ``DesignProblem.evaluate_grid``'s
-        numbers, at a fraction of its cost (no DM conversions)."""
-        pb = self.pb
-        s_values = pb.s_grid if s_values is None else s_values
-        return self.quantities(s_values, pb.full_parameters(x, fixed))[0]
-
-    def start_quantities(self, x0, fixed, s_points) -> np.ndarray:
-        """The quantities at a start (clipped into the design bounds) at sample points
-        ``s_points``.  :func:`solve_start` asks to see whether the start assembles, then
-        :meth:`solve` at the same points for the start's epigraph and aggregates: the last
-        answer is kept, so asking again costs nothing.  Read only."""
-        pb = self.pb
-        x0 = np.clip(np.asarray(x0, float), pb.lower, pb.upper)
-        s_points = np.asarray(s_points, float)
-        key = (x0.tobytes(), np.asarray(fixed, float).tobytes(), s_points.tobytes())
-        if self._start_memo is None or self._start_memo[0] != key:
-            self._start_memo = (key, self.quantities_at(x0, fixed, s_points))
-        return self._start_memo[1]
 
     def fixed_values(self, fixed=None):
         pb = self.pb
@@ -271,7 +190,7 @@ class Solver:
     def _initial_w(self, x0, fixed, s_pts):
         pb = self.pb
         x0 = np.clip(np.asarray(x0, float), pb.lower, pb.upper)
-        q = self.start_quantities(x0, fixed, s_pts)
+        q = pb.evaluate_grid(x0, fixed, s_pts)
         if not np.all(np.isfinite(q)):
             return "skipped: the start does not assemble and could not be repaired"
         t = []
@@ -291,8 +210,8 @@ class Solver:
         pb, st = self.pb, self.pb.settings
         p = pb.full_parameters(x, fixed)
         grid = pb.s_grid
-        V = self.quantities(grid, p)[0]
-        checks = self._checks(p, w, s_points)
+        V = pb.evaluate_grid(x, fixed)
+        checks = self._checks(x, fixed, w, s_points)
         extrema = continuous_maxima_rows(lambda s: self.derivatives(s, p), grid, V, [c.request for c in checks])
         out, certified, sampled = [], {}, {}
         for c, ext in zip(checks, extrema):
@@ -309,7 +228,7 @@ class Solver:
         out.sort(key=lambda v: v[0], reverse=True)
         return out, certified, sampled
 
-    def _checks(self, p, w, s_points) -> list:
+    def _checks(self, x, fixed, w, s_points) -> list:
         """What the continuous check compares, in the order it reports: the epigraph of the
         peak (or the rms block's peak, bound-free), each constraint's upper then lower bound,
         each aggregate against its NLP value, and the dead-centre guard."""
@@ -322,7 +241,7 @@ class Solver:
             if b.kind == "peak":
                 # the epigraph's own value: the largest |v| at the NLP's points (IPOPT may leave t
                 # a hair below it, within its constraint tolerance)
-                at_points = self.quantities(s_points, p)[0]
+                at_points = pb.evaluate_grid(x, fixed, s_points)
                 reference = max(t * pb.f_ref, float(np.max(np.abs(at_points[b.index]))))
                 checks.append(_Check(b.name, b.index, "abs", pb.f_ref, reference, st.peak_tol * reference / pb.f_ref))
             elif b.kind == "rms":
@@ -433,7 +352,7 @@ def solve_start(solver: Solver, repair: Repair, index, x0, fixed=None) -> tuple:
     fixed_v = solver.fixed_values(fixed)
     repaired = False
     start = dict(zip(pb.design_names, map(float, x0)))
-    q = solver.start_quantities(x0, fixed_v, np.r_[pb.base_points, pb.initial_slots])
+    q = pb.evaluate_grid(np.clip(x0, pb.lower, pb.upper), fixed_v, np.r_[pb.base_points, pb.initial_slots])
     if not np.all(np.isfinite(q)):
         fixed_x = repair(np.asarray(x0, float), fixed_v)
         if fixed_x is None:

@@ -94,15 +94,6 @@ def _dependencies(scene, names: set) -> set:
     return out
 
 
-def with_bounds(scene, bounds):
-    """A copy of ``scene`` with constraint bounds replaced: ((name, 'min'|'max', value), ...)."""
-    if not bounds:
-        return scene
-    from .design import scene_with_bounds
-
-    return scene_with_bounds(scene, bounds)
-
-
 # --- per-process caches ----------------------------------------------------------------------
 def _cache():
     if not hasattr(_LOCAL, "scenes"):
@@ -135,7 +126,11 @@ def _built(task: Task, base, structural: dict, bounds: tuple):
     if key in c.models:
         c.models[key] = c.models.pop(key)   # most recently used last
         return c.models[key]
-    scene = with_bounds(base.with_parameters(**structural), bounds)
+    scene = base.with_parameters(**structural)
+    if bounds:
+        from .design import scene_with_bounds
+
+        scene = scene_with_bounds(scene, bounds)
     if task.mode == "optimise":
         from .design import DesignProblem, SolverSettings
         from .optimise import Repair
