@@ -384,13 +384,16 @@ class Simulator:
             else:
                 b = c
         p = self.mech.parameter_values
-        sdd = float(self.outputs(xa, p)[3])
+        out = self.outputs(xa, p)
+        qd, sdd = float(out[1]), float(out[3])
         if not direction * sdd < 0 or abs(xa[1]) > 1e-3 * speed_scale:
             return None
         tau = -xa[1] / sdd
         x = xa.copy()
         x[0] += 0.5 * xa[1] * tau
         x[1] = 0.0
+        if self.rotary:  # the carried drive angle moves with s: dq = k ds, k = qd / sd
+            x[2] += qd / xa[1] * 0.5 * xa[1] * tau
         nudge = 1e-9 * speed_scale  # held: either way out of rest decelerates back to it
         ahead, back = (float(self.outputs(np.r_[x[0], d * nudge, x[2:]], p)[3]) for d in (direction, -direction))
         if not (direction * ahead < 0 and direction * back > 0):
