@@ -139,7 +139,7 @@ class Solver:
             return w
         iterations, res = 0, None
         for exchange in range(st.max_exchanges + 1):
-            res, stats, its = self._ipopt(w, pb.nlp_parameters(fixed, s_pts, x_ref, tracking), res)
+            res, stats, its = self._ipopt(w, pb.nlp_parameters(fixed, s_pts, x_ref, tracking), pb.row_bounds(s_pts), res)
             iterations += its
             status = stats["return_status"]
             w = np.asarray(res["x"]).ravel()
@@ -162,11 +162,11 @@ class Solver:
         return self._solution(res, x, fixed, s_now, status + " (exchange did not converge)", False,
                               iterations, exchange, certified, sampled, False)
 
-    def _ipopt(self, w, p, last=None):
+    def _ipopt(self, w, p, row_bounds, last=None):
         """One IPOPT solve: warm from the last solution's multipliers after an exchange step
         (cold again if that fails).  Returns (result, stats, iterations)."""
         pb = self.pb
-        bounds = {"lbx": pb.lbw, "ubx": pb.ubw, "lbg": pb.lbg, "ubg": pb.ubg}
+        bounds = {"lbx": pb.lbw, "ubx": pb.ubw, "lbg": row_bounds[0], "ubg": row_bounds[1]}
         iterations = 0
         if last is not None:
             res = pb.warm_solver(x0=w, p=p, lam_x0=last["lam_x"], lam_g0=last["lam_g"], **bounds)
@@ -279,7 +279,13 @@ class Solver:
         for s, row in candidates:
             if len(chosen) == n_slots:
                 break
-            if all(abs(s - c) > 1e-9 for c in chosen) and np.min(np.abs(pb.base_points - s)) > 1e-9:
+            base = int(np.argmin(np.abs(pb.base_points - s)))
+            on_base = abs(pb.base_points[base] - s) <= 1e-9
+            # no slot on a base point, where every block is imposed already, except for a row
+            # imposed only at the ends and the slots (stroke aggregate, dead-centre guard)
+            # between the ends: there the other blocks' repeated rows are freed (row_bounds)
+            free = not on_base or (row in pb.sparse_rows and 0 < base < n_base - 1)
+            if free and all(abs(s - c) > 1e-9 for c in chosen):
                 chosen[s] = row
         points = np.array(sorted(chosen))
         return points, {round(s, 12): chosen[s] for s in points}
@@ -287,11 +293,10 @@ class Solver:
     def _point_weights(self, lam_g, n_points):
         """Sum of |multipliers| of all per-point constraint rows, per sample point."""
         w = np.zeros(n_points)
-        for _, kind, start, n in self.pb.g_blocks:
-            if n == n_points:
-                w += np.abs(lam_g[start:start + n])
-            elif n == 2 * n_points:  # the epigraph's two sides
-                w += np.abs(lam_g[start:start + n_points]) + np.abs(lam_g[start + n_points:start + n])
+        for name, kind, start, n in self.pb.g_blocks:
+            points = self.pb.g_points.get(name)
+            if points is not None:
+                np.add.at(w, points, np.abs(lam_g[start:start + n]))
         return np.where(w > 1e-9 * max(float(np.max(w, initial=0.0)), 1e-300), w, 0.0)
 
 
