@@ -10,12 +10,14 @@ Formulation (what makes it fast and regular):
   so an exchange step moves slots onto the continuous extrema found at the last solution and
   re-solves without rebuilding anything.  The loop ends when the epigraph value and the peak of
   the continuous stroke (refined by Newton, :mod:`optdesign.peaks`) agree within ``peak_tol``.
-* Per-sample constraints (transmission angle, any expression), assembly margins and the dead
-  centre guard (the drive coordinate keeps moving: sigma*k(s)/k_ref >= margin) live on the same
-  points and are checked on the continuous stroke in the same way.
+* Per-sample constraints (transmission angle, any expression) and assembly margins live on the
+  same points and are checked on the continuous stroke in the same way.
 * A stroke aggregate max(e)/min(e) in a constraint or objective becomes an epigraph variable a
   with e(s_j) <= a (or >= a), valid when the outer expression is monotone in a in the direction
   that the bound makes conservative; this is checked at the start and an error explains otherwise.
+  Its rows, and the dead-centre guard's (the drive coordinate keeps moving: sigma*k(s)/k_ref >=
+  margin), are imposed only at the stroke's ends and the slots, where their extrema mostly are;
+  the exchange puts a slot wherever one of them is exceeded, on a base point too.
 * Everything is scaled to order one by its value at the scene's start design: F_ref for the
   drive load, the start's range for each constraint and margin.
 * Constraint bounds are only the NLP's lbg/ubg (passed at solve time): every named constraint
