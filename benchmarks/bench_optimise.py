@@ -603,6 +603,31 @@ def command_times(scene_path, starts, seed, repeats):
     return times, code, ""
 
 
+def ipopt_size_floor(problem: DesignProblem, starts=20, seed=0) -> dict:
+    """IPOPT's cost per iteration on an NLP of our NLP's size whose functions cost nothing: as
+    many variables and inequality rows (random dense linear rows, feasible at the centre, a
+    convex quadratic objective), our IPOPT options, from ``starts`` random points.  What any
+    formulation of this size pays IPOPT (and MUMPS) per iteration, whatever its model."""
+    import casadi as ca
+
+    n, m = problem.nw, len(problem.lbg)
+    rng = np.random.default_rng(seed)
+    A = rng.normal(size=(m, n))
+    x = ca.SX.sym("x", n)
+    nlp = {"x": x, "f": ca.sumsqr(x - ca.DM(rng.normal(size=n))) + 0.1 * ca.sum1(ca.sin(x)),
+           "g": ca.mtimes(ca.DM(A), x)}
+    opts = {k: v for k, v in problem.solver_options.items() if k != "ipopt.print_level"}
+    solver = ca.nlpsol("size_floor", "ipopt", nlp, dict(opts, **{"ipopt.print_level": 0}))
+    walls, iterations = [], 0
+    for x0 in rng.uniform(-2, 2, size=(starts, n)):
+        t0 = time.perf_counter()
+        solver(x0=x0, lbg=-1.0, ubg=1.0)
+        walls.append(time.perf_counter() - t0)
+        iterations += int(solver.stats()["iter_count"])
+    return {"n": n, "m": m, "ms_per_iteration": 1e3 * sum(walls) / max(iterations, 1),
+            "iterations_per_start": iterations / starts}
+
+
 # --- one scene -----------------------------------------------------------------------------
 def bench_scene(path: Path, args) -> dict:
     scene = load(path)
@@ -618,6 +643,7 @@ def bench_scene(path: Path, args) -> dict:
                          "teach constraint_slacks and Judge about them before comparing")
     judge = Judge(problem)
     profile = profile_ours(scene, starts)
+    profile["size_floor"] = ipopt_size_floor(problem)
     ours = run_ours(scene, starts, args.repeats, profile["outcomes"])
     print(f"  ours: median per start {statistics.median(ours.per_start_medians):.4f} s", flush=True)
     slsqp = run_slsqp(problem, starts, args.repeats)
@@ -749,6 +775,11 @@ def ratio_lines(res) -> list:
                    f"no model evaluations, no certification) against SLSQP-FD median / {GOALS['per_start']:g} [ms] | "
                    f"{own_ms * its:.1f} / {budget:.1f} | (context: {'below' if own_ms * its <= budget else 'above'} the per-start budget; "
                    f"the budget allows {budget / own_ms:.1f} iterations) |")
+        size = prof["size_floor"]
+        out.append(f"| floor whatever the model: IPOPT on an NLP of the same size ({size['n']} variables, {size['m']} inequality rows; "
+                   f"linear rows, quadratic objective, our options; {size['iterations_per_start']:.1f} iterations per start) "
+                   f"[ms per iteration], and that times our median iterations against SLSQP-FD median / {GOALS['per_start']:g} [ms] | "
+                   f"{size['ms_per_iteration']:.2f}; {size['ms_per_iteration'] * its:.1f} / {budget:.1f} | (context) |")
     if res["command"] is not None:
         times, code, err, floor = res["command"]
         value = med(times) if code == 0 else None

@@ -456,7 +456,7 @@ class DesignProblem:
             opts["ipopt.hessian_approximation"] = "limited-memory"
         self._nlp_dict = nlp
         self.solver = ca.nlpsol("design", "ipopt", nlp, opts)
-        self._opts = opts
+        self.solver_options = opts  # IPOPT options (the warm solver and the benchmark reuse them)
         self.lbg, self.ubg = np.array(lbg), np.array(ubg)
         # an aggregate keeps the sign it has at the start design: this keeps outer expressions
         # such as max(L)/min(L) regular and monotone (a min(...) cannot run to zero or below)
@@ -502,7 +502,7 @@ class DesignProblem:
         return self._once("warm solver", self._build_warm_solver)
 
     def _build_warm_solver(self):
-        warm = dict(self._opts, **{"ipopt.warm_start_init_point": "yes", "ipopt.mu_strategy": "monotone",
+        warm = dict(self.solver_options, **{"ipopt.warm_start_init_point": "yes", "ipopt.mu_strategy": "monotone",
                                    "ipopt.mu_init": 1e-6, **{f"ipopt.warm_start_{k}": 1e-8 for k in (
                                        "bound_push", "bound_frac", "slack_bound_push", "slack_bound_frac",
                                        "mult_bound_push")}})
