@@ -29,6 +29,19 @@ whose sign is that of the bracket.  So the direction of power flow, and with it 
 every state: the switch is exact (no smoothing changes the physics); the integrators see a jump
 in acceleration at a switch and step through it by rejecting a step or two.
 
+**Self-locking (stall).**  Where a drive with eta < 1 brings the mechanism to rest at a position
+whose drive load lies between eta and 1/eta times the static load, the switch holds it there
+(moving on, the drive divided by eta is too small; moving back, the load times eta pushes it
+forward again): the acceleration flips sign with ds/dt, and the integrators either give up or,
+at looser tolerances, step on through the chatter (tiny steps: the run's cost, not its stop).
+Neither is used to find the stop: the
+approach to rest is smooth, so the instant of rest is the root of ds/dt on the *one-sided*
+equation, the same equation with the power's direction taken from the direction of motion
+(d * bracket instead of sd * bracket, d = +-1), which continues smoothly through ds/dt = 0.  An
+output interval is examined where its end sample has failed, reversed, or could have lost its
+speed in the interval (|ds/dt| <= |s''| dt); the root is located like a stroke end, and the run
+stops 'stalled' there if the drive holds the mechanism (either way out of rest decelerates back).
+
 **Integrators** (CasADi's ``integrator``): 'bdf' = CVODES BDF with Newton iterations (implicit,
 for stiff cases), 'adams' = CVODES Adams with functional iteration (non-stiff, no Jacobian),
 'rk4' = CasADi's fixed-step explicit RK4 (``steps`` per output sample; no error control of its
@@ -57,7 +70,6 @@ from .scene import INTEGRATORS, Scene
 DEFAULT_TOLERANCE = 1e-8
 DEFAULT_RK4_STEPS = 20
 MAX_STEPS = 20000  # CVODES steps per output interval before it gives up ("too much work")
-STALL_STEPS = 1000  # steps per trial while locating the instant a self-locking drive comes to rest
 
 
 @dataclass(frozen=True)
@@ -151,18 +163,28 @@ class Simulator:
         rest = k * T_m - J * k * dk * sd**2
         if model.uses_efficiency:
             eta = model.eta
-            power = sd * (M_s * rest + J * k**2 * (V + Q_s))  # sign of T_S qd, independent of c
-            c = ca.if_else(power >= 0, 1 / eta, eta)
+            bracket = M_s * rest + J * k**2 * (V + Q_s)  # T_S qd = sd * bracket / (c M_s + J k^2)
+            c = ca.if_else(sd * bracket >= 0, 1 / eta, eta)  # sign of T_S qd, independent of c
         else:
             c = 1.0
-        M_total = c * M_s + J * k**2
-        sdd = (rest - c * (V + Q_s)) / M_total
+
+        def acceleration(c):
+            return (rest - c * (V + Q_s)) / (c * M_s + J * k**2)
+
+        sdd = acceleration(c)
         qdd = k * sdd + dk * sd**2
         # Functions of the state's parts (an MX state cannot be a vertcat of symbols)
         states = [s, sd, q_state] if self.rotary else [s, sd]
         self.n_x = len(states)
-        xdot = ca.vertcat(sd, sdd, qd) if self.rotary else ca.vertcat(sd, sdd)
-        self.rhs = ca.Function("rhs", states + [p], [xdot])
+
+        def rate(sdd):
+            return ca.vertcat(sd, sdd, qd) if self.rotary else ca.vertcat(sd, sdd)
+
+        self.rhs = ca.Function("rhs", states + [p], [rate(sdd)])
+        if model.uses_efficiency:  # the one-sided equation: power direction from d = +-1, not sd
+            direction = sym.sym("d")
+            c_one = ca.if_else(direction * bracket >= 0, 1 / eta, eta)
+            self.rhs_one = ca.Function("rhs_one", states + [p, direction], [rate(acceleration(c_one))])
         outs = {"q": q, "qd": qd, "qdd": qdd, "sdd": sdd, "drive": T_m, "transmitted": T_m - J * qdd,
                 "kinetic_energy": 0.5 * M_s * sd**2 + 0.5 * J * qd**2, "power": T_m * qd}
         if model.uses_efficiency:
@@ -224,17 +246,23 @@ class Simulator:
         scale = [length, rate] + ([abs(self.x0[2]) + length] if self.rotary else [])
         return np.array(scale)
 
-    def _integrator(self, method, tolerance, tau, total_steps=None, max_steps=None):
+    def _integrator(self, method, tolerance, tau, total_steps=None, max_steps=None, one_sided=False):
         """A CasADi integrator over the tau grid (0 .. 1) of the time-scaled ODE
         dy/dtau = h f(y * scale) / scale: the state y is scaled to order one (so that one
         absolute tolerance fits s, its rate and q), and the interval length h is a parameter
-        (one integrator serves every interval, which the stroke-end search needs)."""
+        (one integrator serves every interval, which the stroke-end search needs).  With
+        ``one_sided`` f is the one-sided equation and the direction d is a parameter before h."""
         scale = self._scales()
         sym = self.mech.sym
         y, p, h = sym.sym("y", self.n_x), sym.sym("p", len(self.mech.parameter_values)), sym.sym("h")
         x = y * scale
-        ode = h * self.rhs(*[x[i] for i in range(self.n_x)], p) / scale
-        dae = {"x": y, "p": ca.vertcat(p, h), "ode": ode}
+        states = [x[i] for i in range(self.n_x)]
+        if one_sided:
+            d = sym.sym("d")
+            ode, params = h * self.rhs_one(*states, p, d) / scale, ca.vertcat(p, d, h)
+        else:
+            ode, params = h * self.rhs(*states, p) / scale, ca.vertcat(p, h)
+        dae = {"x": y, "p": params, "ode": ode}
         if method == "rk4":
             opts = {"number_of_finite_elements": int(total_steps), "show_eval_warnings": False}
             return ca.integrator("simulate", "rk", dae, 0.0, list(tau), opts), scale
@@ -277,8 +305,9 @@ class Simulator:
                                 counts.as_dict(), {"build_s": self.build_time, "integrate_s": wall},
                                 error)
 
-    def _call(self, F, scale, x0, h, counts, method):
-        p = np.concatenate([self.mech.parameter_values, [h]])
+    def _call(self, F, scale, x0, h, counts, method, direction=None):
+        extra = [] if direction is None else [direction]
+        p = np.concatenate([self.mech.parameter_values, extra, [h]])
         try:
             xf = np.asarray(F(x0=x0 / scale, p=p)["xf"]) * scale[:, None]
         except RuntimeError as exc:
@@ -314,10 +343,16 @@ class Simulator:
         return np.column_stack([X, np.full((X.shape[0], len(grid) - X.shape[1]), np.nan)])
 
     def _stop(self, method, tol, steps, grid, X, counts):
-        """Cut the run where the sweep leaves the stroke (locating the crossing time), or report
-        an integrator failure with its time and state."""
+        """Cut the run at the first rest where a self-locking drive holds the mechanism (up to
+        the first failed or out-of-stroke sample), or where the sweep leaves the stroke
+        (locating the crossing time), or report an integrator failure with its time and state."""
         s = X[0]
         bad = np.flatnonzero(~(np.isfinite(X).all(axis=0) & (s >= self.lo) & (s <= self.hi)))
+        if self.model.uses_efficiency:
+            stall = self._held_rest(method, tol, steps, grid, X, int(bad[0]) if bad.size else len(grid) - 1, counts)
+            if stall is not None:
+                j, h, x = stall
+                return np.append(grid[:j], grid[j - 1] + h), np.column_stack([X[:, :j], x]), "stalled", None
         if not bad.size:
             return grid, X, "t_end", None
         i = int(bad[0])
@@ -338,10 +373,6 @@ class Simulator:
                     "motion is stiff here" if method == "rk4" else
                     "CVODES gave up (too many steps, or repeated error-test or convergence failures)")
             if self.model.uses_efficiency and abs(x_prev[1]) < 1e-2 * np.nanmax(np.abs(X[1, :i])):
-                stall = self._stall(method, tol, steps, x_prev, dt, counts, np.nanmax(np.abs(X[1, :i])))
-                if stall is not None:
-                    t = np.append(grid[:i], grid[i - 1] + stall[0])
-                    return t, np.column_stack([X[:, :i], stall[1]]), "stalled", None
                 raise SolverError(
                     f"{self.scene.path}: the drive stalls near t = {grid[i - 1]:.6g} s, {name} = {_fmt_s(x_prev[0])}, "
                     f"speed {qd:.3g}, but the instant the mechanism comes to rest could not be located: "
@@ -358,63 +389,65 @@ class Simulator:
         t = np.append(grid[:i], grid[i - 1] + h)
         return t, np.column_stack([X[:, :i], x_end]), "stroke end", end
 
-    def _stall(self, method, tol, steps, x_prev, dt, counts, speed_scale):
-        """A self-locking drive brought the mechanism to rest: (h, state) at the instant in
-        (0, dt] where ds/dt reaches zero, or None if it does not come to rest and stay there.
+    def _held_rest(self, method, tol, steps, grid, X, last, counts):
+        """The first output interval (up to sample ``last``) in which a self-locking drive brings
+        the mechanism to rest and holds it: (j, h, state), the rest at t = grid[j-1] + h with
+        ds/dt = 0 exactly, or None.  Past that instant the switch chatters: the integrator gives
+        up, or (looser tolerances) steps on through it with |ds/dt| tiny; so examined are the
+        intervals whose end sample has failed, reversed, or could have lost its speed within
+        the interval (d sd_j <= |s''_j| dt, d the direction of motion at the interval's start)."""
+        sdd = np.asarray(self.outputs.map(X.shape[1])(X, self.mech.parameter_values))[3]
+        for j in range(1, last + 1):
+            x_prev, dt = X[:, j - 1], grid[j] - grid[j - 1]
+            d = float(np.sign(x_prev[1]))
+            if d == 0 or d * X[1, j] > abs(sdd[j]) * dt:  # (False for a failed sample: NaN)
+                continue
+            rest = self._rest(method, tol, steps, x_prev, dt, d, counts)
+            if rest is not None and self._held(rest[1], d, np.max(np.abs(X[1, :j]))):
+                return (j, *rest)
+        return None
 
-        Under eta < 1 with the exact power-flow switch, a mechanism at rest whose drive load
-        lies between eta and 1/eta times the static load cannot move either way (moving on,
-        the drive divided by eta is too small; moving back, the load times eta pushes it
-        forward again): it stays where it stopped, held by the drive's friction.  Past that
-        instant the switch chatters and the integrator gives up (CVODES steps beyond the
-        requested time, so it gives up a step before it, too): bisection finds the last time
-        a that it integrates to with the motion still on, and the motion is closed from there
-        with the constant deceleration at a (its speed there is a few steps' worth)."""
-        F, scale = self._integrator(method, tol, [1.0], steps, STALL_STEPS)
-        direction = math.copysign(1.0, x_prev[1])
-        a, xa, b = 0.0, np.asarray(x_prev, float), dt
-        while b - a > 1e-12 * dt:
-            c = 0.5 * (a + b)
-            try:
-                x = self._call(F, scale, x_prev, c, counts, method)[:, 0]
-            except _IntegratorFailed:
-                x = None
-            if x is not None and np.isfinite(x).all() and direction * x[1] > 0:
-                a, xa = c, x
-            else:
-                b = c
-        p = self.mech.parameter_values
-        out = self.outputs(xa, p)
-        qd, sdd = float(out[1]), float(out[3])
-        if not direction * sdd < 0 or abs(xa[1]) > 1e-3 * speed_scale:
+    def _rest(self, method, tol, steps, x_prev, dt, d, counts):
+        """(h, state): the instant in (0, dt] where ds/dt reaches 0 on the one-sided equation from
+        x_prev moving in direction d (smooth up to and through the rest), or None."""
+        F, scale = self._integrator(method, tol, [1.0], steps, one_sided=True)
+        try:
+            x_dt = self._call(F, scale, x_prev, dt, counts, method, d)[:, 0]
+        except _IntegratorFailed:
+            x_dt = np.full_like(x_prev, np.nan)
+        if np.isfinite(x_dt).all() and d * x_dt[1] > 0:
             return None
-        tau = -xa[1] / sdd
-        x = xa.copy()
-        x[0] += 0.5 * xa[1] * tau
+        h, x = self._locate(method, tol, steps, x_prev, dt, 0.0, x_dt, counts, component=1, direction=d)
+        if x is None:
+            return None
+        x = np.array(x, float)
         x[1] = 0.0
-        if self.rotary:  # the carried drive angle moves with s: dq = k ds, k = qd / sd
-            x[2] += qd / xa[1] * 0.5 * xa[1] * tau
-        nudge = 1e-9 * speed_scale  # held: either way out of rest decelerates back to it
-        ahead, back = (float(self.outputs(np.r_[x[0], d * nudge, x[2:]], p)[3]) for d in (direction, -direction))
-        if not (direction * ahead < 0 and direction * back > 0):
-            return None
-        return a + tau, x
+        return h, x
 
-    def _locate(self, method, tol, steps, x_prev, dt, target, x_next, counts):
-        """The time h in (0, dt] after which s reaches ``target``, by re-integrating from x_prev
-        (Illinois regula falsi where both ends are finite, bisection past a failure)."""
-        F, scale = self._integrator(method, tol, [1.0], steps)
-        length = self.hi - self.lo
+    def _held(self, x, d, speed_scale):
+        """The drive holds the mechanism at rest in state x (ds/dt = 0), reached moving in
+        direction d: either way out of rest decelerates back to it."""
+        nudge = 1e-9 * speed_scale
+        p = self.mech.parameter_values
+        ahead, back = (float(self.outputs(np.r_[x[0], e * nudge, x[2:]], p)[3]) for e in (d, -d))
+        return d * ahead < 0 and d * back > 0
+
+    def _locate(self, method, tol, steps, x_prev, dt, target, x_next, counts, component=0, direction=None):
+        """The time h in (0, dt] after which the state's ``component`` (0: s, 1: ds/dt) reaches
+        ``target``, by re-integrating from x_prev (Illinois regula falsi where both ends are
+        finite, bisection past a failure); with a ``direction`` on the one-sided equation."""
+        F, scale = self._integrator(method, tol, [1.0], steps, one_sided=direction is not None)
+        length = scale[component]  # the stroke length, or the reference rate
 
         def g(h):
             try:
-                x = self._call(F, scale, x_prev, h, counts, method)[:, 0]
+                x = self._call(F, scale, x_prev, h, counts, method, direction)[:, 0]
             except _IntegratorFailed:
                 return None, None
-            return (x[0] - target if np.isfinite(x).all() else None), x
+            return (x[component] - target if np.isfinite(x).all() else None), x
 
-        a, ga, xa = 0.0, x_prev[0] - target, x_prev
-        b, gb = dt, (x_next[0] - target if np.isfinite(x_next).all() else None)
+        a, ga, xa = 0.0, x_prev[component] - target, x_prev
+        b, gb = dt, (x_next[component] - target if np.isfinite(x_next).all() else None)
         xb = x_next
         side = 0
         for _ in range(200):
@@ -454,9 +487,10 @@ class Simulator:
         if m >= 2:
             F, _ = self._integrator("rk4", tol, t[1:m] / t[m - 1], (steps // 2) * (m - 1))
             cols += list(self._call(F, scale, self.x0, t[m - 1], counts, "rk4").T)
-        if m < len(t):  # the stroke end, reached in a shorter last interval
-            F, _ = self._integrator("rk4", tol, [1.0], steps // 2)
-            cols.append(self._call(F, scale, cols[-1], t[-1] - t[m - 1], counts, "rk4")[:, 0])
+        if m < len(t):  # the stroke end or the rest, reached in a shorter last interval
+            d = math.copysign(1.0, X[1, m - 1]) if stop == "stalled" else None  # the rest: one-sided
+            F, _ = self._integrator("rk4", tol, [1.0], steps // 2, one_sided=d is not None)
+            cols.append(self._call(F, scale, cols[-1], t[-1] - t[m - 1], counts, "rk4", d)[:, 0])
         diff = (X - np.column_stack(cols)) / scale[:, None]
         error = float(np.max(np.abs(diff))) / 15 if np.isfinite(diff).all() else math.inf
         if not error <= tol:

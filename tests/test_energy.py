@@ -147,3 +147,159 @@ def test_self_locking_drive_stalls_where_the_work_is_used_up(tolerance, balance_
     _, dx = jib_geometry(theta_star)
     F_Su = mC * g * l * np.cos(theta_star) / dx
     assert eta * F <= F_Su <= F / eta
+
+
+# --- rotary self-locking drives: a motor with efficiency eta < 1 lifts a load and comes to rest ---
+# Reference (seed 1, eq. (5)): eta = P_u / P_in, P_in = T_S omega the power delivered to the crank,
+# P_u what the mechanism takes (the rate of its kinetic and potential energy).  The rotor J is the
+# drive's own inertia, outside the mechanism ([drive] inertia), so T_S = T - J omega'.  While the
+# drive delivers power (T_S omega > 0): d/dt(KE_mech + V) = eta (T omega - d/dt(1/2 J omega^2)); to
+# rest (omega* = 0): V* - V0 - KE_mech0 = eta (T (q* - q0) + 1/2 J omega0^2).
+def _edited(text, *pairs):
+    """``text`` with each (old, new) replaced; every old must occur exactly once (a changed
+    problems/ file makes the test fail here instead of silently testing something else)."""
+    for old, new in pairs:
+        assert text.count(old) == 1, old
+        text = text.replace(old, new)
+    return text
+
+
+def self_locking_bar():
+    """problems/sim_bar.toml raised against gravity by T = 12 N m through eta = 0.8, from phi0 = 0.3
+    at omega0 = 1.9 rad/s; the sweep narrowed to [0, pi/2] (simulate's tolerances are relative to
+    the stroke length, which should be the motion's scale here, not twenty turns)."""
+    text = _edited((PROBLEMS / "sim_bar.toml").read_text(),
+                   ('to = "40*pi"', 'to = "pi/2"'),
+                   ('[drive]', '[gravity]\ng = 9.81\n\n[drive]'),
+                   ('inertia = "J_rotor"', 'inertia = "J_rotor"\nefficiency = 0.8'),
+                   ('speed = 2.0', 'speed = 1.9'))
+    return optdesign.loads(text, "bar_eta.toml").with_parameters(T=12.0)
+
+
+@pytest.mark.parametrize("tolerance, balance_tol, t_end", [(1e-6, 1e-4, 1.0), (1e-8, 1e-6, 5.0), (1e-10, 1e-8, 5.0)])
+def test_self_locking_motor_stalls_the_bar_where_the_work_is_used_up(tolerance, balance_tol, t_end):
+    """Bar of mass m, length L turned about its end O (I_O = m L^2/3, weight torque
+    T_Su = m g L/2 cos phi from the moment balance about O): eta T = 9.6 N m is below T_Su over
+    the whole motion (phi < 0.996) and T/eta = 15 N m above it from phi = 0.556 on, so the bar
+    slows to rest and the switch holds it.  The stop phi* solves the balance above,
+    m g L/2 (sin phi* - sin phi0) - 1/2 I_O omega0^2 = eta (T (phi* - phi0) + 1/2 J omega0^2) (brentq);
+    judged by the balance's residual, to 1e-8 of the drive's work T (phi* - phi0) at tolerance 1e-10
+    as the tests above (1e-6 at the default 1e-8, 1e-4 at 1e-6), and the angle to the same residual
+    over the balance's slope T_Su(phi*) - eta T.  The crank is the bar (k = 1): the carried angle q
+    obeys q' = s', which every integrator keeps as q - s = const to rounding, so q = phi to 1e-12.
+    t_end 5 s (the scene's, 101 samples, dt = 0.05 s) leaves the last sample before rest at 1.2 % of
+    the start speed; at tolerance 1e-6 the integrator steps on through the switch's chatter at rest."""
+    from scipy.optimize import brentq
+
+    res = simulate(self_locking_bar(), tolerance=tolerance, t_end=t_end)
+    m, L, g, J, T, eta, phi0, omega0 = 3.0, 1.2, 9.81, 0.05, 12.0, 0.8, 0.3, 1.9
+    I_O = m * L**2 / 3
+
+    def T_Su(phi):
+        return m * g * L / 2 * np.cos(phi)
+
+    def balance(phi):
+        lifted = m * g * L / 2 * (np.sin(phi) - np.sin(phi0)) - 0.5 * I_O * omega0**2
+        return lifted - eta * (T * (phi - phi0) + 0.5 * J * omega0**2)
+
+    phi_star = brentq(balance, phi0, math.acos(eta * T / (m * g * L / 2)), xtol=1e-15)
+    work = T * (phi_star - phi0)
+    assert res.stop == "stalled" and res.stop_end is None
+    assert res.s[0] == phi0 and res.qd[0] == pytest.approx(omega0, rel=1e-14)
+    moving = slice(0, -1)  # power flows into the bar all the way (the balance's premise)
+    assert np.all(res.transmitted[moving] * res.qd[moving] > 0) and np.all(res.efficiency_factor[moving] == 1 / eta)
+    assert abs(balance(res.s[-1])) < balance_tol * work
+    assert abs(res.s[-1] - phi_star) < balance_tol * work / (T_Su(phi_star) - eta * T)
+    assert res.sd[-1] == 0.0 and res.qd[-1] == 0.0 and np.all(res.sd[moving] > 0)
+    assert eta * T <= T_Su(res.s[-1]) <= T / eta
+    assert abs(res.q[0] - phi0) < 1e-15 and abs(res.q[-1] - res.s[-1]) < 1e-12
+
+
+# the piston of the seed's slider-crank (r, l, mC), swept by its height y; a motor on the crank S->A
+# lifts it.  The drive angle q(y) differs from the sweep: k = dq/dy runs from 18.7 to 10.5 rad/m.
+PISTON_LIFT = """
+title = "piston lifted by a self-locking motor on the crank, swept by the piston height"
+[parameters]
+r = 0.1
+l = 0.35
+mC = 12.0
+J_rotor = 0.002
+T = 10.0
+[sweep]
+name = "y"
+from = 0.26
+to = 0.44
+samples = 201
+[points]
+S = { fixed = [0, 0] }
+C = { polar = ["S", "y", "90 deg"] }                 # the piston pin at height y above S
+A = { dyad = ["S", "r", "C", "l"], side = "right" }  # the crank pin, right of S -> C
+U = { polar = ["C", 1, "90 deg"] }
+[[bodies]]
+name = "piston"
+frame = ["C", "U"]
+mass = "mC"
+com = [0, 0]
+[gravity]
+g = 9.81
+[drive]
+type = "rotary"
+crank = ["S", "A"]
+speed = 1.0
+acceleration = 0.0
+efficiency = 0.8
+law = "T"
+inertia = "J_rotor"
+[simulation]
+start = 0.27
+speed = 6.0
+t_end = 1.0
+samples = 101
+"""
+
+
+def piston_crank_angle(y, r=0.1, l=0.35):
+    """The crank angle q of S -> A and dq/dy: the triangle S A C with |SA| = r, |AC| = l, |SC| = y
+    has the angle beta at S with cos beta = (r^2 + y^2 - l^2) / (2 r y); A lies right of the
+    upward S -> C, so q = pi/2 - beta."""
+    c = (r**2 + y**2 - l**2) / (2 * r * y)
+    dc = (y**2 - r**2 + l**2) / (2 * r * y**2)
+    return np.pi / 2 - np.arccos(c), dc / np.sqrt(1 - c**2)
+
+
+@pytest.mark.parametrize("tolerance, balance_tol", [(1e-8, 1e-6), (1e-10, 1e-8)])
+def test_self_locking_motor_on_a_crank_stalls_and_carries_its_angle(tolerance, balance_tol):
+    """T = 10 N m through eta = 0.8 lifts the piston from y0 = 0.27 m at omega0 = 6 rad/s; the
+    static crank torque T_Su = mC g dy/dq (virtual work) exceeds eta T = 8 N m beyond y = 0.283 and
+    stays below T/eta = 12.5 N m (its peak is 12.2): the piston comes to rest and is held.  The
+    stop y* solves mC g (y* - y0) - 1/2 mC y0'^2 = eta (T (q(y*) - q0) + 1/2 J omega0^2),
+    y0' = omega0 / q'(y0) (brentq), judged as the bar's.  The drive angle is not the sweep
+    (k = dq/dy = 18.7 .. 10.5 rad/m): simulate carries it as a state of its own (q' = k s'), so q - q(s)
+    is that state's integration error, held to the same measure, balance_tol of the angle turned
+    (measured 1.9e-9 of 0.70 rad at tolerance 1e-10, 7.2e-8 at 1e-8), at every sample and at the
+    rest.  dt = 0.01 s leaves the last sample before rest at 6 % of the start speed."""
+    from scipy.optimize import brentq
+
+    res = simulate(optdesign.loads(PISTON_LIFT, "piston_lift.toml"), tolerance=tolerance)
+    mC, g, J, T, eta, y0, omega0 = 12.0, 9.81, 0.002, 10.0, 0.8, 0.27, 6.0
+    q0, k0 = piston_crank_angle(y0)
+    yd0 = omega0 / k0
+
+    def balance(y):
+        q, _ = piston_crank_angle(y)
+        return mC * g * (y - y0) - 0.5 * mC * yd0**2 - eta * (T * (q - q0) + 0.5 * J * omega0**2)
+
+    y_star = brentq(balance, 0.3, 0.4, xtol=1e-15)
+    q_star, k_star = piston_crank_angle(y_star)
+    work = T * (q_star - q0)
+    assert res.stop == "stalled" and res.stop_end is None
+    moving = slice(0, -1)  # power flows into the piston all the way (the balance's premise)
+    assert np.all(res.transmitted[moving] * res.qd[moving] > 0) and np.all(res.efficiency_factor[moving] == 1 / eta)
+    assert abs(balance(res.s[-1])) < balance_tol * work
+    assert abs(res.s[-1] - y_star) < balance_tol * work / (mC * g - eta * T * k_star)
+    assert res.sd[-1] == 0.0 and res.qd[-1] == 0.0 and np.all(res.sd[moving] > 0)
+    assert eta * T <= mC * g / piston_crank_angle(res.s[-1])[1] <= T / eta
+    q_hand, k_hand = piston_crank_angle(res.s)
+    assert abs(res.q[0] - q0) < 1e-14 and np.all(k_hand > 10)
+    assert np.max(np.abs(res.q - q_hand)) < balance_tol * (q_star - q0)
+    assert abs(res.q[-1] - q_hand[-1]) < balance_tol * (q_star - q0)  # at the rest
