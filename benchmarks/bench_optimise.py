@@ -24,7 +24,8 @@ extrema), from which the certified objective and the feasibility (tolerance ``FE
 of each constraint's scale) follow; each method's best design is cross-checked on a dense
 100,001-sample evaluation (the DesignProblem's rows, and for peak(drive) the exact model of
 ``optdesign.analysis.Analysis``).  Timings are repeated ``--repeats`` times (the machine is
-shared) and reported as medians; ratios are formed from medians measured in the same run.
+shared) and reported as medians, ours and SLSQP-FD repeat by repeat in turn (a change of the
+machine's load falls on both); ratios are formed from medians measured in the same run.
 
 Not a test (pytest does not collect it); it rewrites its section of ``results/bench.md`` atomically.
 """
@@ -299,24 +300,21 @@ class MethodRun:
     extra: dict = field(default_factory=dict)
 
 
-def run_ours(scene, starts, repeats, outcomes) -> MethodRun:
-    """optimise(scene, x_starts=starts), ``repeats`` times, for the timings.  The per-start
-    designs (``outcomes``) come from the instrumented pass of :func:`profile_ours` over the
-    same starts and the same code path (solve_start), since OptimisationResult keeps only the
-    best design; the statuses of the two are compared."""
-    run = MethodRun("ours (IPOPT, exact derivatives, exchange)")
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        result = optimise(scene, x_starts=starts)
-        total = time.perf_counter() - t0
-        times = [r.time_s for r in result.starts]
-        run.start_times.append(times)
-        run.per_start_medians.append(statistics.median(times))
-        run.totals.append(total)
-        run.overhead.append(result.timings.get("build_s", 0.0))
+def run_ours(run: MethodRun, scene, starts, outcomes) -> None:
+    """One repeat of optimise(scene, x_starts=starts), added to ``run``'s timings.  The
+    per-start designs (``outcomes``) come from the instrumented pass of :func:`profile_ours`
+    over the same starts and the same code path (solve_start), since OptimisationResult keeps
+    only the best design; the statuses of the two are compared."""
+    t0 = time.perf_counter()
+    result = optimise(scene, x_starts=starts)
+    total = time.perf_counter() - t0
+    times = [r.time_s for r in result.starts]
+    run.start_times.append(times)
+    run.per_start_medians.append(statistics.median(times))
+    run.totals.append(total)
+    run.overhead.append(result.timings.get("build_s", 0.0))
     run.outcomes = outcomes
     run.extra["mismatch"] = [r.index for r, o in zip(result.starts, outcomes) if r.success != o.success or r.status != o.status]
-    return run
 
 
 def slsqp_start(pb: DesignProblem, model: SampledModel, strokes, x0) -> StartOutcome:
@@ -360,29 +358,28 @@ def slsqp_start(pb: DesignProblem, model: SampledModel, strokes, x0) -> StartOut
     return StartOutcome(-1, x, status, success, elapsed, model.evaluations - before)
 
 
-def run_slsqp(pb: DesignProblem, starts, repeats) -> MethodRun:
-    run = MethodRun("scipy SLSQP, finite differences, same epigraph on the scene's samples")
+def run_slsqp(run: MethodRun, pb: DesignProblem, starts) -> None:
+    """One repeat of SLSQP-FD from every start, added to ``run``; the first repeat's designs
+    are its outcomes, and a later repeat that lands elsewhere is recorded (it should not)."""
     strokes = stroke_constraints(pb)
-    for r in range(repeats):
-        model = SampledModel(pb)
-        outcomes = []
-        t0 = time.perf_counter()
-        for i, x0 in enumerate(starts):
-            o = slsqp_start(pb, model, strokes, x0)
-            o.index = i
-            outcomes.append(o)
-        run.totals.append(time.perf_counter() - t0)
-        times = [o.time_s for o in outcomes]
-        run.start_times.append(times)
-        run.per_start_medians.append(statistics.median(times))
-        run.overhead.append(0.0)
-        if r == 0:
-            run.outcomes = outcomes
-        else:   # deterministic: the same designs again, or say so
-            drift = [o.index for o, p in zip(outcomes, run.outcomes)
-                     if (o.x is None) != (p.x is None) or (o.x is not None and not np.allclose(o.x, p.x, rtol=1e-12, atol=0))]
-            run.extra.setdefault("nondeterministic starts", set()).update(drift)
-    return run
+    model = SampledModel(pb)
+    outcomes = []
+    t0 = time.perf_counter()
+    for i, x0 in enumerate(starts):
+        o = slsqp_start(pb, model, strokes, x0)
+        o.index = i
+        outcomes.append(o)
+    run.totals.append(time.perf_counter() - t0)
+    times = [o.time_s for o in outcomes]
+    run.start_times.append(times)
+    run.per_start_medians.append(statistics.median(times))
+    run.overhead.append(0.0)
+    if not run.outcomes:
+        run.outcomes = outcomes
+    else:   # deterministic: the same designs again, or say so
+        drift = [o.index for o, p in zip(outcomes, run.outcomes)
+                 if (o.x is None) != (p.x is None) or (o.x is not None and not np.allclose(o.x, p.x, rtol=1e-12, atol=0))]
+        run.extra.setdefault("nondeterministic starts", set()).update(drift)
 
 
 def de_once(pb: DesignProblem, seed):
@@ -644,9 +641,14 @@ def bench_scene(path: Path, args) -> dict:
     judge = Judge(problem)
     profile = profile_ours(scene, starts)
     profile["size_floor"] = ipopt_size_floor(problem)
-    ours = run_ours(scene, starts, args.repeats, profile["outcomes"])
+    # the repeats of ours and SLSQP-FD alternate, so that a change of the machine's load
+    # during the run falls on both
+    ours = MethodRun("ours (IPOPT, exact derivatives, exchange)")
+    slsqp = MethodRun("scipy SLSQP, finite differences, same epigraph on the scene's samples")
+    for _ in range(args.repeats):
+        run_ours(ours, scene, starts, profile["outcomes"])
+        run_slsqp(slsqp, problem, starts)
     print(f"  ours: median per start {statistics.median(ours.per_start_medians):.4f} s", flush=True)
-    slsqp = run_slsqp(problem, starts, args.repeats)
     print(f"  SLSQP: median per start {statistics.median(slsqp.per_start_medians):.4f} s", flush=True)
     de = run_de(problem, args.seed, args.de_repeats)
     print(f"  DE: {statistics.median(de.totals):.2f} s", flush=True)
@@ -858,7 +860,7 @@ def header(args, skipped, git) -> str:
         f"Written by `python benchmarks/bench_optimise.py` on {now}. Machine: {platform.machine()}, "
         f"nproc {os.cpu_count()}, load average (1, 5, 15 min) at the start "
         f"{', '.join(f'{v:.2f}' for v in LOAD_AT_START) if LOAD_AT_START else 'n/a'} and at the end {load_avg} (shared with other jobs: timings are "
-        f"medians of {args.repeats} repeats, DE of {args.de_repeats}); Python {platform.python_version()}, "
+        f"medians of {args.repeats} repeats, those of ours and SLSQP-FD alternating, DE of {args.de_repeats}); Python {platform.python_version()}, "
         f"casadi {casadi.__version__}, scipy {scipy.__version__}, numpy {np.__version__}, optdesign {optdesign_version}, "
         f"{git}.", "",
         "Compared, on each scene, from the same starts (`draw_starts(problem, N, seed)`: the scene's start, then "
