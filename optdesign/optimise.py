@@ -293,7 +293,7 @@ class Solver:
     def _point_weights(self, lam_g, n_points):
         """Sum of |multipliers| of all per-point constraint rows, per sample point."""
         w = np.zeros(n_points)
-        for name, kind, start, n in self.pb.g_blocks:
+        for name, _, start, n in self.pb.g_blocks:
             points = self.pb.g_points.get(name)
             if points is not None:
                 np.add.at(w, points, np.abs(lam_g[start:start + n]))
