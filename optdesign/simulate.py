@@ -33,8 +33,9 @@ in acceleration at a switch and step through it by rejecting a step or two.
 whose drive load lies between eta and 1/eta times the static load, the switch holds it there
 (moving on, the drive divided by eta is too small; moving back, the load times eta pushes it
 forward again): the acceleration flips sign with ds/dt, and the integrators either give up or,
-at looser tolerances, step on through the chatter (tiny steps: the run's cost, not its stop).
-Neither is used to find the stop: the
+at looser tolerances, step on through the chatter (tiny steps: the run's cost, not its stop;
+so a drive with eta < 1 is integrated in chunks of output intervals, each checked for a held
+rest before the next).  Neither is used to find the stop: the
 approach to rest is smooth, so the instant of rest is the root of ds/dt on the *one-sided*
 equation, the same equation with the power's direction taken from the direction of motion
 (d * bracket instead of sd * bracket, d = +-1), which continues smoothly through ds/dt = 0.  An
@@ -70,6 +71,7 @@ from .scene import INTEGRATORS, Scene
 DEFAULT_TOLERANCE = 1e-8
 DEFAULT_RK4_STEPS = 20
 MAX_STEPS = 20000  # CVODES steps per output interval before it gives up ("too much work")
+STALL_CHUNK = 10   # output intervals per integrator call where a self-locking drive can stall
 
 
 @dataclass(frozen=True)
@@ -317,21 +319,38 @@ class Simulator:
         return xf
 
     def _integrate_grid(self, method, tol, steps, grid, counts):
-        """The whole run in one integrator call; on failure, interval by interval to find where."""
-        tau = grid[1:] / grid[-1]
-        F, scale = self._integrator(method, tol, tau, steps * (len(grid) - 1) if steps else None)
-        try:
-            X = self._call(F, scale, self.x0, grid[-1], counts, method)
-        except _IntegratorFailed:
-            return self._integrate_stepwise(method, tol, steps, grid, counts)
-        return np.column_stack([self.x0, X])
+        """The whole run in one integrator call; on failure, interval by interval to find where.
 
-    def _integrate_stepwise(self, method, tol, steps, grid, counts):
-        """Interval by interval (restarts): the states up to the interval where the integrator
-        fails; a failing interval gets a NaN column, which :meth:`_stop` examines."""
+        Where a self-locking drive can bring the mechanism to rest (eta < 1, CVODES), in chunks
+        of STALL_CHUNK output intervals, each checked for a held rest before the next: past
+        that instant CVODES steps on through the switch's chatter, at loose tolerances for
+        hundreds of thousands of steps per output interval, up to t_end."""
+        n = len(grid) - 1
+        chunk = STALL_CHUNK if self.model.uses_efficiency and method != "rk4" else n
+        cols, i = [self.x0], 0
+        while i < n:
+            j = min(i + chunk, n)
+            tau = (grid[i + 1:j + 1] - grid[i]) / (grid[j] - grid[i])
+            F, scale = self._integrator(method, tol, tau, steps * (j - i) if steps else None)
+            try:
+                cols += list(self._call(F, scale, cols[-1], grid[j] - grid[i], counts, method).T)
+            except _IntegratorFailed:
+                return self._integrate_stepwise(method, tol, steps, grid, counts, np.column_stack(cols))
+            first, i = i + 1, j
+            if i < n and chunk < n:
+                X = np.column_stack(cols)
+                left = not (np.isfinite(X[:, first:]).all() and np.all((X[0, first:] >= self.lo) & (X[0, first:] <= self.hi)))
+                if left or self._held_rest(method, tol, steps, grid[:i + 1], X, i, counts, first) is not None:
+                    return np.column_stack([X, np.full((X.shape[0], n - i), np.nan)])
+        return np.column_stack(cols)
+
+    def _integrate_stepwise(self, method, tol, steps, grid, counts, X0=None):
+        """Interval by interval (restarts) from the columns ``X0`` already integrated (the start
+        alone by default): the states up to the interval where the integrator fails; a failing
+        interval gets a NaN column, which :meth:`_stop` examines."""
         F, scale = self._integrator(method, tol, [1.0], steps)
-        cols = [self.x0]
-        for i in range(len(grid) - 1):
+        cols = [self.x0] if X0 is None else list(X0.T)
+        for i in range(len(cols) - 1, len(grid) - 1):
             try:
                 x = self._call(F, scale, cols[-1], grid[i + 1] - grid[i], counts, method)[:, 0]
             except _IntegratorFailed:
@@ -389,15 +408,16 @@ class Simulator:
         t = np.append(grid[:i], grid[i - 1] + h)
         return t, np.column_stack([X[:, :i], x_end]), "stroke end", end
 
-    def _held_rest(self, method, tol, steps, grid, X, last, counts):
+    def _held_rest(self, method, tol, steps, grid, X, last, counts, first=1):
         """The first output interval (up to sample ``last``) in which a self-locking drive brings
         the mechanism to rest and holds it: (j, h, state), the rest at t = grid[j-1] + h with
         ds/dt = 0 exactly, or None.  Past that instant the switch chatters: the integrator gives
         up, or (looser tolerances) steps on through it with |ds/dt| tiny; so examined are the
         intervals whose end sample has failed, reversed, or could have lost its speed within
-        the interval (d sd_j <= |s''_j| dt, d the direction of motion at the interval's start)."""
+        the interval (d sd_j <= |s''_j| dt, d the direction of motion at the interval's start);
+        those from sample ``first`` on."""
         sdd = np.asarray(self.outputs.map(X.shape[1])(X, self.mech.parameter_values))[3]
-        for j in range(1, last + 1):
+        for j in range(first, last + 1):
             x_prev, dt = X[:, j - 1], grid[j] - grid[j - 1]
             d = float(np.sign(x_prev[1]))
             if d == 0 or d * X[1, j] > abs(sdd[j]) * dt:  # (False for a failed sample: NaN)
