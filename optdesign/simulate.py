@@ -323,8 +323,8 @@ class Simulator:
 
         Where a self-locking drive can bring the mechanism to rest (eta < 1, CVODES), in chunks
         of STALL_CHUNK output intervals, each checked for a held rest before the next: past
-        that instant CVODES steps on through the switch's chatter, at loose tolerances for
-        hundreds of thousands of steps per output interval, up to t_end."""
+        that instant CVODES steps on through the switch's chatter up to t_end, at loose
+        tolerances about ten thousand steps per output interval."""
         n = len(grid) - 1
         chunk = STALL_CHUNK if self.model.uses_efficiency and method != "rk4" else n
         cols, i = [self.x0], 0
