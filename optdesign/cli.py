@@ -22,24 +22,23 @@ def _overrides(pairs):
     return out
 
 
-def _samples(text):
-    try:
-        n = int(text)
-    except ValueError:
-        n = 0
-    if n < 2:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 2, found {text!r}")
-    return n
+def _whole_number(minimum):
+    """An argparse type: a whole number >= ``minimum``, or an error naming the bound."""
+
+    def parse(text):
+        try:
+            n = int(text)
+        except ValueError:
+            n = minimum - 1
+        if n < minimum:
+            raise argparse.ArgumentTypeError(f"expected a whole number >= {minimum}, found {text!r}")
+        return n
+
+    return parse
 
 
-def _workers(text):
-    try:
-        n = int(text)
-    except ValueError:
-        n = 0
-    if n < 1:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, found {text!r}")
-    return n
+_samples = _whole_number(2)
+_workers = _whole_number(1)
 
 
 def _load(args):
@@ -169,7 +168,7 @@ def parser():
         if name == "analyse":
             p.add_argument("--plot", metavar="DIR", help="write figures (PNG) into DIR")
         if name == "optimise":
-            p.add_argument("--starts", type=int, default=20, help="number of starts (default 20)")
+            p.add_argument("--starts", type=_whole_number(1), default=20, help="number of starts, >= 1 (default 20)")
             p.add_argument("--seed", type=int, default=0, help="seed of the random starts (default 0)")
             p.add_argument("--workers", type=_workers, default=os.cpu_count() or 1,
                            help="processes that share the starts (default: the machine's cores; 1 = in this process)")

@@ -35,6 +35,8 @@ class _AxisAction(argparse.Action):
 
 
 def add_arguments(p):
+    from .cli import _whole_number
+
     p.formatter_class = argparse.RawDescriptionHelpFormatter
     p.epilog = EPILOG
     p.add_argument("scene", help="scene file (TOML), e.g. problems/truck_crane.toml")
@@ -46,13 +48,13 @@ def add_arguments(p):
                               "an axis: a constraint's bound (Pareto front; or =V1,V2,...)")):
         p.add_argument(flag, action=_AxisAction, dest="axes", metavar=meta, default=[], help=text + " (repeatable; see below)")
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter for every case (repeatable)")
-    p.add_argument("--starts", type=int, default=8, help="starts of a cold optimisation case (default 8)")
+    p.add_argument("--starts", type=_whole_number(1), default=8, help="starts of a cold optimisation case (default 8)")
     p.add_argument("--seed", type=int, default=0, help="seed of the random starts (default 0)")
-    p.add_argument("--warm-starts", type=int, default=1,
+    p.add_argument("--warm-starts", type=_whole_number(1), default=1,
                    help="starts of a warm case: the previous optimum, then the first cold ones (default 1)")
     p.add_argument("--no-warm", action="store_true", help="no warm starts: every case starts cold (all run in parallel)")
-    p.add_argument("--chain", type=int, default=25, help="at most this many cases per warm-started chain (default 25)")
-    p.add_argument("--workers", type=int, default=None, help="processes on this machine (default: its cores; 1 = in process)")
+    p.add_argument("--chain", type=_whole_number(1), default=25, help="at most this many cases per warm-started chain (default 25)")
+    p.add_argument("--workers", type=_whole_number(1), default=None, help="processes on this machine (default: its cores; 1 = in process)")
     p.add_argument("--scheduler", metavar="ADDRESS", help="run on a Dask cluster, e.g. tcp://127.0.0.1:8786")
     p.add_argument("--out", metavar="DIR", help="results folder (default results/<scene name>_study)")
     p.add_argument("--restart", action="store_true", help="forget the cases finished by an earlier run in DIR")

@@ -585,3 +585,24 @@ def test_base_scene_runs_through_the_command_line(tmp_path, capsys):
     path.write_text(BASE)
     assert cli.main(["kinematics", str(path), "--samples", "3"]) == 0
     assert math.isfinite(len(capsys.readouterr().out))
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["optimise", "SCENE", "--starts", "0"], "argument --starts: expected a whole number >= 1, found '0'"),
+    (["optimise", "SCENE", "--workers", "two"], "argument --workers: expected a whole number >= 1, found 'two'"),
+    (["analyse", "SCENE", "--samples", "1"], "argument --samples: expected a whole number >= 2, found '1'"),
+    (["study", "SCENE", "--values", "r=0.1", "--starts", "-1"], "argument --starts: expected a whole number >= 1, found '-1'"),
+    (["study", "SCENE", "--values", "r=0.1", "--workers", "0"], "argument --workers: expected a whole number >= 1, found '0'"),
+    (["study", "SCENE", "--values", "r=0.1", "--chain", "0"], "argument --chain: expected a whole number >= 1, found '0'"),
+])
+def test_command_line_refuses_counts_out_of_range(tmp_path, capsys, argv, message):
+    """A count below its least sensible value is refused by the argument parser (exit 2),
+    before anything is loaded or written: '--starts 0' used to run no start and report 'no
+    optimum' with an empty status."""
+    path = tmp_path / "scene.toml"
+    path.write_text(BASE)
+    with pytest.raises(SystemExit) as exc:
+        cli.main([str(path) if a == "SCENE" else a for a in argv])
+    assert exc.value.code == 2
+    assert message in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["scene.toml"]
