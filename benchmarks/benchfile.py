@@ -6,7 +6,9 @@ from __future__ import annotations
 
 import platform
 import re
+import statistics
 import subprocess
+import time
 from pathlib import Path
 
 from optdesign.report import write_atomic
@@ -55,3 +57,13 @@ def cpu_model() -> str:
     except OSError:
         pass
     return platform.processor() or platform.machine()
+
+
+def median_time(f, repeats):
+    """Median wall time of ``repeats`` calls of f() and the last call's value."""
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        value = f()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times), value

@@ -25,7 +25,6 @@ derivatives cross zero).  Time = median wall time of one evaluation over the who
 """
 from __future__ import annotations
 
-import statistics
 import time
 from pathlib import Path
 
@@ -41,6 +40,7 @@ from optdesign.reduction import ReducedModel  # noqa: E402
 from optdesign.report import save_figure  # noqa: E402
 from optdesign.scenefile import load  # noqa: E402
 from optdesign.vectorised import VectorisedSX  # noqa: E402
+from benchfile import median_time  # noqa: E402  (benchmarks/ is on the path: error_vs_runtime.py)
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLES = 1000
@@ -49,16 +49,6 @@ STEPS = 10.0 ** -np.arange(1, 14)
 DIGITS = 50
 # central-difference weights for the first derivative, order 2, 4, 6: offsets 1..n and weights
 FD = {2: ((1,), (1 / 2,)), 4: ((1, 2), (2 / 3, -1 / 12)), 6: ((1, 2, 3), (3 / 4, -3 / 20, 1 / 60))}
-
-
-def median_time(f, repeats=REPEATS):
-    """Median wall time of f() and its (last) value."""
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        value = f()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times), value
 
 
 def error(value, reference):
@@ -167,15 +157,15 @@ def eq42_printed(theta, e, b, psi, l, m):
 def measure_case(model, s, reference, closed_forms, chain=False):
     """Points (label, h or None, time, error) of every method for one scene."""
     rows = []
-    t, v = median_time(lambda: model.dI(s))
+    t, v = median_time(lambda: model.dI(s), REPEATS)
     rows.append(("AD (optdesign)", None, t, error(v, reference)))
     divide = model.x if chain else None
     for order in FD:
         for h in STEPS:
-            t, v = median_time(lambda: finite_difference(model.I, s, h, order, divide), repeats=max(REPEATS // 3, 5))
+            t, v = median_time(lambda: finite_difference(model.I, s, h, order, divide), max(REPEATS // 3, 5))
             rows.append((f"FD order {order}", float(h), t, error(v, reference)))
     for label, f in closed_forms.items():
-        t, v = median_time(f)
+        t, v = median_time(f, REPEATS)
         rows.append((label, None, t, error(v, reference)))
     return rows
 

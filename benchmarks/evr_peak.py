@@ -18,7 +18,6 @@ Error = |peak - reference| / reference; time = median wall time of the whole com
 """
 from __future__ import annotations
 
-import statistics
 import time
 from pathlib import Path
 
@@ -34,6 +33,7 @@ from optdesign.reduction import ReducedModel  # noqa: E402
 from optdesign.report import save_figure  # noqa: E402
 from optdesign.scenefile import load  # noqa: E402
 from optdesign.vectorised import VectorisedSX  # noqa: E402
+from benchfile import median_time  # noqa: E402  (benchmarks/ is on the path: error_vs_runtime.py)
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLES = (11, 21, 51, 101, 201, 501, 1001, 2001, 5001, 10000)
@@ -46,15 +46,6 @@ SCENES = {
     "crank press": ("problems/crank_press_peak.toml", "T_S [N m]"),
     "level-luffing crane": ("problems/level_luffing_crane.toml", "F_S [N]"),
 }
-
-
-def median_time(f, repeats=REPEATS):
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        value = f()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times), value
 
 
 class Drive:
@@ -101,8 +92,8 @@ def measure(name, path):
     t_dense = time.perf_counter() - t0
     rows = []
     for n in SAMPLES:
-        t_s, v_s = median_time(lambda: drive.sampled(n))
-        t_c, v_c = median_time(lambda: drive.certified(n))
+        t_s, v_s = median_time(lambda: drive.sampled(n), REPEATS)
+        t_c, v_c = median_time(lambda: drive.certified(n), REPEATS)
         rows.append((n, t_s, abs(v_s - reference) / reference, t_c, abs(v_c - reference) / reference))
     return {"name": name, "path": path, "reference": reference, "dense": dense, "t_dense": t_dense, "rows": rows}
 
