@@ -1,10 +1,14 @@
 """optdesign: optimisation-based design of planar mechanisms with a variable drive ratio.
 
-Front doors: :func:`load` (a scene file), :func:`kinematics`, :func:`analyse`.
+Front doors: :func:`load` (a scene file), :func:`kinematics`, :func:`analyse`, :func:`simulate`,
+:func:`optimise` and :class:`Study`.
 """
 from .analysis import AnalysisResult, analyse
 from .errors import (AssemblyError, DeadCentreError, ExpressionError, OptdesignError, SceneError,
                      SolverError)
+from .optimise import OptimisationResult, optimise
+from .simulate import SimulationResult, simulate
+from .study import Study, StudyResult
 from .mechanism import KinematicsResult, Mechanism, kinematics
 from .reduction import ReducedModel
 from .scene import (Attach, Body, Closure, Constraint, Drive, Dyad, Fixed, Gravity, Loop, Objective,
@@ -12,7 +16,8 @@ from .scene import (Attach, Body, Closure, Constraint, Drive, Dyad, Fixed, Gravi
 from .scenefile import load, loads
 
 __all__ = [
-    "load", "loads", "kinematics", "analyse", "Mechanism", "ReducedModel", "KinematicsResult",
+    "load", "loads", "kinematics", "analyse", "simulate", "optimise", "Study", "StudyResult",
+    "SimulationResult", "OptimisationResult", "Mechanism", "ReducedModel", "KinematicsResult",
     "AnalysisResult", "Scene", "Parameter", "Sweep", "Fixed", "Polar", "Dyad", "Slider", "Attach",
     "Loop", "Closure", "Body", "Gravity", "Drive", "Constraint", "Objective", "OptdesignError",
     "SceneError", "ExpressionError", "AssemblyError", "DeadCentreError", "SolverError",
