@@ -4,7 +4,7 @@
                                         [--repeats 3] [--out results/bench.md]
 
 On each scene (a missing scene file is skipped with a note), every method gets the same
-``--starts`` starts drawn by ``optdesign.optimise.draw_starts`` (the scene's own start, then
+``--starts`` starts drawn by ``optdesign.design.optimise.draw_starts`` (the scene's own start, then
 uniform random points of the design box; NOT screened for feasibility: screening or repairing
 them is the tool's job):
 
@@ -23,7 +23,7 @@ of the objective quantity and of every constraint over the continuous stroke (Ne
 extrema), from which the certified objective and the feasibility (tolerance ``FEASIBILITY_TOL``
 of each constraint's scale) follow; each method's best design is cross-checked on a dense
 100,001-sample evaluation (the DesignProblem's rows, and for peak(drive) the exact model of
-``optdesign.analysis.Analysis``).  Timings are repeated ``--repeats`` times (the machine is
+``optdesign.model.analysis.Analysis``).  Timings are repeated ``--repeats`` times (the machine is
 shared) and reported as medians, ours and SLSQP-FD repeat by repeat in turn (a change of the
 machine's load falls on both); ratios are formed from medians measured in the same run.
 
@@ -53,12 +53,12 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from optdesign import __version__ as optdesign_version  # noqa: E402
-from optdesign.analysis import Analysis  # noqa: E402
-from optdesign.design import DesignProblem  # noqa: E402
+from optdesign.model.analysis import Analysis  # noqa: E402
+from optdesign.design.problem import DesignProblem  # noqa: E402
 from optdesign.errors import OptdesignError  # noqa: E402
-from optdesign.optimise import Solver, draw_starts, optimise  # noqa: E402
+from optdesign.design.optimise import Solver, draw_starts, optimise  # noqa: E402
 from benchmarks.benchfile import git_state, write_section  # noqa: E402
-from optdesign.scenefile import load  # noqa: E402
+from optdesign.scene.file import load  # noqa: E402
 
 DEFAULT_SCENES = ("problems/seed1_jib.toml", "problems/truck_crane.toml", "problems/seed1_jib_design.toml")
 COMMAND_SCENE = "problems/truck_crane.toml"
@@ -455,7 +455,7 @@ def profile_ours(scene, starts) -> dict:
     """One pass of ours from the same starts with the pieces timed separately: NLP build,
     repair build, IPOPT (its own work and the NLP function evaluations), the continuous check
     in Python, repairs, and the rest of each start."""
-    from optdesign.optimise import Repair, solve_start
+    from optdesign.design.optimise import Repair, solve_start
 
     class TimedSolver(Solver):
         checks = []
@@ -573,7 +573,7 @@ def de_time_to_best(run: MethodRun, pb: DesignProblem, best) -> list:
 # --- the command ---------------------------------------------------------------------------
 def startup_floor(repeats=3):
     """Wall time of a Python process that only imports what the optimise command imports."""
-    code = "import casadi, optdesign.cli, optdesign.optimise, optdesign.design_report, matplotlib.pyplot"
+    code = "import casadi, optdesign.cli.main, optdesign.design.optimise, optdesign.report.design, matplotlib.pyplot"
     times = []
     for _ in range(repeats):
         t0 = time.perf_counter()

@@ -7,7 +7,7 @@ Scene: problems/level_luffing_crane.toml (seed 1 Fig. 10: jib, beak, connector, 
 and rod, payload; four-bar A-B-D-E; linear drive with efficiency).  Over ``--samples`` values of
 the jib angle it compares
 
-a. ours: ``optdesign.analysis.Analysis(scene, samples=N)``: the one-time build (graphs, AD,
+a. ours: ``optdesign.model.analysis.Analysis(scene, samples=N)``: the one-time build (graphs, AD,
    CasADi Function and its map), then ``.mapped(s, p)`` (every output the analysis reports: the
    model's 10 columns, 6 ratios for each of the 6 bodies, the per-sample constraint) and
    ``.run()`` (the same plus the assembly and dead-centre checks, the per-stroke constraint and
@@ -52,9 +52,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from optdesign.analysis import Analysis  # noqa: E402
+from optdesign.model.analysis import Analysis  # noqa: E402
 from benchmarks.benchfile import cpu_model, git_state, write_section  # noqa: E402
-from optdesign.scenefile import load  # noqa: E402
+from optdesign.scene.file import load  # noqa: E402
 
 SCENE = ROOT / "problems" / "level_luffing_crane.toml"
 COMMAND = ["optdesign", "analyse", "problems/level_luffing_crane.toml", "--json"]
@@ -164,7 +164,7 @@ def closed_form(theta, P, v_S, a_S, eta, g=9.81):
 def scene_inputs(scene):
     """Numbers the closed form needs: parameters, stroke, drive (inputs, not results)."""
     values = scene.parameter_values()
-    from optdesign.expressions import constant_value
+    from optdesign.scene.expressions import constant_value
 
     drive = scene.drive
     return values, {name: constant_value(getattr(drive, key), values, key) for name, key in
@@ -229,17 +229,17 @@ def jit_compile(func: ca.Function, n: int, flags, directory):
 
 
 # --- an option without a compiler: the SX instruction list run by numpy over all samples ----
-from optdesign.vectorised import VectorisedSX  # noqa: E402  (the evaluator Analysis.run uses)
+from optdesign.model.vectorised import VectorisedSX  # noqa: E402  (the evaluator Analysis.run uses)
 
 
 def mx_function(scene, names):
     """The same model built with MX symbols instead of SX (what a scene with a Newton loop gets):
     the Mechanism picks MX when the scene has a loop, so its loop test is widened for this build
     only (no Loop is constructed: the constructions are dispatched by their own type first)."""
-    from optdesign.reduction import ReducedModel
-    from optdesign.scene import Fixed, Loop
+    from optdesign.model.reduction import ReducedModel
+    from optdesign.scene.elements import Fixed, Loop
 
-    _kinematics = importlib.import_module("optdesign.mechanism")  # the module, not the function
+    _kinematics = importlib.import_module("optdesign.kinematics.mechanism")  # the module, not the function
     original = _kinematics.Loop
     _kinematics.Loop = (Loop, Fixed)
     try:
@@ -253,10 +253,10 @@ def mx_function(scene, names):
 
 def command_time(repeats: int):
     """Median wall time of the whole command (subprocess, output discarded) and of the bare
-    interpreter start-up with ``import optdesign.cli`` (the floor)."""
+    interpreter start-up with ``import optdesign.cli.main`` (the floor)."""
     exe = shutil.which("optdesign")
     cmd = [exe] + COMMAND[1:] if exe else [sys.executable, "-m", "optdesign"] + COMMAND[1:]
-    floor_cmd = [sys.executable, "-c", "import optdesign.cli, casadi, numpy"]
+    floor_cmd = [sys.executable, "-c", "import optdesign.cli.main, casadi, numpy"]
     times = {"command": [], "import floor": []}
     for _ in range(repeats):  # interleaved, so both see the same load
         for label, c in (("command", cmd), ("import floor", floor_cmd)):
@@ -428,7 +428,7 @@ def report(args, n, git, started, load_start, load_end, build, builds, analysis,
         f"| ours: one-time build `Analysis(scene, samples={n})` (median of {len(builds)}) | {fmt_ms(build)} | | |",
         f"| whole command `{cmd_text}` (scene's 201 samples, subprocess, median of {args.command_repeats}) | "
         f"{fmt_ms(cmd_times['command'])} | | < 2000 ms: {'met' if cmd_times['command'] < 2 else 'NOT met'} |",
-        f"| of which the floor: `python -c 'import optdesign.cli, casadi, numpy'` | {fmt_ms(cmd_times['import floor'])} | | |",
+        f"| of which the floor: `python -c 'import optdesign.cli.main, casadi, numpy'` | {fmt_ms(cmd_times['import floor'])} | | |",
         "",
         "Options that keep the same graph and give the same numbers (each checked against numpy to "
         f"{AGREE_RTOL:g} before timing); build = extra one-time cost on top of the `Analysis` build "

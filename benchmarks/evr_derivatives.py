@@ -6,7 +6,7 @@ forms.  For two scenes of seed 1 the derivative of the reduced inertia (mass) wi
 the drive coordinate is computed over the stroke by
 
 - AD: optdesign's ``reduced_inertia_dq`` (CasADi's automatic derivative, run by
-  ``optdesign.vectorised``, as ``Analysis.run`` evaluates it);
+  ``optdesign.model.vectorised``, as ``Analysis.run`` evaluates it);
 - central finite differences of optdesign's own ``reduced_inertia`` (the same vectorised
   evaluation at shifted sweep values), of order 2 (2 evaluations), 4 (4) and 6 (6), at steps
   h = 1e-1 .. 1e-13 of the sweep coordinate;
@@ -35,11 +35,11 @@ import matplotlib.pyplot as plt  # noqa: E402
 import mpmath  # noqa: E402
 import numpy as np  # noqa: E402
 
-from optdesign.mechanism import Mechanism  # noqa: E402
-from optdesign.reduction import ReducedModel  # noqa: E402
-from optdesign.report import save_figure  # noqa: E402
-from optdesign.scenefile import load  # noqa: E402
-from optdesign.vectorised import VectorisedSX  # noqa: E402
+from optdesign.kinematics.mechanism import Mechanism  # noqa: E402
+from optdesign.model.reduction import ReducedModel  # noqa: E402
+from optdesign.report.common import save_figure  # noqa: E402
+from optdesign.scene.file import load  # noqa: E402
+from optdesign.model.vectorised import VectorisedSX  # noqa: E402
 from benchfile import median_time  # noqa: E402  (benchmarks/ is on the path: error_vs_runtime.py)
 
 ROOT = Path(__file__).resolve().parents[1]

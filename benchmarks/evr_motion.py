@@ -94,7 +94,7 @@ def _runs(simulator, sol):
 def _free_energy(out_dir):
     """Energy drift of the free motion against run time: slider-crank (rotary) and jib (linear)."""
     import optdesign
-    from optdesign.simulate import Simulator
+    from optdesign.dynamics.simulator import Simulator
 
     crank = Simulator(optdesign.load(ROOT / "problems/sim_slider_crank.toml", {"T0": 0.0, "J_rotor": "1e-2*I_peak"}))
     jib = Simulator(optdesign.load(ROOT / "problems/sim_jib.toml", {"g": 0.0, "F": 0.0}))
@@ -134,8 +134,8 @@ def section(out_dir: Path) -> str:
     import matplotlib.pyplot as plt
 
     import optdesign
-    from optdesign.report import save_figure
-    from optdesign.simulate import Simulator
+    from optdesign.report.common import save_figure
+    from optdesign.dynamics.simulator import Simulator
 
     out_dir = Path(out_dir)
     lines = ["## (c) Motion in time (`optdesign simulate`): work-precision", "",

@@ -1,6 +1,6 @@
 """Error against run time, part (d): the optimiser's tolerance.
 
-``optdesign.optimise`` from the scene's own start (one start), with IPOPT's ``tol`` (and
+``optdesign.design.optimise`` from the scene's own start (one start), with IPOPT's ``tol`` (and
 ``constr_viol_tol``, which ``SolverSettings.tol`` sets too) from 1e-1 to 1e-12; everything else at
 the defaults (the exchange loop stops when the epigraph and the continuous peak agree to
 ``peak_tol`` = 1e-8).
@@ -29,12 +29,12 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from optdesign.analysis import Analysis  # noqa: E402
-from optdesign.design import SolverSettings  # noqa: E402
-from optdesign.expressions import constant_value  # noqa: E402
-from optdesign.optimise import optimise  # noqa: E402
-from optdesign.report import save_figure  # noqa: E402
-from optdesign.scenefile import load  # noqa: E402
+from optdesign.model.analysis import Analysis  # noqa: E402
+from optdesign.design.problem import SolverSettings  # noqa: E402
+from optdesign.scene.expressions import constant_value  # noqa: E402
+from optdesign.design.optimise import optimise  # noqa: E402
+from optdesign.report.common import save_figure  # noqa: E402
+from optdesign.scene.file import load  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 TOLS = tuple(10.0 ** -k for k in range(1, 13))

@@ -2,12 +2,12 @@
 
 A sampled peak (the largest |drive| at N equally spaced samples) is what a table of the analysis
 gives; it misses the continuous peak between samples by O(1/N^2) where the peak is a smooth
-interior maximum.  optdesign's certified peak (``optdesign.peaks.continuous_maxima``) refines every
+interior maximum.  optdesign's certified peak (``optdesign.model.peaks.continuous_maxima``) refines every
 sampled local maximum by safeguarded Newton steps on d|drive|/ds = 0 with exact (AD) derivatives.
 
 For each scene and N = 11 .. 10,000 samples we measure
 
-- sampled: the drive over N samples (the SX graph run by ``optdesign.vectorised``, as
+- sampled: the drive over N samples (the SX graph run by ``optdesign.model.vectorised``, as
   ``Analysis.run`` does) and its largest |value|;
 - certified: the same samples, then Newton on every sampled local maximum, to s_tol = 1e-14.
 
@@ -27,12 +27,12 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from optdesign.mechanism import Mechanism  # noqa: E402
-from optdesign.peaks import continuous_maxima  # noqa: E402
-from optdesign.reduction import ReducedModel  # noqa: E402
-from optdesign.report import save_figure  # noqa: E402
-from optdesign.scenefile import load  # noqa: E402
-from optdesign.vectorised import VectorisedSX  # noqa: E402
+from optdesign.kinematics.mechanism import Mechanism  # noqa: E402
+from optdesign.model.peaks import continuous_maxima  # noqa: E402
+from optdesign.model.reduction import ReducedModel  # noqa: E402
+from optdesign.report.common import save_figure  # noqa: E402
+from optdesign.scene.file import load  # noqa: E402
+from optdesign.model.vectorised import VectorisedSX  # noqa: E402
 from benchfile import median_time  # noqa: E402  (benchmarks/ is on the path: error_vs_runtime.py)
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -37,8 +37,8 @@ from pathlib import Path
 import numpy as np
 
 import optdesign
-from optdesign.expressions import constant_value
-from optdesign.report import save_figure, write_atomic
+from optdesign.scene.expressions import constant_value
+from optdesign.report.common import save_figure, write_atomic
 
 ROOT = Path(__file__).resolve().parents[1]
 SLIDER_CRANK = ROOT / "problems" / "seed1_slider_crank.toml"

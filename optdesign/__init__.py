@@ -3,17 +3,17 @@
 Front doors: :func:`load` (a scene file), :func:`kinematics`, :func:`analyse`, :func:`simulate`,
 :func:`optimise` and :class:`Study`.
 """
-from .analysis import AnalysisResult, analyse
+from .model.analysis import AnalysisResult, analyse
 from .errors import (AssemblyError, DeadCentreError, ExpressionError, OptdesignError, SceneError,
                      SolverError)
-from .optimise import OptimisationResult, optimise
-from .simulate import SimulationResult, simulate
-from .study import Study, StudyResult
-from .mechanism import KinematicsResult, Mechanism, kinematics
-from .reduction import ReducedModel
-from .scene import (Attach, Body, Closure, Constraint, Drive, Dyad, Fixed, Gravity, Loop, Objective,
+from .design.optimise import OptimisationResult, optimise
+from .dynamics.simulator import SimulationResult, simulate
+from .study.study import Study, StudyResult
+from .kinematics.mechanism import KinematicsResult, Mechanism, kinematics
+from .model.reduction import ReducedModel
+from .scene.elements import (Attach, Body, Closure, Constraint, Drive, Dyad, Fixed, Gravity, Loop, Objective,
                     Parameter, Polar, Scene, Slider, Sweep)
-from .scenefile import load, loads
+from .scene.file import load, loads
 
 __all__ = [
     "load", "loads", "kinematics", "analyse", "simulate", "optimise", "Study", "StudyResult",

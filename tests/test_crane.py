@@ -34,8 +34,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from optdesign.analysis import analyse
-from optdesign.scenefile import load, loads
+from optdesign.model.analysis import analyse
+from optdesign.scene.file import load, loads
 
 SCENE_PATH = Path(__file__).resolve().parent.parent / "problems" / "level_luffing_crane.toml"
 RTOL = 1e-6

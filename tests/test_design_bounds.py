@@ -18,10 +18,10 @@ import numpy as np
 import pytest
 
 import optdesign
-from optdesign import study_run
-from optdesign.design import DesignProblem
+from optdesign.study import tasks as study_run
+from optdesign.design.problem import DesignProblem
 from optdesign.errors import SceneError
-from optdesign.optimise import (
+from optdesign.design.optimise import (
     Repair,
     Solver,
     draw_starts,
@@ -29,7 +29,7 @@ from optdesign.optimise import (
     solve_start,
     summarise,
 )
-from optdesign.study import Study, pareto
+from optdesign.study.study import Study, pareto
 
 ROOT = Path(__file__).resolve().parents[1]
 CRANE = ROOT / "problems" / "truck_crane.toml"

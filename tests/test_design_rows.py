@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 
 import optdesign
-from optdesign.design import DesignProblem
-from optdesign.optimise import Solver, optimise
+from optdesign.design.problem import DesignProblem
+from optdesign.design.optimise import Solver, optimise
 
 TRUCK = Path(__file__).resolve().parents[1] / "problems" / "truck_crane.toml"
 

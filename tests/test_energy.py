@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import optdesign
-from optdesign.simulate import simulate
+from optdesign.dynamics.simulator import simulate
 
 PROBLEMS = Path(__file__).resolve().parent.parent / "problems"
 

@@ -15,7 +15,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from optdesign.errors import ExpressionError
-from optdesign.expressions import constant_value, evaluate, parse
+from optdesign.scene.expressions import constant_value, evaluate, parse
 
 
 def value(text, **names):

@@ -35,8 +35,8 @@ import numpy as np
 import pytest
 
 from optdesign import AssemblyError, OptdesignError
-from optdesign.analysis import analyse
-from optdesign.scenefile import loads
+from optdesign.model.analysis import analyse
+from optdesign.scene.file import loads
 
 a, d, c, r = 1.0, 2.0, 1.5, 1.2
 m_c, m_r, G, OMEGA, EPS_S = 3.0, 2.0, 9.81, 2.0, 1.0

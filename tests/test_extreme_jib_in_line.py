@@ -34,8 +34,8 @@ import numpy as np
 import pytest
 
 from optdesign import DeadCentreError
-from optdesign.analysis import analyse
-from optdesign.scenefile import loads
+from optdesign.model.analysis import analyse
+from optdesign.scene.file import loads
 
 E, B, L, PSI, M, G, V, A = 1.6, 2.4, 4.0, math.radians(-60), 500.0, 9.81, 0.1, 0.2
 EPS = np.finfo(float).eps

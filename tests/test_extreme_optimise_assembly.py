@@ -26,9 +26,9 @@ import numpy as np
 import pytest
 
 from optdesign import AssemblyError, SceneError
-from optdesign.analysis import analyse
-from optdesign.optimise import optimise
-from optdesign.scenefile import loads
+from optdesign.model.analysis import analyse
+from optdesign.design.optimise import optimise
+from optdesign.scene.file import loads
 
 a, d = 1.0, 2.0
 
@@ -165,9 +165,9 @@ def test_a_repaired_start_lies_where_ipopt_will_start():
     box and its solve succeeds."""
     from pathlib import Path
 
-    from optdesign.design import DesignProblem
-    from optdesign.optimise import Repair, Solver, draw_starts, solve_start
-    from optdesign.scenefile import load
+    from optdesign.design.problem import DesignProblem
+    from optdesign.design.optimise import Repair, Solver, draw_starts, solve_start
+    from optdesign.scene.file import load
 
     pb = DesignProblem(load(Path(__file__).resolve().parents[1] / "problems" / "level_luffing_path.toml"))
     solver, repair = Solver(pb), Repair(pb)

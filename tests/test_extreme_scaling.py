@@ -25,9 +25,9 @@ import math
 import numpy as np
 import pytest
 
-from optdesign.analysis import analyse
-from optdesign.optimise import optimise
-from optdesign.scenefile import loads
+from optdesign.model.analysis import analyse
+from optdesign.design.optimise import optimise
+from optdesign.scene.file import loads
 
 G = 9.81
 FAMILY = [(1.0, 500.0), (2.5e-4, 1e-3), (2.5e-4, 1e6), (12.5, 1e-3), (12.5, 1e6)]  # (L, m): l = 4 L: 1 mm .. 50 m

@@ -26,9 +26,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from optdesign.analysis import Analysis
-from optdesign.expressions import constant_value
-from optdesign.scenefile import load, loads
+from optdesign.model.analysis import Analysis
+from optdesign.scene.expressions import constant_value
+from optdesign.scene.file import load, loads
 
 PROBLEMS = Path(__file__).resolve().parent.parent / "problems"
 TOL = 1e-10

@@ -24,7 +24,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import optdesign as od
-from optdesign.expressions import parse
+from optdesign.scene.expressions import parse
 
 PROFILE = settings(max_examples=30, deadline=None)
 

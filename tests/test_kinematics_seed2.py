@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 
 import optdesign as od
-from optdesign.expressions import constant_value, parse
+from optdesign.scene.expressions import constant_value, parse
 
 PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
 # (omega1, eps1) pairs: rest, pure rate, and mixed signs

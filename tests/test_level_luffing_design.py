@@ -36,8 +36,8 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq, minimize, minimize_scalar
 
-from optdesign.optimise import optimise
-from optdesign.scenefile import load
+from optdesign.design.optimise import optimise
+from optdesign.scene.file import load
 
 ROOT = Path(__file__).resolve().parents[1]
 PATH_SCENE = ROOT / "problems" / "level_luffing_path.toml"

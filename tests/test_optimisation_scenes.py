@@ -5,7 +5,7 @@ covered too), ``optimise(scene, starts=20, seed=0)`` must succeed with at least 
 starts within 0.1 % of the best value, and an INDEPENDENT search must confirm that value:
 
 * a coarse grid over the design box, evaluated in one vectorised CasADi call on a stroke of
-  31 to 121 points with the scene's reduced model (:class:`optdesign.reduction.
+  31 to 121 points with the scene's reduced model (:class:`optdesign.model.reduction.
   ReducedModel` with the exact power-flow switch, as ``optdesign analyse`` uses it); grid
   points that do not assemble, pass a dead centre or violate a constraint are skipped;
 * a local polish of the best few feasible local minima of the grid with scipy's SLSQP (finite
@@ -34,11 +34,11 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize
 
-from optdesign.expressions import BinOp, Call, Name, Neg, Num, constant_value, parse
-from optdesign.mechanism import Mechanism
-from optdesign.optimise import optimise
-from optdesign.reduction import ReducedModel
-from optdesign.scenefile import load
+from optdesign.scene.expressions import BinOp, Call, Name, Neg, Num, constant_value, parse
+from optdesign.kinematics.mechanism import Mechanism
+from optdesign.design.optimise import optimise
+from optdesign.model.reduction import ReducedModel
+from optdesign.scene.file import load
 
 ROOT = Path(__file__).resolve().parents[1]
 GRID_POINTS = 2500       # about this many grid points in the design box, at least 15 per variable

@@ -1,4 +1,4 @@
-"""Continuous extrema refined in lockstep (optdesign.peaks.refine_all / continuous_maxima_rows).
+"""Continuous extrema refined in lockstep (optdesign.model.peaks.refine_all / continuous_maxima_rows).
 
 * Closed forms: the refined maxima of v(s) = sin(3 s) + 0.3 cos(7 s) (as |v|, v and -v) are the
   roots of the analytic v'(s) found here independently (sign changes of v' on a fine grid, then
@@ -21,17 +21,17 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from optdesign.design import DesignProblem
-from optdesign.mapped import MappedFunction
-from optdesign.optimise import Solver
-from optdesign.peaks import (
+from optdesign.design.problem import DesignProblem
+from optdesign.model.mapped import MappedFunction
+from optdesign.design.optimise import Solver
+from optdesign.model.peaks import (
     Request,
     continuous_maxima,
     continuous_maxima_rows,
     refine,
     refine_all,
 )
-from optdesign.scenefile import load
+from optdesign.scene.file import load
 
 ROOT = Path(__file__).parents[1]
 A, B = -1.0, 4.0  # the stroke of the closed forms

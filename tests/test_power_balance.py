@@ -29,10 +29,10 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from optdesign.analysis import analyse
-from optdesign.expressions import constant_value, evaluate
-from optdesign.mechanism import kinematics
-from optdesign.scenefile import load, loads
+from optdesign.model.analysis import analyse
+from optdesign.scene.expressions import constant_value, evaluate
+from optdesign.kinematics.mechanism import kinematics
+from optdesign.scene.file import load, loads
 
 PROBLEMS = Path(__file__).resolve().parent.parent / "problems"
 RTOL = 1e-9

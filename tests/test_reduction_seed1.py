@@ -34,10 +34,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from optdesign.analysis import analyse
-from optdesign.expressions import constant_value
-from optdesign.mechanism import kinematics
-from optdesign.scenefile import load
+from optdesign.model.analysis import analyse
+from optdesign.scene.expressions import constant_value
+from optdesign.kinematics.mechanism import kinematics
+from optdesign.scene.file import load
 
 PROBLEMS = Path(__file__).resolve().parent.parent / "problems"
 RTOL = 1e-10

@@ -11,11 +11,11 @@ import math
 
 import pytest
 
-from optdesign import cli
+from optdesign.cli import main as cli
 from optdesign.errors import ExpressionError, SceneError
-from optdesign.scene import (Body, Closure, Drive, Dyad, Fixed, Loop, Parameter, Polar, Scene, Slider,
+from optdesign.scene.elements import (Body, Closure, Drive, Dyad, Fixed, Loop, Parameter, Polar, Scene, Slider,
                              Sweep)
-from optdesign.scenefile import load, loads
+from optdesign.scene.file import load, loads
 
 # A four-bar with a dyad, a slider on the coupler's extension, a body and a drive: every
 # construction kind of the closed form, in a dozen lines.

@@ -9,7 +9,7 @@ import pytest
 
 import optdesign
 from optdesign.errors import SolverError
-from optdesign.simulate import simulate
+from optdesign.dynamics.simulator import simulate
 
 PROBLEMS = Path(__file__).resolve().parent.parent / "problems"
 

@@ -5,9 +5,9 @@ from pathlib import Path
 import pytest
 
 import optdesign
-from optdesign.cli import main
+from optdesign.cli.main import main
 from optdesign.errors import DeadCentreError, ExpressionError, SceneError
-from optdesign.simulate import simulate
+from optdesign.dynamics.simulator import simulate
 
 PROBLEMS = Path(__file__).resolve().parent.parent / "problems"
 BAR = (PROBLEMS / "sim_bar.toml").read_text()

@@ -1,4 +1,4 @@
-"""Design studies (optdesign.study): cases, ids, the journal, resuming, and the numbers.
+"""Design studies (optdesign.study.study): cases, ids, the journal, resuming, and the numbers.
 
 References are independent of the study code: the front doors analyse() and optimise() on
 scene.with_parameters(...) (a fresh build per case, where the study re-runs one build with new
@@ -17,9 +17,9 @@ import pytest
 
 import optdesign
 from optdesign.errors import OptdesignError, SceneError
-from optdesign.optimise import optimise
-from optdesign.study import Study, grid, pareto, together, values
-from optdesign.study_io import JOURNAL, Journal, read_csv
+from optdesign.design.optimise import optimise
+from optdesign.study.study import Study, grid, pareto, together, values
+from optdesign.study.files import JOURNAL, Journal, read_csv
 
 ROOT = Path(__file__).resolve().parents[1]
 JIB = ROOT / "problems" / "seed1_jib.toml"

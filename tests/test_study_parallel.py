@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 import optdesign
-from optdesign.study import Study, grid, values
+from optdesign.study.study import Study, grid, values
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -47,7 +47,7 @@ def test_dask_local_cluster_matches_serial(study, serial, tmp_path):
 
 def test_cli_scheduler_at_a_bad_address_is_an_error(tmp_path, capsys):
     dask = pytest.importorskip("dask")
-    from optdesign.cli import main
+    from optdesign.cli.main import main
 
     with dask.config.set({"distributed.comm.timeouts.connect": "2s"}):
         code = main(["study", str(ROOT / "problems" / "seed1_jib.toml"), "--mode", "analyse", "--values", "mC=400,500",

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from optdesign import load
-from optdesign.analysis import Analysis
+from optdesign.model.analysis import Analysis
 
 # every shipped scene with a reduced model (a [drive])
 SCENES = sorted(p for p in (Path(__file__).parents[1] / "problems").glob("*.toml") if load(p).drive is not None)

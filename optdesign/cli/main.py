@@ -6,7 +6,7 @@ import importlib
 import os
 import sys
 
-from .errors import OptdesignError, SceneError, SolverError
+from ..errors import OptdesignError, SceneError, SolverError
 
 
 def _overrides(pairs):
@@ -42,7 +42,7 @@ _workers = _whole_number(1)
 
 
 def _load(args):
-    from .scenefile import load
+    from ..scene.file import load
 
     return load(args.scene, _overrides(args.set))
 
@@ -52,16 +52,16 @@ def _emit(args, json_text, table_text):
 
 
 def cmd_kinematics(args):
-    from . import report
-    from .mechanism import kinematics
+    from ..report import common as report
+    from ..kinematics.mechanism import kinematics
 
     result = kinematics(_load(args), args.samples)
     _emit(args, report.to_json(report.kinematics_json(result)) if args.json else "", report.kinematics_table(result))
 
 
 def cmd_analyse(args):
-    from . import report
-    from .analysis import analyse
+    from ..report import common as report
+    from ..model.analysis import analyse
 
     result = analyse(_load(args), args.samples)
     if args.plot:
@@ -73,8 +73,9 @@ def cmd_analyse(args):
 def cmd_optimise(args):
     from pathlib import Path
 
-    from . import design_report, report
-    from .optimise import optimise
+    from ..report import design as design_report
+    from ..report import common as report
+    from ..design.optimise import optimise
 
     scene = _load(args)
     bar = _progress("starts")
@@ -151,8 +152,8 @@ COMMANDS = {
 # Commands with many options of their own live in their own module, which must import cheaply
 # (no CasADi at import time) and define HELP, add_arguments(parser) and run(args).
 COMMAND_MODULES = {
-    "simulate": "optdesign.simulate_command",
-    "study": "optdesign.study_command",
+    "simulate": "optdesign.cli.simulate",
+    "study": "optdesign.cli.study",
 }
 
 

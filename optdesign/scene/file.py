@@ -1,4 +1,4 @@
-"""Reading scene files (TOML) into :class:`~optdesign.scene.Scene` objects.
+"""Reading scene files (TOML) into :class:`~optdesign.scene.elements.Scene` objects.
 
 Every error names the file, the line where the item can be found, the table and key, what was
 found and what was expected; an unknown key or name suggests its near miss.  The format is
@@ -11,9 +11,9 @@ import re
 import tomllib
 from pathlib import Path
 
-from .errors import OptdesignError, SceneError
+from ..errors import OptdesignError, SceneError
 from .expressions import located_error, near_miss
-from .scene import (ARRAY_TABLES, DRIVE_PINS, Attach, Body, Closure, Constraint, Drive, Dyad, Fixed,
+from .elements import (ARRAY_TABLES, DRIVE_PINS, Attach, Body, Closure, Constraint, Drive, Dyad, Fixed,
                     Gravity, Loop, Objective, Parameter, Polar, Scene, Simulation, Slider, Sweep, Where)
 
 TOP_KEYS = ("title", "source", "parameters", "sweep", "points", "bodies", "gravity", "drive",

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .report import SCHEMA, new_figure, save_figure, to_json, write_atomic
+from .common import SCHEMA, new_figure, save_figure, to_json, write_atomic
 
 
 def optimisation_json(result) -> dict:
@@ -81,7 +81,7 @@ def write_results(result, folder, workers=1) -> list:
 
 def load_figure(result, folder) -> Path:
     """Drive load and per-sample constraints over the stroke, before and after."""
-    from .analysis import Analysis
+    from ..model.analysis import Analysis
 
     scene = result.scene
     after = scene.with_parameters(**result.design)
@@ -99,7 +99,7 @@ def load_figure(result, folder) -> Path:
         conv = np.degrees if "angle" in name else (lambda v: v)
         for bound in (c.lower, c.upper):
             if bound is not None:
-                from .expressions import constant_value
+                from ..scene.expressions import constant_value
 
                 axes[i + 1, 0].axhline(conv(constant_value(bound, scene.parameter_values(), name)), color="k", ls=":", lw=1)
         axes[i + 1, 0].set_ylabel(name + (" [deg]" if "angle" in name else ""))
@@ -115,7 +115,7 @@ def load_figure(result, folder) -> Path:
 def mechanism_figure(result, folder) -> Path:
     """The mechanism drawn at a few positions of the stroke, before and after."""
     from .drawing import draw_positions
-    from .mechanism import kinematics
+    from ..kinematics.mechanism import kinematics
 
     scene = result.scene
     after = scene.with_parameters(**result.design)

@@ -9,7 +9,7 @@ Formulation (what makes it fast and regular):
   sample points s_j: a uniform base grid plus movable *slots*.  The s_j are NLP parameters too,
   so an exchange step moves slots onto the continuous extrema found at the last solution and
   re-solves without rebuilding anything.  The loop ends when the epigraph value and the peak of
-  the continuous stroke (refined by Newton, :mod:`optdesign.peaks`) agree within ``peak_tol``.
+  the continuous stroke (refined by Newton, :mod:`optdesign.model.peaks`) agree within ``peak_tol``.
 * Per-sample constraints (transmission angle, any expression) and assembly margins live on the
   same points and are checked on the continuous stroke in the same way.
 * A stroke aggregate max(e)/min(e) in a constraint or objective becomes an epigraph variable a
@@ -36,12 +36,12 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from .errors import SceneError
-from .expressions import Call, Expression, Name, evaluate, near_miss
-from .mapped import MappedFunction
-from .mechanism import Mechanism
-from .reduction import ReducedModel
-from .scene import Scene
+from ..errors import SceneError
+from ..scene.expressions import Call, Expression, Name, evaluate, near_miss
+from ..model.mapped import MappedFunction
+from ..kinematics.mechanism import Mechanism
+from ..model.reduction import ReducedModel
+from ..scene.elements import Scene
 
 
 @dataclass(frozen=True)
@@ -234,7 +234,7 @@ class DesignProblem:
 
     def _bounds(self, c):
         """A constraint's (lower, upper) as numbers (they may name fixed parameters)."""
-        from .expressions import constant_value
+        from ..scene.expressions import constant_value
 
         values = self.scene.parameter_values()
         where = f"{self.scene.path}: [[constraints]] {c.name!r}"
@@ -579,7 +579,7 @@ class DesignProblem:
     def _requested_bounds(self, bounds) -> tuple:
         """({constraint: (lower, upper)} after applying ``bounds`` to this problem's bounds,
         [(constraint, side, value as a number), ...])."""
-        from .expressions import constant_value, parse
+        from ..scene.expressions import constant_value, parse
 
         out, seen, requested = {}, set(), []
         for item in bounds:
@@ -725,6 +725,6 @@ def quadrature(a, b, panels, order=4):
 
 
 def _parse(text, where):
-    from .expressions import parse
+    from ..scene.expressions import parse
 
     return parse(text, where)

@@ -14,10 +14,10 @@ import casadi as ca
 import numpy as np
 
 from . import constructions as geo
-from .errors import AssemblyError
-from .expressions import evaluate
+from ..errors import AssemblyError
+from ..scene.expressions import evaluate
 from .loops import LoopGraph
-from .scene import Attach, Dyad, Fixed, Loop, Polar, Scene, Slider
+from ..scene.elements import Attach, Dyad, Fixed, Loop, Polar, Scene, Slider
 
 
 @dataclass(frozen=True)
@@ -134,7 +134,7 @@ class Mechanism:
     def stroke(self, samples: int | None = None) -> np.ndarray:
         sw = self.scene.sweep
         values = self.scene.parameter_values()
-        from .expressions import constant_value
+        from ..scene.expressions import constant_value
 
         a = constant_value(sw.start, values, "[sweep] from")
         b = constant_value(sw.stop, values, "[sweep] to")

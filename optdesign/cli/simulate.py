@@ -20,7 +20,7 @@ ORDER = ("t", "s", "sd", "sdd", "q", "qd", "qdd", "drive", "transmitted", "kinet
 
 
 def add_arguments(p):
-    from .cli import _samples
+    from .main import _samples
 
     p.add_argument("scene", help="scene file (TOML) with [drive] law and [simulation], e.g. problems/sim_slider_crank.toml")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
@@ -36,9 +36,9 @@ def add_arguments(p):
 
 
 def run(args):
-    from .cli import _emit, _load
-    from .report import to_json
-    from .simulate import simulate
+    from .main import _emit, _load
+    from ..report.common import to_json
+    from ..dynamics.simulator import simulate
 
     result = simulate(_load(args), integrator=args.integrator, tolerance=args.tolerance, steps=args.steps,
                       samples=args.samples, t_end=args.t_end)
@@ -54,7 +54,7 @@ def _columns(result):
 
 
 def simulation_json(result) -> dict:
-    from .report import SCHEMA
+    from ..report.common import SCHEMA
 
     cols = _columns(result)
     n = len(result.t)
@@ -71,7 +71,7 @@ def simulation_json(result) -> dict:
 
 
 def summary(result) -> str:
-    from .report import table
+    from ..report.common import table
 
     units = UNITS[result.drive_kind]
     where = {"stroke end": f"stroke end ({result.stop_end}: {result.scene.sweep.name} = {result.s[-1]:.6g})",
@@ -103,7 +103,7 @@ def figures(result, folder) -> list:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .report import save_figure
+    from ..report.common import save_figure
 
     units = UNITS[result.drive_kind]
     rotary = result.drive_kind == "rotary"

@@ -12,10 +12,10 @@ chain from ``starts`` cold starts.  Chains are cut every ``chain`` cases, a fixe
 that their number, and every result, is the same whatever runs them.  A chain's cases run in
 order; different chains run in parallel: in this process (``workers=1``), over the machine's
 cores (a process pool, the default), or on a Dask cluster (``scheduler=ADDRESS``).  A case's
-result is a pure function of its content (:mod:`optdesign.study_run`), so the three give
+result is a pure function of its content (:mod:`optdesign.study.tasks`), so the three give
 byte-identical CSV files.
 
-Every finished case is appended to ``journal.jsonl`` at once (:mod:`optdesign.study_io`); a
+Every finished case is appended to ``journal.jsonl`` at once (:mod:`optdesign.study.files`); a
 study that was interrupted (Ctrl-C, a killed process) resumes, when run again with the same
 folder, without redoing any finished case.  ``cases.csv`` (one row per case, in case order),
 figures and ``summary.txt`` are written at the end, atomically.
@@ -32,8 +32,8 @@ import math
 import pickle
 from pathlib import Path
 
-from .errors import SceneError
-from .study_run import Task, scene_digest
+from ..errors import SceneError
+from .tasks import Task, scene_digest
 
 MODES = ("optimise", "analyse")
 
@@ -133,7 +133,7 @@ def _number(v):
 def _constant(v, where):
     v = _number(v)
     if isinstance(v, str):
-        from .expressions import constant_value, parse
+        from ..scene.expressions import constant_value, parse
 
         v = constant_value(parse(v, where), {}, where)
     return v
@@ -164,7 +164,7 @@ class Study:
     optimisation case (the scene's start, then random points: :func:`optimise.draw_starts`);
     ``warm``: chain the cases along the last axis, each starting from the previous optimum and
     ``warm_starts - 1`` cold starts; ``chain``: cases per chain at most; ``settings``: a
-    :class:`~optdesign.design.SolverSettings`."""
+    :class:`~optdesign.design.problem.SolverSettings`."""
 
     scene: object
     axes: tuple = ()
@@ -189,7 +189,7 @@ class Study:
             raise SceneError("study: at most one pareto axis (a front between the objective and one constraint)")
         object.__setattr__(self, "axes", tuple(axes))
         if self.settings is None:
-            from .design import SolverSettings
+            from ..design.problem import SolverSettings
 
             object.__setattr__(self, "settings", SolverSettings())
         self._validate()
@@ -201,7 +201,7 @@ class Study:
             return axis
         c = next((c for c in self.scene.constraints if c.name == axis.constraint), None)
         if c is None:
-            from .expressions import near_miss
+            from ..scene.expressions import near_miss
 
             names = [c.name for c in self.scene.constraints]
             raise SceneError(f"{self.scene.path}: pareto axis: the scene has no constraint {axis.constraint!r}"
@@ -287,7 +287,7 @@ class Study:
                 "settings": dataclasses.asdict(self.settings)}
 
     def task(self, case: Case, x_warm=None, blob=None, digest=None) -> Task:
-        """The worker's view of a case (see :func:`optdesign.study_run.run_task`)."""
+        """The worker's view of a case (see :func:`optdesign.study.tasks.run_task`)."""
         return Task(blob if blob is not None else pickle.dumps(self.scene),
                     digest or scene_digest(self.scene), self.mode, case.overrides, case.bounds,
                     int(self.starts), int(self.seed), int(self.warm_starts),
@@ -306,7 +306,7 @@ class Study:
         ``scheduler``: a Dask scheduler address, or a ``distributed.Client``, to run there
         instead; ``progress(done, total)`` after each case; ``restart``: forget finished cases.
         Raises :class:`StudyInterrupted` on Ctrl-C after keeping every finished case."""
-        from .study_exec import execute
+        from .execute import execute
 
         return execute(self, Path(out) if out else self.default_folder(), workers, scheduler,
                        progress, restart, figures)

@@ -28,9 +28,9 @@ import math
 import casadi as ca
 import numpy as np
 
-from .errors import DeadCentreError, SceneError
-from .expressions import Expression
-from .mechanism import Mechanism, _fmt_s
+from ..errors import DeadCentreError, SceneError
+from ..scene.expressions import Expression
+from ..kinematics.mechanism import Mechanism, _fmt_s
 
 
 class ReducedModel:
@@ -73,7 +73,7 @@ class ReducedModel:
         design = {p.name for p in self.scene.parameters if p.is_design}
         if _depends_on(self.scene, expr, design):
             return False
-        from .expressions import constant_value
+        from ..scene.expressions import constant_value
 
         return constant_value(expr, self.scene.parameter_values(), "") == target
 

@@ -12,7 +12,7 @@ sweep coordinate s instead (state s, sd), multiplying the equation by k:
 
     (c M_s + J_d k^2) sdd = k T_m - J_d k k' sd^2 - c (1/2 M_s' sd^2 + Q_s)
 
-(M_s, Q_s: the sweep-referred inertia and static load of :class:`~optdesign.reduction.ReducedModel`,
+(M_s, Q_s: the sweep-referred inertia and static load of :class:`~optdesign.model.reduction.ReducedModel`,
 ' = d/ds).  This form is regular wherever the total inertia c M_s + J_d k^2 > 0, in particular
 at a dead centre of a linear drive (k = 0, M_s > 0).  For a rotary crank whose angle is the
 sweep (the slider-crank), k = 1 and it is the seed's equation (17) itself; there M_s -> 0 at the
@@ -21,7 +21,7 @@ makes the problem stiff: the crank whips through the dead centres).  A stroke wh
 inertia vanishes is reported as a :class:`~optdesign.errors.DeadCentreError` before integrating.
 
 **Efficiency.**  c = 1/eta while power flows into the mechanism (T_S qd > 0), eta while it flows
-back, as in :class:`~optdesign.reduction.ReducedModel` (an exact switch).  With drive inertia
+back, as in :class:`~optdesign.model.reduction.ReducedModel` (an exact switch).  With drive inertia
 T_S depends on the acceleration, but the sign of T_S qd does not depend on c: solving the
 equation above for both c gives T_S k = c E_s with
 E_s = [M_s (k T_m - J_d k k' sd^2) + J_d k^2 (1/2 M_s' sd^2 + Q_s)] / (c M_s + J_d k^2),
@@ -62,11 +62,11 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from .errors import DeadCentreError, SceneError, SolverError
-from .expressions import constant_value, evaluate
-from .mechanism import Mechanism, _fmt_s
-from .reduction import ReducedModel
-from .scene import INTEGRATORS, Scene
+from ..errors import DeadCentreError, SceneError, SolverError
+from ..scene.expressions import constant_value, evaluate
+from ..kinematics.mechanism import Mechanism, _fmt_s
+from ..model.reduction import ReducedModel
+from ..scene.elements import INTEGRATORS, Scene
 
 DEFAULT_TOLERANCE = 1e-8
 DEFAULT_RK4_STEPS = 20

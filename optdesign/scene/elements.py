@@ -1,8 +1,8 @@
 """The scene: one mechanism with its masses, loads, drive, stroke and design problem.
 
-These frozen dataclasses are what a TOML scene file loads into (see :mod:`optdesign.scenefile`
+These frozen dataclasses are what a TOML scene file loads into (see :mod:`optdesign.scene.file`
 and ``docs/scenes.md``) and what a script builds or changes directly.  Expressions may be given
-as numbers, strings or parsed :class:`~optdesign.expressions.Expression` objects; they are
+as numbers, strings or parsed :class:`~optdesign.scene.expressions.Expression` objects; they are
 parsed on construction, where each object also checks what it can check alone (types, counts,
 a dyad's side, a body with mass but no centre of mass).  :meth:`Scene.validate` then checks
 every cross reference (names, points built before use, bounds) in the order of the file.
@@ -19,7 +19,7 @@ import math
 import re
 from dataclasses import dataclass, field
 
-from .errors import ExpressionError, SceneError
+from ..errors import ExpressionError, SceneError
 from .expressions import (CONSTANTS, Expression, constant_value, located_error, near_miss,
                           parse)
 

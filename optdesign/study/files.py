@@ -9,7 +9,7 @@ Loss-free by construction:
   everything its result depends on, so a resumed study (or a changed one in the same folder)
   takes a finished case only when it is the very same computation.
 * ``cases.csv`` and every other file are written whole through a temporary file and a rename
-  (:func:`optdesign.report.write_atomic`): never half-written.
+  (:func:`optdesign.report.common.write_atomic`): never half-written.
 * An exclusive lock on the journal stops two runs from writing the same folder at once.
 """
 from __future__ import annotations
@@ -22,8 +22,8 @@ import math
 import os
 from pathlib import Path
 
-from .errors import OptdesignError
-from .report import save_figure, write_atomic
+from ..errors import OptdesignError
+from ..report.common import save_figure, write_atomic
 
 JOURNAL = "journal.jsonl"
 CSV = "cases.csv"

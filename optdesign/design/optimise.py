@@ -10,10 +10,10 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from .design import DesignProblem, SolverSettings
-from .mapped import MappedFunction
-from .peaks import Request, continuous_maxima_rows
-from .scene import Scene
+from .problem import DesignProblem, SolverSettings
+from ..model.mapped import MappedFunction
+from ..model.peaks import Request, continuous_maxima_rows
+from ..scene.elements import Scene
 
 
 @dataclass(frozen=True)
@@ -205,7 +205,7 @@ class Solver:
         Returns (violations, certified, sampled): violations is a list of (amount, s, row) with
         amount > 0 where a bound (or the epigraph) is exceeded by more than its tolerance,
         sorted largest first, near-active extrema included with amount <= 0.  The extrema of
-        all blocks are refined together (:func:`~optdesign.peaks.continuous_maxima_rows`: one
+        all blocks are refined together (:func:`~optdesign.model.peaks.continuous_maxima_rows`: one
         evaluation of every row per Newton step of all brackets)."""
         pb, st = self.pb, self.pb.settings
         p = pb.full_parameters(x, fixed)

@@ -14,7 +14,7 @@ accelerations need none of seed 2's derivative matrices T', T''.
 import casadi as ca
 
 from .constructions import perp
-from .expressions import evaluate
+from ..scene.expressions import evaluate
 
 
 def transmission_matrix(phi, length_before):

@@ -18,9 +18,9 @@ import threading
 import time
 from pathlib import Path
 
-from . import study_io
-from .report import write_atomic
-from .study_run import run_task, scene_digest
+from . import files as study_io
+from ..report.common import write_atomic
+from .tasks import run_task, scene_digest
 
 
 def execute(study, folder: Path, workers, scheduler, progress, restart, figures):
@@ -277,7 +277,7 @@ class _Dask(_Futures):
                 # connect timeout: dask's config distributed.comm.timeouts.connect (30 s by default)
                 self.client, self.own = distributed.Client(scheduler), True
             except OSError as exc:
-                from .errors import OptdesignError
+                from ..errors import OptdesignError
 
                 raise OptdesignError(f"--scheduler {scheduler}: cannot reach the Dask scheduler ({exc})") from None
         self.address = self.client.scheduler.address
@@ -308,7 +308,7 @@ def _executor(workers, scheduler, n_chains):
         return _Dask(scheduler)
     workers = (os.cpu_count() or 1) if workers is None else int(workers)
     if workers < 1:
-        from .errors import OptdesignError
+        from ..errors import OptdesignError
 
         raise OptdesignError(f"workers must be at least 1, found {workers}")
     workers = min(workers, max(n_chains, 1))

@@ -7,8 +7,8 @@ this is what makes a serial, a parallel and a distributed run of a study identic
 
 Speed comes from building the scene's model once per process and re-running it with new
 parameter values.  A parameter can be changed without a rebuild when it is a *leaf* of the
-CasADi graphs (Mechanism.p): then :class:`~optdesign.design.DesignProblem` takes it as an NLP
-parameter (``Solver.solve(x0, fixed)``) and :class:`~optdesign.analysis.Analysis` as a value
+CasADi graphs (Mechanism.p): then :class:`~optdesign.design.problem.DesignProblem` takes it as an NLP
+parameter (``Solver.solve(x0, fixed)``) and :class:`~optdesign.model.analysis.Analysis` as a value
 of ``run(p_values)``.  Parameters that the build evaluates to numbers (derived parameters, the
 sweep's range, constraint bounds, stroke expressions, design variables' starts) are
 *structural*: a case that changes one of them gets a problem built for it (cached per process).
@@ -17,7 +17,7 @@ with a fresh ``optimise(scene.with_parameters(...))`` to IPOPT's tolerance (test
 relative; 4e-10 was seen on the truck crane from half to three times the payload).
 
 The bounds of a Pareto axis need no build either: they are the NLP's lbg/ubg, and
-:meth:`~optdesign.design.DesignProblem.with_bounds` derives each point's problem from the one
+:meth:`~optdesign.design.problem.DesignProblem.with_bounds` derives each point's problem from the one
 built for the scene's own bounds (sharing its NLP, solvers and start repair).  That problem
 keeps the base build's scales (a per-sample constraint's scale counts the scene's bounds, not
 the swept one), so a case's numbers still depend on nothing but its task.
@@ -71,8 +71,8 @@ def structural_names(scene, mode: str) -> set:
             if c.expr.is_aggregate:
                 used |= c.expr.outside_aggregates()[0]
         if scene.objective is not None:
-            from .errors import OptdesignError
-            from .expressions import parse
+            from ..errors import OptdesignError
+            from ..scene.expressions import parse
 
             try:
                 used |= parse(scene.objective.minimise, "[objective]").names()
@@ -128,17 +128,17 @@ def _built(task: Task, base, structural: dict, bounds: tuple):
         return c.models[key]
     scene = base.with_parameters(**structural)
     if bounds:
-        from .design import scene_with_bounds
+        from ..design.problem import scene_with_bounds
 
         scene = scene_with_bounds(scene, bounds)
     if task.mode == "optimise":
-        from .design import DesignProblem, SolverSettings
-        from .optimise import Repair
+        from ..design.problem import DesignProblem, SolverSettings
+        from ..design.optimise import Repair
 
         problem = DesignProblem(scene, SolverSettings(**dict(task.settings)))
         model = (problem, Repair(problem))
     else:
-        from .analysis import Analysis
+        from ..model.analysis import Analysis
 
         model = Analysis(scene)
     while len(c.models) >= _CACHE_SIZE:
@@ -154,7 +154,7 @@ def run_task(task: Task) -> dict:
     A case that fails on purpose (a geometry that does not assemble, no start converging) is a
     finished case with ``success`` False and the reason in ``status``; any other exception is a
     bug and propagates."""
-    from .errors import OptdesignError
+    from ..errors import OptdesignError
 
     t0 = time.perf_counter()
     base = _scene(task)
@@ -185,7 +185,7 @@ def _leaf_values(names, scene, default):
 def _optimise(task: Task, model, scene):
     import numpy as np
 
-    from .optimise import Solver, draw_starts, solve_start, summarise
+    from ..design.optimise import Solver, draw_starts, solve_start, summarise
 
     problem, repair = model
     # a fresh Solver per case: a Solver carries what it learned from one start to the next

@@ -7,10 +7,10 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from .expressions import evaluate
-from .mechanism import Mechanism
+from ..scene.expressions import evaluate
+from ..kinematics.mechanism import Mechanism
 from .reduction import ReducedModel
-from .scene import Scene
+from ..scene.elements import Scene
 from .vectorised import VectorisedSX
 
 

@@ -1,4 +1,4 @@
-"""`optdesign study SCENE ...`: many analyses or optimisations of one scene (see optdesign.study).
+"""`optdesign study SCENE ...`: many analyses or optimisations of one scene (see optdesign.study.study).
 
 Imports nothing heavy at module level: the CLI registers this module on every start."""
 from __future__ import annotations
@@ -35,7 +35,7 @@ class _AxisAction(argparse.Action):
 
 
 def add_arguments(p):
-    from .cli import _whole_number
+    from .main import _whole_number
 
     p.formatter_class = argparse.RawDescriptionHelpFormatter
     p.epilog = EPILOG
@@ -64,8 +64,8 @@ def add_arguments(p):
 
 def parse_axis(kind, text):
     """An Axis from the text of --grid, --values or --pareto."""
-    from .errors import SceneError
-    from .study import grid, pareto, values
+    from ..errors import SceneError
+    from ..study.study import grid, pareto, values
 
     name, sep, spec = text.rpartition("=")
     name = name.strip()
@@ -99,14 +99,14 @@ def parse_axis(kind, text):
 
 
 def _constant(text, where):
-    from .expressions import constant_value, parse
+    from ..scene.expressions import constant_value, parse
 
     return constant_value(parse(text.strip(), where), {}, where)
 
 
 def run(args):
-    from . import cli
-    from .study import Study, StudyInterrupted
+    from . import main as cli
+    from ..study.study import Study, StudyInterrupted
 
     scene = cli._load(args)
     axes = [parse_axis(kind, text) for kind, text in args.axes]
@@ -122,7 +122,7 @@ def run(args):
     for path in result.paths:
         print(f"wrote {path}", file=sys.stderr)
     if args.json:
-        from .report import to_json
+        from ..report.common import to_json
 
         print(to_json({"schema": "optdesign/1", "kind": "study", "folder": str(result.folder),
                        "complete": result.complete, "computed": result.computed, "reused": result.reused,
