@@ -1,0 +1,1 @@
+"""Real-machine design scenes (problems/lib_*.toml) against independent numpy references."""
