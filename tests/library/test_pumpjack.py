@@ -1,0 +1,90 @@
+"""problems/lib_pumpjack.toml against its independent numpy reference (ref_pumpjack.py).
+
+optdesign's 20-start optimisation (default settings) must reach the global optimum that a grid
+over the whole design box plus polished SLSQP solves finds on the numpy model (1e-6 relative);
+its certified peak must be the peak of the numpy model at optdesign's design over 20,001
+samples with the extreme refined (1e-8 relative); the gearbox torque of optdesign's model must
+be the numpy model's at the start and at both optima (1e-9 of the peak); and the stroke that
+the scene writes as a closed form of the dead centres must be the stroke of the sampled beam
+angles.  How many of the 20 starts reach the global optimum is printed (issue 14 records it;
+not asserted yet).
+"""
+from __future__ import annotations
+
+import functools
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import ref_pumpjack as ref  # noqa: E402
+import reflib_checks as checks  # noqa: E402
+import reflib_search as rs  # noqa: E402
+
+
+@functools.cache
+def reference():
+    return ref.global_optimum("small")
+
+
+def test_optimum_is_the_global_one():
+    result, seconds = checks.optimum(ref.SCENE)
+    glob = reference()
+    at, others, text = checks.starts_report(result, glob["peak"])
+    print(f"\nlib_pumpjack: {text}; optimise took {seconds:.1f} s")
+    assert result.success, (result.status, result.message)
+    assert glob["violation"] <= 1e-9
+    assert result.objective == pytest.approx(glob["peak"], rel=1e-6)
+    # the design too: the minimum is isolated (stroke active, two equal torque peaks)
+    for name in ref.DESIGN:
+        assert result.design[name] == pytest.approx(glob["design"][name], rel=1e-4, abs=1e-4)
+
+
+def test_certified_peak_is_the_dense_peak():
+    result, _ = checks.optimum(ref.SCENE)
+    assert result.success, (result.status, result.message)
+    assert ref.dense_peak(result.design, 20001) == pytest.approx(result.peak_certified, rel=1e-8)
+    assert result.objective == pytest.approx(result.peak_certified, rel=1e-12)
+    # feasible on the dense stroke (every extreme refined)
+    peak, viol, _, _ = rs.evaluate(ref.problem(), [result.design[n] for n in ref.DESIGN], 20001)
+    assert viol <= 1e-7
+
+
+def test_drive_agrees_with_the_numpy_model():
+    result, _ = checks.optimum(ref.SCENE)
+    p = ref.data()["params"]
+    designs = {"start": {n: p[n] for n in ref.DESIGN}, "numpy optimum": reference()["design"]}
+    if result.success:
+        designs["optdesign optimum"] = result.design
+    for label, design in designs.items():
+        mismatch, ours, theirs = checks.drive_mismatch(ref.SCENE, design, ref.drive, samples=9)
+        assert mismatch <= 1e-9, (label, ours, theirs)
+
+
+def test_stroke_closed_form_is_the_sampled_stroke():
+    """The scene's stroke (closed form of the two dead centres) at optdesign's optimum, as the
+    result reports it, equals A (max - min) of the numpy beam angle over the stroke (20,001
+    samples, each extreme refined); the constraint is active there: 54 in."""
+    result, _ = checks.optimum(ref.SCENE)
+    assert result.success, (result.status, result.message)
+    pb = ref.problem()
+    ext, _, _, _ = rs.stroke_extremes(pb, [result.design[n] for n in ref.DESIGN], 20001,
+                                      [("beam", "max"), ("beam", "min")])
+    stroke = ref.data()["params"]["A"] * (ext[("beam", "max")] - ext[("beam", "min")])
+    assert result.constraints["polished rod stroke"]["value"] == pytest.approx(stroke, rel=1e-9)
+    assert stroke == pytest.approx(1.3716, rel=1e-7)
+
+
+@pytest.mark.xfail(strict=True, reason="issue 14: result.constraints reports min == max == the stroke-end value "
+                   "(71.6 deg) for the transmission angle, which spans 65.3 .. 123.3 deg: extremes of an inactive "
+                   "per-sample constraint far from its bounds are not refined, only the stroke's ends are kept")
+def test_reported_range_of_an_inactive_constraint():
+    result, _ = checks.optimum(ref.SCENE)
+    s = np.linspace(*ref.data()["sweep"], 20001)
+    X = {n: np.array([[result.design[n]]]) for n in ref.DESIGN}
+    angle = ref.rows(X, s)["transmission"][0]
+    reported = result.constraints["transmission angle at the equaliser"]
+    assert reported["min"] == pytest.approx(angle.min(), rel=1e-6)
+    assert reported["max"] == pytest.approx(angle.max(), rel=1e-6)
