@@ -31,7 +31,7 @@ from benchfile import ROOT, write_section  # noqa: E402
 
 import optdesign  # noqa: E402
 from optdesign.design.optimise import optimise  # noqa: E402
-from optdesign.study.study import Study, grid  # noqa: E402
+from optdesign.study import Study, grid  # noqa: E402
 
 SCENE = ROOT / "problems" / "seed1_jib_design.toml"
 

@@ -11,7 +11,7 @@ import subprocess
 import time
 from pathlib import Path
 
-from optdesign.report.common import write_atomic
+from optdesign.report.output import write_atomic
 
 ROOT = Path(__file__).resolve().parents[1]
 BENCH_MD = ROOT / "results" / "bench.md"

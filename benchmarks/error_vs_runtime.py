@@ -38,7 +38,7 @@ import casadi as ca  # noqa: E402
 import numpy as np  # noqa: E402
 
 from benchfile import cpu_model, git_state  # noqa: E402
-from optdesign.report.common import write_atomic  # noqa: E402
+from optdesign.report.output import write_atomic  # noqa: E402
 
 FIGURES = "error_vs_runtime"
 SECTIONS = (("derivatives", "evr_derivatives"), ("peak", "evr_peak"), ("motion", "evr_motion"),

@@ -37,7 +37,7 @@ import numpy as np  # noqa: E402
 
 from optdesign.kinematics.mechanism import Mechanism  # noqa: E402
 from optdesign.model.reduction import ReducedModel  # noqa: E402
-from optdesign.report.common import save_figure  # noqa: E402
+from optdesign.report.output import save_figure  # noqa: E402
 from optdesign.scene.file import load  # noqa: E402
 from optdesign.model.vectorised import VectorisedSX  # noqa: E402
 from benchfile import median_time  # noqa: E402  (benchmarks/ is on the path: error_vs_runtime.py)

@@ -134,7 +134,7 @@ def section(out_dir: Path) -> str:
     import matplotlib.pyplot as plt
 
     import optdesign
-    from optdesign.report.common import save_figure
+    from optdesign.report.output import save_figure
     from optdesign.dynamics.simulator import Simulator
 
     out_dir = Path(out_dir)

@@ -33,7 +33,7 @@ from optdesign.model.analysis import Analysis  # noqa: E402
 from optdesign.design.problem import SolverSettings  # noqa: E402
 from optdesign.scene.expressions import constant_value  # noqa: E402
 from optdesign.design.optimise import optimise  # noqa: E402
-from optdesign.report.common import save_figure  # noqa: E402
+from optdesign.report.output import save_figure  # noqa: E402
 from optdesign.scene.file import load  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -38,7 +38,7 @@ import numpy as np
 
 import optdesign
 from optdesign.scene.expressions import constant_value
-from optdesign.report.common import save_figure, write_atomic
+from optdesign.report.output import save_figure, write_atomic
 
 ROOT = Path(__file__).resolve().parents[1]
 SLIDER_CRANK = ROOT / "problems" / "seed1_slider_crank.toml"

@@ -11,7 +11,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
 import optdesign
-from optdesign.study.study import Study, grid, values
+from optdesign.study import Study, grid, values
 
 if __name__ == "__main__":
     scene = optdesign.load("problems/truck_crane.toml")

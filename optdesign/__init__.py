@@ -8,7 +8,7 @@ from .errors import (AssemblyError, DeadCentreError, ExpressionError, OptdesignE
                      SolverError)
 from .design.optimise import OptimisationResult, optimise
 from .dynamics.simulator import SimulationResult, simulate
-from .study.study import Study, StudyResult
+from .study import Study, StudyResult
 from .kinematics.mechanism import KinematicsResult, Mechanism, kinematics
 from .model.reduction import ReducedModel
 from .scene.elements import (Attach, Body, Closure, Constraint, Drive, Dyad, Fixed, Gravity, Loop, Objective,

@@ -29,7 +29,7 @@ from optdesign.design.optimise import (
     solve_start,
     summarise,
 )
-from optdesign.study.study import Study, pareto
+from optdesign.study import Study, pareto
 
 ROOT = Path(__file__).resolve().parents[1]
 CRANE = ROOT / "problems" / "truck_crane.toml"

@@ -5,8 +5,8 @@ The seed-1 jib is dressed up to a FULL scene that uses every term (weight, an ex
 torque, a moment of inertia, acceleration, speed, efficiency eta < 1).  Each variant leaves out
 one thing; its compiled stroke function (analysis.Analysis(scene).function) must have fewer
 instructions and nodes than the full one, and the columns of that term must be absent from
-the AnalysisResult, from the JSON (optdesign.report.common.analysis_json: per-sample keys, units, seed
-names) and from the table header (optdesign.report.common.analysis_table), while the full scene has
+the AnalysisResult, from the JSON (optdesign.report.analysis.analysis_json: per-sample keys, units, seed
+names) and from the table header (optdesign.report.analysis.analysis_table), while the full scene has
 them.  The LEAN scene leaves out everything at once: no gravity, no moment of inertia, eta = 1,
 zero acceleration (only the mass and the speed remain).
 """
@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from optdesign.model.analysis import Analysis
-from optdesign.report.common import analysis_json, analysis_table
+from optdesign.report.analysis import analysis_json, analysis_table
 from optdesign.scene.file import load
 
 PROBLEMS = Path(__file__).resolve().parent.parent / "problems"

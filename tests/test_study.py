@@ -18,8 +18,9 @@ import pytest
 import optdesign
 from optdesign.errors import OptdesignError, SceneError
 from optdesign.design.optimise import optimise
-from optdesign.study.study import Study, grid, pareto, together, values
-from optdesign.study.files import JOURNAL, Journal, read_csv
+from optdesign.study import Study, grid, pareto, together, values
+from optdesign.study import read_csv
+from optdesign.study.journal import JOURNAL, Journal
 
 ROOT = Path(__file__).resolve().parents[1]
 JIB = ROOT / "problems" / "seed1_jib.toml"

@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 
 
-from optdesign.study.files import read_csv
+from optdesign.study import read_csv
 
 ROOT = Path(__file__).resolve().parents[1]
 SCRIPT = ROOT / "examples" / "study_truck_crane.py"

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 import optdesign
-from optdesign.study.study import Study, grid
+from optdesign.study import Study, grid
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = ROOT / "problems" / "seed1_jib_design.toml"

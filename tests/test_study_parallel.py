@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 import optdesign
-from optdesign.study.study import Study, grid, values
+from optdesign.study import Study, grid, values
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -35,7 +35,7 @@ class _AxisAction(argparse.Action):
 
 
 def add_arguments(p):
-    from .main import _whole_number
+    from .common import whole_number as _whole_number
 
     p.formatter_class = argparse.RawDescriptionHelpFormatter
     p.epilog = EPILOG
@@ -105,24 +105,24 @@ def _constant(text, where):
 
 
 def run(args):
-    from . import main as cli
+    from . import common as cli
     from ..study.study import Study, StudyInterrupted
 
-    scene = cli._load(args)
+    scene = cli.load_scene(args)
     axes = [parse_axis(kind, text) for kind, text in args.axes]
     study = Study(scene, axes, mode=args.mode, starts=args.starts, seed=args.seed, warm=not args.no_warm,
                   warm_starts=args.warm_starts, chain=args.chain)
     out = args.out or f"results/{study.default_folder().name}"
     try:
         result = study.run(out=out, workers=args.workers, scheduler=args.scheduler,
-                           progress=cli._progress("cases"), restart=args.restart, figures=not args.no_figures)
+                           progress=cli.progress_bar("cases"), restart=args.restart, figures=not args.no_figures)
     except StudyInterrupted as exc:
         print(f"\noptdesign study: {exc}", file=sys.stderr)
         raise SystemExit(130) from None
     for path in result.paths:
         print(f"wrote {path}", file=sys.stderr)
     if args.json:
-        from ..report.common import to_json
+        from ..report.output import to_json
 
         print(to_json({"schema": "optdesign/1", "kind": "study", "folder": str(result.folder),
                        "complete": result.complete, "computed": result.computed, "reused": result.reused,

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import SCHEMA, new_figure, save_figure, to_json, write_atomic
+from .output import SCHEMA, new_figure, save_figure, to_json, write_atomic
 
 
 def optimisation_json(result) -> dict:

@@ -18,21 +18,22 @@ import threading
 import time
 from pathlib import Path
 
-from . import files as study_io
-from ..report.common import write_atomic
+from ..report import study as study_figures
+from . import journal as study_journal
+from . import table as study_table
+from .results import StudyInterrupted, StudyResult
+from ..report.output import write_atomic
 from .tasks import run_task, scene_digest
 
 
 def execute(study, folder: Path, workers, scheduler, progress, restart, figures):
-    from .study import StudyInterrupted, StudyResult
-
     t0 = time.perf_counter()
     cases = study.cases()
     if restart and folder.exists():
-        for name in (study_io.JOURNAL, study_io.CSV, "pareto.csv", "study.png", "pareto.png",
+        for name in (study_journal.JOURNAL, study_table.CSV, "pareto.csv", "study.png", "pareto.png",
                      "study.json", "summary.txt"):
             (folder / name).unlink(missing_ok=True)
-    with study_io.Journal(folder) as journal:
+    with study_journal.Journal(folder) as journal:
         write_atomic(folder / "study.json", json.dumps(definition(study, cases), indent=1) + "\n")
         reused = sum(1 for c in cases if c.id in journal.records)
         chains = {}
@@ -52,18 +53,19 @@ def execute(study, folder: Path, workers, scheduler, progress, restart, figures)
                 executor.close()
         rows = merged_rows(cases, journal.records)
         complete = len(rows) == len(cases)
-        paths = [study_io.write_csv(folder, rows, study.input_columns)]
+        paths = [study_table.write_csv(folder, rows, study.input_columns)]
         if complete and figures:
-            paths += study_io.figures(study, rows, folder)
-            if study.axes and study.axes[-1].kind == "pareto":
-                paths.append(study_io.pareto_csv(study, rows, folder))
+            pareto = bool(study.axes) and study.axes[-1].kind == "pareto"
+            paths += study_figures.figures(study, rows, folder, study_table.front(study, rows) if pareto else None)
+            if pareto:
+                paths.append(study_table.pareto_csv(study, rows, folder))
         wall = time.perf_counter() - t0
         result = StudyResult(study, folder, rows, complete, computed, reused, wall, paths)
         paths.append(write_summary(result, where))
     if interrupted:
         raise StudyInterrupted(
             f"study interrupted: {len(rows)} of {len(cases)} cases are finished and kept in "
-            f"{folder / study_io.JOURNAL} ({folder / study_io.CSV} holds them); run the same study "
+            f"{folder / study_journal.JOURNAL} ({folder / study_table.CSV} holds them); run the same study "
             "again with the same folder to resume (finished cases are not redone)", result)
     return result
 

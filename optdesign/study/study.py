@@ -15,7 +15,7 @@ cores (a process pool, the default), or on a Dask cluster (``scheduler=ADDRESS``
 result is a pure function of its content (:mod:`optdesign.study.tasks`), so the three give
 byte-identical CSV files.
 
-Every finished case is appended to ``journal.jsonl`` at once (:mod:`optdesign.study.files`); a
+Every finished case is appended to ``journal.jsonl`` at once (:mod:`optdesign.study.journal`); a
 study that was interrupted (Ctrl-C, a killed process) resumes, when run again with the same
 folder, without redoing any finished case.  ``cases.csv`` (one row per case, in case order),
 figures and ``summary.txt`` are written at the end, atomically.
@@ -33,110 +33,11 @@ import pickle
 from pathlib import Path
 
 from ..errors import SceneError
+from .axes import Axis, _constant, _number, grid, pareto, together, values  # noqa: F401  (re-exported)
+from .results import StudyInterrupted, StudyResult  # noqa: F401  (re-exported)
 from .tasks import Task, scene_digest
 
 MODES = ("optimise", "analyse")
-
-
-class StudyInterrupted(KeyboardInterrupt):
-    """A study stopped by Ctrl-C; ``result`` holds what was finished (and kept)."""
-
-    def __init__(self, message, result):
-        super().__init__(message)
-        self.result = result
-
-
-# --- axes -------------------------------------------------------------------------------------
-@dataclasses.dataclass(frozen=True)
-class Axis:
-    """One axis of a study: ``points`` is a tuple of ((column, value), ...) per point.
-
-    ``kind`` is 'parameter' (one parameter), 'together' (several parameters per point) or
-    'pareto' (the ``side`` bound, 'min' or 'max', of constraint ``constraint``)."""
-
-    kind: str
-    points: tuple
-    constraint: str | None = None
-    side: str | None = None
-
-    @property
-    def columns(self) -> tuple:
-        return tuple(k for k, _ in self.points[0]) if self.points else ()
-
-    @property
-    def column(self) -> str:
-        """The column drawn on a figure's abscissa (the first of a 'together' axis)."""
-        return self.columns[0]
-
-    @property
-    def label(self) -> str:
-        return self.constraint if self.kind == "pareto" else self.column
-
-    def __len__(self):
-        return len(self.points)
-
-
-def values(name: str, items) -> Axis:
-    """An axis over parameter ``name`` taking the given values (numbers or expressions)."""
-    items = [_number(v) for v in items]
-    if not items:
-        raise SceneError(f"axis {name!r}: no values")
-    return Axis("parameter", tuple(((name, v),) for v in items))
-
-
-def grid(name: str, start: float, stop: float, n: int) -> Axis:
-    """``n`` evenly spaced values of parameter ``name`` from ``start`` to ``stop`` (ends included)."""
-    if int(n) < 1:
-        raise SceneError(f"axis {name!r}: expected at least one value, found n = {n}")
-    n = int(n)
-    return values(name, [start + (stop - start) * i / (n - 1) if n > 1 else start for i in range(n)])
-
-
-def together(rows) -> Axis:
-    """An axis of cases in which several parameters change together: a list of dicts with the
-    same keys, e.g. ``[{"L": 5, "mB": 540}, {"L": 6, "mB": 650}]``."""
-    rows = [dict(r) for r in rows]
-    if not rows or not rows[0]:
-        raise SceneError("together(): expected a non-empty list of {parameter: value} dicts")
-    keys = list(rows[0])
-    for i, r in enumerate(rows):
-        if list(r) != keys:
-            raise SceneError(f"together(): case {i} sets {sorted(r)}, the first sets {sorted(keys)}; "
-                             "every case must set the same parameters")
-    return Axis("together", tuple(tuple((k, _number(r[k])) for k in keys) for r in rows))
-
-
-def pareto(constraint: str, bounds, side: str | None = None) -> Axis:
-    """An epsilon-constraint axis: the scene's constraint ``constraint`` gets its ``side``
-    bound ('min' or 'max'; may be left out when the constraint has one bound only) set to each
-    value of ``bounds`` in turn (numbers, or expressions such as "30 deg")."""
-    items = [_constant(b, f"pareto bound of {constraint!r}") for b in bounds]
-    if not items:
-        raise SceneError(f"pareto axis {constraint!r}: no bound values")
-    if side not in (None, "min", "max"):
-        raise SceneError(f"pareto axis {constraint!r}: side must be 'min' or 'max', found {side!r}")
-    return Axis("pareto", tuple(((f"bound:{constraint}:{side or '?'}", v),) for v in items), constraint, side)
-
-
-def _number(v):
-    """Numbers as floats; strings kept as expressions (validated when the scene is changed)."""
-    if isinstance(v, str):
-        try:
-            return float(v)
-        except ValueError:
-            return v.strip()
-    if isinstance(v, bool) or not isinstance(v, (int, float)) and not hasattr(v, "__float__"):
-        raise SceneError(f"expected a number or an expression, found {v!r}")
-    return float(v)
-
-
-def _constant(v, where):
-    v = _number(v)
-    if isinstance(v, str):
-        from ..scene.expressions import constant_value, parse
-
-        v = constant_value(parse(v, where), {}, where)
-    return v
 
 
 # --- cases ------------------------------------------------------------------------------------
@@ -310,36 +211,6 @@ class Study:
 
         return execute(self, Path(out) if out else self.default_folder(), workers, scheduler,
                        progress, restart, figures)
-
-
-@dataclasses.dataclass(frozen=True)
-class StudyResult:
-    """What a study run produced: ``rows`` (one dict per finished case, in case order: the
-    CSV's columns with numbers as numbers), the folder and its files, and counts."""
-
-    study: Study
-    folder: Path
-    rows: list
-    complete: bool
-    computed: int            # cases computed by this run
-    reused: int              # finished cases found in the journal
-    wall_s: float
-    paths: list
-
-    def column(self, name):
-        """A column as a float array (missing values as nan)."""
-        import numpy as np
-
-        return np.array([_as_float(r.get(name)) for r in self.rows], dtype=float)
-
-
-def _as_float(v):
-    if v is None:
-        return math.nan
-    try:
-        return float(v)
-    except (TypeError, ValueError):
-        return math.nan
 
 
 __all__ = ["Study", "StudyResult", "StudyInterrupted", "Axis", "Case", "grid", "values", "together", "pareto"]

@@ -1,0 +1,25 @@
+"""`optdesign analyse SCENE`: the reduced one-element model over the stroke."""
+from __future__ import annotations
+
+import sys
+
+from .common import add_scene_arguments, emit, load_scene
+
+HELP = "the reduced one-element model (drive torque or force) over the stroke"
+
+
+def add_arguments(p):
+    add_scene_arguments(p)
+    p.add_argument("--plot", metavar="DIR", help="write figures (PNG) into DIR")
+
+
+def run(args):
+    from ..report import analysis as report
+    from ..report.output import to_json
+    from ..model.analysis import analyse
+
+    result = analyse(load_scene(args), args.samples)
+    if args.plot:
+        for path in report.analysis_figures(result, args.plot):
+            print(f"wrote {path}", file=sys.stderr)
+    emit(args, to_json(report.analysis_json(result)) if args.json else "", report.analysis_table(result))

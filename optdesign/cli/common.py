@@ -1,0 +1,103 @@
+"""What every command shares: scene loading with --set, whole-number options, output, the progress
+bar and deferred Ctrl-C.  Imports cheaply (nothing heavy at module level)."""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from ..errors import SceneError
+
+
+def overrides(pairs):
+    out = {}
+    for pair in pairs or ():
+        name, sep, value = pair.partition("=")
+        if not sep or not name.strip():
+            raise SceneError(f"--set {pair!r}: expected NAME=VALUE, e.g. --set mC=750 or --set psi='-55 deg'")
+        try:
+            out[name.strip()] = float(value)
+        except ValueError:
+            out[name.strip()] = value.strip()
+    return out
+
+
+def whole_number(minimum):
+    """An argparse type: a whole number >= ``minimum``, or an error naming the bound."""
+
+    def parse(text):
+        try:
+            n = int(text)
+        except ValueError:
+            n = minimum - 1
+        if n < minimum:
+            raise argparse.ArgumentTypeError(f"expected a whole number >= {minimum}, found {text!r}")
+        return n
+
+    return parse
+
+
+samples = whole_number(2)
+workers = whole_number(1)
+
+
+def add_scene_arguments(p, scene_help="scene file (TOML), e.g. problems/seed1_jib.toml"):
+    """The options every single-scene command takes: the scene, --json, --set, --samples."""
+    p.add_argument("scene", help=scene_help)
+    p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter (repeatable)")
+    p.add_argument("--samples", type=samples, default=None, help="number of sweep samples, >= 2 (default: the scene's)")
+
+
+def load_scene(args):
+    from ..scene.file import load
+
+    return load(args.scene, overrides(args.set))
+
+
+def emit(args, json_text, table_text):
+    sys.stdout.write((json_text if args.json else table_text) + "\n")
+
+
+class deferred_interrupt:
+    """Ctrl-C while a long loop runs takes effect at the loop's next ``check()`` (after a start,
+    a case): inside IPOPT, CasADi would catch the KeyboardInterrupt and report a failed solve,
+    and the loop would go on.  A second Ctrl-C interrupts at once."""
+
+    def __enter__(self):
+        import signal
+        import threading
+
+        self.pending, self.previous = False, None
+        if threading.current_thread() is threading.main_thread():
+            self.previous = signal.signal(signal.SIGINT, self._handler)
+        return self
+
+    def _handler(self, signum, frame):
+        if self.pending:
+            raise KeyboardInterrupt
+        self.pending = True
+
+    def check(self):
+        if self.pending:
+            raise KeyboardInterrupt
+
+    def __exit__(self, *exc):
+        import signal
+
+        if self.previous is not None:
+            signal.signal(signal.SIGINT, self.previous)
+        return False
+
+
+def progress_bar(what):
+    """A progress bar on standard error when it is a terminal."""
+    if not sys.stderr.isatty():
+        return None
+
+    def show(done, total):
+        bar = "#" * round(30 * done / total)
+        end = "\n" if done == total else ""
+        sys.stderr.write(f"\r{what} {done:>4}/{total} [{bar:<30}]{end}")
+        sys.stderr.flush()
+
+    return show

@@ -1,0 +1,19 @@
+"""`optdesign kinematics SCENE`: positions, velocities and accelerations over the sweep."""
+from __future__ import annotations
+
+from .common import add_scene_arguments, emit, load_scene
+
+HELP = "positions, velocities and accelerations over the sweep"
+
+
+def add_arguments(p):
+    add_scene_arguments(p)
+
+
+def run(args):
+    from ..report import analysis as report
+    from ..report.output import to_json
+    from ..kinematics.mechanism import kinematics
+
+    result = kinematics(load_scene(args), args.samples)
+    emit(args, to_json(report.kinematics_json(result)) if args.json else "", report.kinematics_table(result))

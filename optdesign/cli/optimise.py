@@ -1,0 +1,47 @@
+"""`optdesign optimise SCENE`: minimise the scene's objective over its design variables."""
+from __future__ import annotations
+
+import os
+import sys
+
+from ..errors import SolverError
+from .common import add_scene_arguments, deferred_interrupt, emit, load_scene, progress_bar, whole_number, workers
+
+HELP = "minimise the scene's objective over its design variables (IPOPT, multistart)"
+
+
+def add_arguments(p):
+    add_scene_arguments(p)
+    p.add_argument("--starts", type=whole_number(1), default=20, help="number of starts, >= 1 (default 20)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random starts (default 0)")
+    p.add_argument("--workers", type=workers, default=os.cpu_count() or 1,
+                   help="processes that share the starts (default: the machine's cores; 1 = in this process)")
+    p.add_argument("--out", metavar="DIR", help="results folder (default results/<scene name>)")
+
+
+def run(args):
+    from pathlib import Path
+
+    from ..report import design as design_report
+    from ..report.output import to_json
+    from ..design.optimise import optimise
+
+    scene = load_scene(args)
+    bar = progress_bar("starts")
+
+    def progress(done, total):
+        if bar is not None:
+            bar(done, total)
+        interrupted.check()
+
+    with deferred_interrupt() as interrupted:
+        result = optimise(scene, starts=args.starts, seed=args.seed, progress=progress, workers=args.workers)
+    if result.success:
+        folder = Path(args.out or Path("results") / Path(args.scene).stem)
+        for path in design_report.write_results(result, folder, workers=args.workers):
+            print(f"wrote {path}", file=sys.stderr)
+    emit(args, to_json(design_report.optimisation_json(result)) if args.json else "",
+          design_report.summary(result))
+    if not result.success:
+        raise SolverError(f"{scene.path}: no optimum: {result.status}. {result.message} "
+                          "(nothing was written to the results folder)")

@@ -1,0 +1,84 @@
+"""How results reach files: atomic writes (temp file + rename, so an interrupted run never leaves
+a half-written file), JSON with inf/nan as null, plain tables, figures without pyplot."""
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+SCHEMA = "optdesign/1"
+
+
+def write_atomic(path, text: str | bytes):
+    """Write ``text`` to ``path`` through a temporary file in the same folder and a rename."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    mode = "wb" if isinstance(text, bytes) else "w"
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, mode) as fh:
+            fh.write(text)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; results are for everyone to read
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def new_figure(nrows=1, ncols=1, figsize=(7, 4), **subplot_kw):
+    """A matplotlib figure and its axes (as ``plt.subplots``) without pyplot: no GUI backend,
+    no global figure registry, nothing to close, and ~0.3 s less import time; laid out by
+    matplotlib's constrained layout when it is drawn."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=figsize, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig, fig.subplots(nrows, ncols, **subplot_kw)
+
+
+def save_figure(fig, path):
+    """Save a matplotlib figure atomically.  A figure from :func:`new_figure` is laid out in
+    the one draw that saving makes; any other is cropped to its contents (a second draw)."""
+    import io
+
+    buf = io.BytesIO()
+    tight = None if fig.get_layout_engine() is not None else "tight"
+    fig.savefig(buf, format=Path(path).suffix.lstrip(".") or "png", dpi=120, bbox_inches=tight)
+    write_atomic(path, buf.getvalue())
+
+
+def _clean(value):
+    """Numbers for JSON: floats, with inf/nan as null."""
+    if isinstance(value, dict):
+        return {k: _clean(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_clean(v) for v in value]
+    if isinstance(value, (np.floating, float)):
+        v = float(value)
+        return v if math.isfinite(v) else None
+    if isinstance(value, np.integer):
+        return int(value)
+    return value
+
+
+def to_json(data: dict) -> str:
+    return json.dumps(_clean(data), indent=1, allow_nan=False)
+
+
+def table(columns: dict, names=None) -> str:
+    """A plain fixed-width table of equal-length arrays."""
+    names = list(names or columns)
+    width = max(12, *(len(n) + 2 for n in names))
+    lines = ["".join(f"{n:>{width}}" for n in names)]
+    n = len(columns[names[0]])
+    for i in range(n):
+        lines.append("".join(f"{columns[c][i]:>{width}.6g}" for c in names))
+    return "\n".join(lines)

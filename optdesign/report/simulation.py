@@ -1,0 +1,97 @@
+"""Reports of a motion in time (simulate): JSON, the summary table and figures of q, its rate and
+the drive load over time."""
+from __future__ import annotations
+
+import textwrap
+from pathlib import Path
+
+from .output import SCHEMA, save_figure, table
+
+
+UNITS = {
+    "rotary": {"t": "s", "s": "sweep", "sd": "sweep/s", "sdd": "sweep/s^2", "q": "rad", "qd": "rad/s",
+               "qdd": "rad/s^2", "drive": "N m", "transmitted": "N m", "kinetic_energy": "J", "power": "W",
+               "efficiency_factor": "1"},
+    "linear": {"t": "s", "s": "sweep", "sd": "sweep/s", "sdd": "sweep/s^2", "q": "m", "qd": "m/s",
+               "qdd": "m/s^2", "drive": "N", "transmitted": "N", "kinetic_energy": "J", "power": "W",
+               "efficiency_factor": "1"},
+}
+ORDER = ("t", "s", "sd", "sdd", "q", "qd", "qdd", "drive", "transmitted", "kinetic_energy", "power",
+         "efficiency_factor")
+
+
+def _columns(result):
+    cols = {"t": result.t, **result.columns}
+    return {k: cols[k] for k in ORDER if k in cols}
+
+
+def simulation_json(result) -> dict:
+    cols = _columns(result)
+    n = len(result.t)
+    return {
+        "schema": SCHEMA, "kind": "simulation", "title": result.scene.title, "file": result.scene.path,
+        "sweep": result.scene.sweep.name, "drive": result.drive_kind,
+        "integrator": result.integrator, "tolerance": result.tolerance,
+        "steps_per_sample": result.steps_per_sample, "error_estimate": result.error_estimate,
+        "stop": {"reason": result.stop, "end": result.stop_end, "t": result.t_stop},
+        "stats": result.stats, "timings": result.timings,
+        "units": {k: UNITS[result.drive_kind][k] for k in cols},
+        "samples": [{k: float(v[i]) for k, v in cols.items()} for i in range(n)],
+    }
+
+
+def summary(result) -> str:
+    units = UNITS[result.drive_kind]
+    where = {"stroke end": f"stroke end ({result.stop_end}: {result.scene.sweep.name} = {result.s[-1]:.6g})",
+             "stalled": f"stalled: the mechanism came to rest at {result.scene.sweep.name} = {result.s[-1]:.6g} and "
+                        "the self-locking drive holds it there (under eta < 1 its load cannot move it either way)",
+             "t_end": "t_end"}[result.stop]
+    st = result.stats
+    lines = [table(_columns(result)), "",
+             f"{result.scene.title}",
+             f"integrator {result.integrator}" + (f", {result.steps_per_sample} steps per sample, estimated error "
+                                                  f"{result.error_estimate:.3g}" if result.integrator == "rk4" else "")
+             + f", tolerance {result.tolerance:g}",
+             f"stopped at t = {result.t_stop:.9g} s: {where}",
+             f"steps {st['steps']}, right-hand sides {st['rhs_evaluations']}, error-test failures "
+             f"{st['error_test_failures']}, integrate {result.timings['integrate_s'] * 1e3:.1f} ms",
+             f"q from {result.q[0]:.6g} to {result.q[-1]:.6g} {units['q']}; rate {result.qd.min():.6g} .. "
+             f"{result.qd.max():.6g} {units['qd']}; drive {result.drive.min():.6g} .. {result.drive.max():.6g} "
+             f"{units['drive']}; kinetic energy {result.kinetic_energy[0]:.6g} -> {result.kinetic_energy[-1]:.6g} J"]
+    return "\n".join(lines)
+
+
+def figures(result, folder) -> list:
+    """q(t), its rate and the drive load over time, one PNG each; returns the paths written."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    units = UNITS[result.drive_kind]
+    rotary = result.drive_kind == "rotary"
+    names = {"q": "crank angle alpha" if rotary else "actuator length x",
+             "qd": "crank speed omega_S" if rotary else "actuator speed v_S"}
+    load = "T_S" if rotary else "F_S"
+    folder = Path(folder)
+    written = []
+    stop = f"stop: {result.stop}" + (f" ({result.stop_end})" if result.stop_end else "")
+    for key, file in (("q", "q.png"), ("qd", "q_rate.png"), ("drive", "drive_load.png")):
+        fig, ax = plt.subplots(figsize=(7, 3.5))
+        if key == "drive":
+            ax.plot(result.t, result.drive, lw=1.8, label=f"law {load} (motor)")
+            if "transmitted" in result.columns and not (result.transmitted == result.drive).all():
+                ax.plot(result.t, result.transmitted, lw=1.0, label=f"{load} - J_d qdd (into the mechanism)")
+            ax.legend(fontsize=8)
+            ax.set_ylabel(f"drive load [{units['drive']}]")
+        else:
+            ax.plot(result.t, getattr(result, key), lw=1.5)
+            ax.set_ylabel(f"{names[key]} [{units[key]}]")
+        ax.set_xlabel("time t [s]")
+        title = textwrap.shorten(result.scene.title, 90, placeholder=" ...")
+        ax.set_title(f"{title}\n{result.integrator}, tolerance {result.tolerance:g}, {stop}", fontsize=9)
+        ax.grid(alpha=0.3)
+        written.append(folder / file)
+        save_figure(fig, written[-1])
+        plt.close(fig)
+    return written

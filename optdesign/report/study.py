@@ -1,0 +1,101 @@
+"""Figures of a study: each result quantity against the innermost axis, and the Pareto front."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from .output import save_figure
+
+
+def _label(name):
+    return name + (" [deg]" if "angle" in name else "")
+
+
+def _conv(name, values):
+    import numpy as np
+
+    v = np.asarray(values, float)
+    return np.degrees(v) if "angle" in name else v
+
+
+def figures(study, rows, folder, fronts=None) -> list:
+    """Figures of a finished study (one per result quantity group) in ``folder``.
+
+    The innermost axis is the abscissa; each combination of the outer axes is one line.  A
+    Pareto axis is drawn as the front: the first goal (the objective) against the achieved
+    value of the second (the bounded constraint), the bound values marked; ``fronts`` are its
+    non-dominated points (:func:`optdesign.study.table.front`)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    if not study.axes or not rows:
+        return []
+    x_axis = study.axes[-1]
+    outer = study.axes[:-1]
+    goal = "objective" if study.mode == "optimise" else "peak:drive"
+    quantities = [goal]
+    if study.mode == "optimise":
+        quantities += [k for k in rows[0] if k.startswith("design:")] if rows else []
+        quantities = list(dict.fromkeys(quantities + [k for r in rows for k in r if k.startswith("design:")]))
+    else:
+        quantities += [k for k in ("rms:drive", "peak:power") if any(k in r for r in rows)]
+    groups = {}
+    for r in rows:
+        groups.setdefault(tuple(r.get(a.column) for a in outer), []).append(r)
+    drive = "torque [N m]" if study.scene.drive and study.scene.drive.kind == "rotary" else "force [N]"
+    written = []
+    fig, axes = plt.subplots(len(quantities), 1, figsize=(7, 2.2 * len(quantities) + 0.9), squeeze=False, sharex=True)
+    for key, rs in groups.items():
+        label = ", ".join(f"{a.label}={_fmt(v)}" for a, v in zip(outer, key)) or None
+        ok = [r for r in rs if r.get("success") and r.get(goal) is not None]
+        x = _conv(x_axis.label, [r[x_axis.column] for r in ok])
+        for ax, q in zip(axes[:, 0], quantities):
+            ax.plot(x, _conv(q, [r.get(q, float("nan")) for r in ok]), "o-", ms=3, label=label)
+        bad = [r for r in rs if not r.get("success")]
+        if bad:
+            axes[0, 0].plot(_conv(x_axis.label, [r[x_axis.column] for r in bad]), [float("nan")] * len(bad), "x")
+    for ax, q in zip(axes[:, 0], quantities):
+        ax.set_ylabel(f"{'optimal ' if study.mode == 'optimise' and q == goal else ''}"
+                      + (f"peak drive {drive}" if q in ("objective", "peak:drive") and _is_peak_drive(study)
+                         else _label(q.replace("design:", "optimal "))), fontsize=9)
+        ax.grid(alpha=0.3)
+    if outer:
+        axes[0, 0].legend(fontsize=7, ncol=2)
+    axes[-1, 0].set_xlabel(_label(x_axis.label))
+    axes[0, 0].set_title(f"{study.scene.title[:90]}\n{study.mode} study: {len(rows)} cases", fontsize=9)
+    written.append(Path(folder) / "study.png")
+    save_figure(fig, written[-1])
+    plt.close(fig)
+    if x_axis.kind == "pareto" and study.mode == "optimise":
+        written.append(pareto_figure(study, fronts or [], outer, folder, drive))
+    return written
+
+
+def _is_peak_drive(study):
+    return study.mode == "analyse" or (study.scene.objective is not None
+                                       and study.scene.objective.minimise.replace(" ", "") == "peak(drive)")
+
+
+def _fmt(v):
+    return f"{v:.4g}" if isinstance(v, float) else str(v)
+
+
+def pareto_figure(study, fronts, outer, folder, drive):
+    import matplotlib.pyplot as plt
+
+    axis = study.axes[-1]
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for key, pts in fronts:
+        label = ", ".join(f"{a.label}={_fmt(v)}" for a, v in zip(outer, key)) or "front"
+        ax.plot(_conv(axis.constraint, [p[0] for p in pts]), [p[1] for p in pts], "o-", ms=4, label=label)
+    ax.set_xlabel(f"{_label(axis.constraint)} ({axis.side} over the stroke, at the optimum)")
+    ax.set_ylabel(f"optimal peak drive {drive}" if _is_peak_drive(study) else "optimal objective")
+    ax.set_title(f"Pareto front by the epsilon-constraint method: {study.scene.objective.minimise} vs "
+                 f"{axis.constraint} ({axis.side} bound swept)", fontsize=9)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    path = Path(folder) / "pareto.png"
+    save_figure(fig, path)
+    plt.close(fig)
+    return path

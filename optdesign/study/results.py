@@ -1,0 +1,44 @@
+"""What a study run produced (:class:`StudyResult`), and the interruption that keeps it."""
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+
+class StudyInterrupted(KeyboardInterrupt):
+    """A study stopped by Ctrl-C; ``result`` holds what was finished (and kept)."""
+
+    def __init__(self, message, result):
+        super().__init__(message)
+        self.result = result
+
+
+@dataclasses.dataclass(frozen=True)
+class StudyResult:
+    """What a study run produced: ``rows`` (one dict per finished case, in case order: the
+    CSV's columns with numbers as numbers), the folder and its files, and counts."""
+
+    study: "Study"  # noqa: F821  (optdesign.study.study.Study)
+    folder: Path
+    rows: list
+    complete: bool
+    computed: int            # cases computed by this run
+    reused: int              # finished cases found in the journal
+    wall_s: float
+    paths: list
+
+    def column(self, name):
+        """A column as a float array (missing values as nan)."""
+        import numpy as np
+
+        return np.array([_as_float(r.get(name)) for r in self.rows], dtype=float)
+
+
+def _as_float(v):
+    if v is None:
+        return math.nan
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        return math.nan
