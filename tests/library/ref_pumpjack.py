@@ -28,9 +28,10 @@ from reflib_taylor import T2, acos, atan2, cos, drive_load, sin, sqrt  # noqa: E
 
 SCENE = HERE.parents[1] / "problems" / "lib_pumpjack.toml"
 DESIGN = ["R", "rcw", "tau"]
-LEVELS = {  # grid points per variable, grid stroke samples, check samples, polished grid minima
-    "small": (9, 121, 2001, 2),
-    "full": (25, 361, 20001, 6),
+LEVELS = {  # grid points per variable, grid stroke samples, polish's check samples, polished grid
+    #          minima, final check samples
+    "small": (9, 121, 2001, 2, 2001),
+    "full": (25, 361, 4001, 6, 20001),
 }
 
 
@@ -126,8 +127,8 @@ def dense_peak(design, samples=20001):
 
 
 def global_optimum(level="small"):
-    per_dim, grid_samples, check, starts = LEVELS[level]
-    return rs.global_minimax(problem(), per_dim, grid_samples, check, starts)
+    per_dim, grid_samples, check, starts, final = LEVELS[level]
+    return rs.global_minimax(problem(), per_dim, grid_samples, check, starts, final_samples=final)
 
 
 if __name__ == "__main__":

@@ -272,90 +272,180 @@ def grid_local_minima(designs, peaks, per_dim, count):
 
 
 # --- the polish ------------------------------------------------------------------------------------
-def polish(problem, x0, check_samples, base=61, rounds=10, tol=1e-11):
-    """A local minimax solve from x0: SLSQP on the epigraph t >= |drive(s_j)|/f_ref over a point
-    set S (``base`` evenly spaced sweep values plus the refined extremes found so far), every
-    per-sample constraint at S and every stroke aggregate from S's extremes; after each solve the
-    continuous extremes at the solution (``check_samples`` samples, refined) join S, until the
-    continuous peak agrees with the epigraph to ``tol`` and no constraint is violated beyond
-    1e-10 (scaled).  Returns (x, peak, violation)."""
+def humps(v, s, fraction):
+    """Brackets of the local maxima of the sampled v (on sweep values s) that lie within
+    ``fraction`` of v's range below its maximum: each bracket runs from the local minimum on
+    its left to the one on its right, so that v has one maximum in it.  [(a, b, s_max)]."""
+    m = len(v)
+    vmax, vmin = np.nanmax(v), np.nanmin(v)
+    threshold = vmax - fraction * (vmax - vmin)
+    out, seen = [], set()
+    for i in range(m):
+        if v[i] < threshold or (i > 0 and v[i - 1] > v[i]) or (i < m - 1 and v[i + 1] > v[i]):
+            continue
+        left, right = i, i
+        while left > 0 and v[left - 1] <= v[left]:
+            left -= 1
+        while right < m - 1 and v[right + 1] <= v[right]:
+            right += 1
+        if (left, right) not in seen:
+            seen.add((left, right))
+            out.append((s[left], s[right], s[i]))
+    return out
+
+
+def refine_many(problem, X, targets, iterations=7, h=1e-5):
+    """Maxima of sign*row on [a, b] for every target (row, sign, a, b, s0) and every design of
+    X (name -> (N, 1)), side by side: Newton's method on d(sign*row)/ds = 0 from s0, the
+    derivatives by central differences of step h (one rows() call per iteration evaluates all
+    targets at s - h, s, s + h), each step kept inside [a, b] (a maximum at a bracket's end
+    stays there); where the curvature is not negative the step goes a quarter bracket uphill.
+    Returns values (N, B): sign*row at the maxima."""
+    rows_ = [t[0] for t in targets]
+    B = len(targets)
+    sign = np.array([t[1] for t in targets], float)[None, :]
+    a = np.array([t[2] for t in targets], float)[None, :]
+    b = np.array([t[3] for t in targets], float)[None, :]
+    N = next(iter(X.values())).shape[0]
+    s = np.repeat(np.array([t[4] for t in targets], float)[None, :], N, axis=0)
+
+    for it in range(iterations + 1):
+        probe = np.concatenate([np.clip(s - h, a, b), s, np.clip(s + h, a, b)], axis=1)
+        out = problem.rows(X, probe)
+        vals = np.stack([out[r][:, [j, B + j, 2 * B + j]] for j, r in enumerate(rows_)], axis=1) * sign[:, :, None]
+        fm, f0, fp = vals[..., 0], vals[..., 1], vals[..., 2]
+        if it == iterations:
+            return f0
+        d1 = (fp - fm) / (2 * h)
+        d2 = (fp - 2 * f0 + fm) / h**2
+        newton = np.where(d2 < 0, -d1 / np.where(d2 < 0, d2, -1.0), np.sign(d1) * (b - a) / 4)
+        s = np.clip(s + newton, a, b)
+    return f0
+
+
+def polish(problem, x0, check_samples, base=61, rounds=40, tol=1e-11, radius=0.1):
+    """A local minimax solve from x0 by local reduction: SLSQP on the epigraph t >= |drive|/f_ref
+    where each hump of |drive| (a local maximum within 30 % of the peak, bracketed between its
+    neighbouring local minima on ``check_samples`` samples at the round's start design) enters
+    as its maximum over the bracket, found by golden section for every design SLSQP tries (so
+    the constraint follows the moving maximum smoothly); the same for each per-sample
+    constraint's extremes near its bound and for the extremes that the stroke aggregates read;
+    ``base`` evenly spaced sweep values (ends included) hold every row in between.  After each
+    solve the humps are found again at the solution, until the continuous peak agrees with the
+    epigraph to ``tol``, no constraint is violated beyond 1e-10 (scaled) and the solve ended
+    inside its trust region: each solve stays within ``radius`` (of the box's width) of where it
+    starts, so that a linearisation far from it cannot throw it into designs that do not
+    assemble.  Returns (x, peak, violation)."""
     lo, hi = problem.lower, problem.upper
     span = hi - lo
     S = np.linspace(*problem.sweep, base)
+    s_check = np.linspace(*problem.sweep, check_samples)
     x = np.clip(np.asarray(x0, float), lo, hi)
     peak0, _, _, _ = evaluate(problem, x, check_samples)
-    f_ref = peak0 if math.isfinite(peak0) and peak0 > 0 else 1.0
+    if not math.isfinite(peak0):
+        return x, peak0, math.inf
+    f_ref = peak0
     pairs = sorted(problem.needed())
-
-    def constraint_rows(W):
-        """Constraint values (>= 0 feasible) for designs W = [z..., t] (rows of a 2-D array)."""
-        W = np.atleast_2d(W)
-        X = problem.design(lo + span * W[:, :-1])
-        t = W[:, -1:]
-        with np.errstate(all="ignore"):
-            out = problem.rows(X, S)
-        u = out["drive"] / f_ref
-        parts = [t - u, t + u]
-        for row, (a, b) in problem.per_sample.items():
-            sc = problem.scale(row, a, b)
-            if math.isfinite(a):
-                parts.append((out[row] - a) / sc)
-            if math.isfinite(b):
-                parts.append((b - out[row]) / sc)
-        ext = {}
-        for row, sense in pairs:
-            ext[(row, sense)] = (np.max if sense == "max" else np.min)(out[row], axis=1)
-        for name, (func, a, b, _) in problem.per_stroke.items():
-            v = func(ext)[:, None]
-            sc = problem.scale(name, a, b)
-            if math.isfinite(a):
-                parts.append((v - a) / sc)
-            if math.isfinite(b):
-                parts.append((b - v) / sc)
-        g = np.hstack(parts)
-        return np.where(np.isfinite(g), g, -1e3)
-
-    def jac(w, h=1e-7):
-        n = len(w)
-        W = np.repeat(w[None, :], 2 * n, axis=0)
-        for j in range(n):
-            W[2 * j, j] += h
-            W[2 * j + 1, j] -= h
-        g = constraint_rows(W)
-        return ((g[0::2] - g[1::2]) / (2 * h)).T
-
     peak, viol = peak0, math.inf
     for _ in range(rounds):
+        with np.errstate(all="ignore"):
+            dense = problem.rows(problem.design(x), s_check)
+        targets, roles = [], []
+        u = dense["drive"][0]
+        for a, b, s_max in humps(np.abs(u), s_check, 0.3):
+            targets.append(("drive", 1.0 if u[np.searchsorted(s_check, s_max)] >= 0 else -1.0, a, b, s_max))
+            roles.append(("peak",))
+        for row, (a_lo, b_hi) in problem.per_sample.items():
+            for sign, bound in ((1.0, b_hi), (-1.0, a_lo)):
+                if math.isfinite(bound):
+                    for a, b, s_max in humps(sign * dense[row][0], s_check, 0.2):
+                        targets.append((row, sign, a, b, s_max))
+                        roles.append(("bound", row, sign, bound))
+        for row, sense in pairs:
+            sign = 1.0 if sense == "max" else -1.0
+            for a, b, s_max in humps(sign * dense[row][0], s_check, 0.2):
+                targets.append((row, sign, a, b, s_max))
+                roles.append(("aggregate", row, sense))
+
+        def constraint_rows(W, targets=targets, roles=roles):
+            W = np.atleast_2d(W)
+            X = problem.design(lo + span * W[:, :-1])
+            t = W[:, -1:]
+            with np.errstate(all="ignore"):
+                out = problem.rows(X, S)
+                refined = refine_many(problem, X, targets)
+            parts = [t - out["drive"] / f_ref, t + out["drive"] / f_ref]
+            for row, (a, b) in problem.per_sample.items():
+                sc = problem.scale(row, a, b)
+                if math.isfinite(a):
+                    parts.append((out[row] - a) / sc)
+                if math.isfinite(b):
+                    parts.append((b - out[row]) / sc)
+            ext = {(row, sense): (np.max if sense == "max" else np.min)(out[row], axis=1) for row, sense in pairs}
+            for j, role in enumerate(roles):
+                v = refined[:, j]
+                if role[0] == "peak":
+                    parts.append(t - v[:, None] / f_ref)
+                elif role[0] == "bound":
+                    _, row, sign, bound = role
+                    sc = problem.scale(row, *problem.per_sample[row])
+                    parts.append(((bound - v) if sign > 0 else (-v - bound))[:, None] / sc)
+                else:
+                    _, row, sense = role
+                    ext[(row, sense)] = np.maximum(ext[(row, sense)], v) if sense == "max" else np.minimum(ext[(row, sense)], -v)
+            for name, (func, a, b, _) in problem.per_stroke.items():
+                v = func(ext)[:, None]
+                sc = problem.scale(name, a, b)
+                if math.isfinite(a):
+                    parts.append((v - a) / sc)
+                if math.isfinite(b):
+                    parts.append((b - v) / sc)
+            g = np.hstack(parts)
+            return np.where(np.isfinite(g), g, -1e3)
+
+        def jac(w, h=1e-7, constraint_rows=constraint_rows):
+            n = len(w)
+            W = np.repeat(w[None, :], 2 * n, axis=0)
+            for j in range(n):
+                W[2 * j, j] += h
+                W[2 * j + 1, j] -= h
+            g = constraint_rows(W)
+            return ((g[0::2] - g[1::2]) / (2 * h)).T
+
         z = (x - lo) / span
-        g0 = constraint_rows(np.r_[z, 0.0])[0]
-        t0 = float(np.max(np.abs(problem.rows(problem.design(x), S)["drive"][0]))) / f_ref
-        w0 = np.r_[z, t0 * 1.0001]
+        w0 = np.r_[z, peak / f_ref * (1 + 1e-6) if math.isfinite(peak) else 1.0]
+        box = [(max(0.0, zj - radius), min(1.0, zj + radius)) for zj in z]
         res = minimize(lambda w: w[-1], w0, jac=lambda w: np.r_[np.zeros(len(w) - 1), 1.0], method="SLSQP",
-                       bounds=[(0, 1)] * len(z) + [(None, None)],
+                       bounds=box + [(None, None)],
                        constraints=[{"type": "ineq", "fun": lambda w: constraint_rows(w)[0], "jac": jac}],
-                       options={"ftol": 1e-15, "maxiter": 300})
-        x = lo + span * np.clip(res.x[:-1], 0, 1)
-        t = res.x[-1]
-        peak, viol, ext, at = evaluate(problem, x, check_samples)
-        if not math.isfinite(peak):
-            return x, peak, viol
-        _, _, locals_, _ = stroke_extremes(problem, x, check_samples, [], local={"drive": 0.05})
-        new = [s for _, s in locals_] + [at[k] for k in at]
-        S = np.unique(np.r_[S, new])
-        if peak <= t * f_ref * (1 + tol) and viol <= 1e-10:
+                       options={"ftol": 1e-13, "maxiter": 200})
+        z_new = np.clip(res.x[:-1], [b[0] for b in box], [b[1] for b in box])
+        inside = all((abs(zn - b[0]) > 1e-7 or b[0] == 0.0) and (abs(zn - b[1]) > 1e-7 or b[1] == 1.0)
+                     for zn, b in zip(z_new, box))
+        x_new = lo + span * z_new
+        peak_new, viol_new, _, _ = evaluate(problem, x_new, check_samples)
+        if not math.isfinite(peak_new):
+            return x, peak, viol  # keep the last design that assembled
+        moved = np.max(np.abs(z_new - z))
+        x, peak, viol = x_new, peak_new, viol_new
+        radius = radius if inside else min(2 * radius, 1.0)  # it assembled: allow longer steps
+        if inside and (res.success or moved < 1e-6) and peak <= res.x[-1] * f_ref * (1 + tol) and viol <= 1e-10:
             break
     return x, peak, viol
 
 
-def global_minimax(problem, per_dim, grid_samples, check_samples, polish_starts, extra_starts=()):
+def global_minimax(problem, per_dim, grid_samples, check_samples, polish_starts, extra_starts=(), final_samples=None):
     """The grid, then a polish from each of the best ``polish_starts`` grid local minima (and
-    ``extra_starts``); the best polished design that is feasible on the continuous stroke.
+    ``extra_starts``), each polished design judged again on ``final_samples`` stroke samples
+    (every extreme refined); the best one that is feasible on the continuous stroke.
     Returns a dict: design, peak, violation, grid_best (value, design), polished (list)."""
     designs, peaks = grid_search(problem, per_dim, grid_samples)
     starts = list(grid_local_minima(designs, peaks, per_dim, polish_starts)) + [np.asarray(x, float) for x in extra_starts]
     polished = []
     for x0 in starts:
         x, peak, viol = polish(problem, x0, check_samples)
+        if final_samples and final_samples != check_samples and math.isfinite(peak):
+            peak, viol, _, _ = evaluate(problem, x, final_samples)
         polished.append((peak, viol, x))
     feasible = [p for p in polished if math.isfinite(p[0]) and p[1] <= 1e-9]
     best = min(feasible, key=lambda p: p[0]) if feasible else (math.nan, math.inf, None)

@@ -172,14 +172,14 @@ def drive_load(bodies, q, qd, qdd, eta=None, g=None):
     Q_s = 0.0
     for b in bodies:
         m = b.get("mass", 0.0)
-        if m:
+        if np.any(np.asarray(m) != 0):
             x, y = b["com"]
             M_s = M_s + m * (x.d**2 + y.d**2)
             M_s1 = M_s1 + 2 * m * (x.d * x.dd + y.d * y.dd)
             if g:
                 Q_s = Q_s + m * g * y.d
         inertia = b.get("inertia", 0.0)
-        if inertia:
+        if np.any(np.asarray(inertia) != 0):
             phi = b["phi"]
             M_s = M_s + inertia * phi.d**2
             M_s1 = M_s1 + 2 * inertia * phi.d * phi.dd
