@@ -237,7 +237,7 @@ def mx_function(scene, names):
     the Mechanism picks MX when the scene has a loop, so its loop test is widened for this build
     only (no Loop is constructed: the constructions are dispatched by their own type first)."""
     from optdesign.model.reduction import ReducedModel
-    from optdesign.scene.elements import Fixed, Loop
+    from optdesign.scene import Fixed, Loop
 
     _kinematics = importlib.import_module("optdesign.kinematics.mechanism")  # the module, not the function
     original = _kinematics.Loop

@@ -13,7 +13,7 @@ import pytest
 
 from optdesign.cli import main as cli
 from optdesign.errors import ExpressionError, SceneError
-from optdesign.scene.elements import (Body, Closure, Drive, Dyad, Fixed, Loop, Parameter, Polar, Scene, Slider,
+from optdesign.scene import (Body, Closure, Drive, Dyad, Fixed, Loop, Parameter, Polar, Scene, Slider,
                              Sweep)
 from optdesign.scene.file import load, loads
 

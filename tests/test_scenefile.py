@@ -16,7 +16,7 @@ import pytest
 
 import optdesign
 from optdesign import analyse, kinematics, load, loads
-from optdesign.scene.elements import (Body, Constraint, Drive, Fixed, Gravity, Objective, Parameter, Polar,
+from optdesign.scene import (Body, Constraint, Drive, Fixed, Gravity, Objective, Parameter, Polar,
                              Scene, Slider, Sweep)
 
 ROOT = Path(__file__).resolve().parents[1]

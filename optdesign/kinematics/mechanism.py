@@ -15,9 +15,9 @@ import numpy as np
 
 from . import constructions as geo
 from ..errors import AssemblyError
+from ..scene import Attach, Dyad, Fixed, Loop, Polar, ResolvedScene, Scene, Slider
 from ..scene.expressions import evaluate
 from .loops import LoopGraph
-from ..scene.elements import Attach, Dyad, Fixed, Loop, Polar, Scene, Slider
 
 
 @dataclass(frozen=True)
@@ -41,23 +41,24 @@ LOCKUP_MARGIN = 1e-10
 
 
 class Mechanism:
-    """The kinematic graphs of one scene."""
+    """The kinematic graphs of one scene (a :class:`~optdesign.scene.Scene`, resolved here, or
+    a :class:`~optdesign.scene.ResolvedScene`, kept as ``resolved`` for the layers below).
 
-    def __init__(self, scene: Scene):
-        self.scene = scene
-        values = scene.parameter_values()
-        leaves = [p for p in scene.parameters if not p.value.names()]
-        self.parameter_names = tuple(p.name for p in leaves)
-        self.parameter_values = np.array([values[n] for n in self.parameter_names], dtype=float)
+    ``parameter_names`` and ``parameter_values`` are the leaf parameters (the entries of the
+    graphs' parameter vector ``p``) and their numbers; ``env`` maps every parameter and the sweep
+    variable to its symbol or expression in the graph."""
+
+    def __init__(self, scene: Scene | ResolvedScene):
+        resolved = scene if isinstance(scene, ResolvedScene) else ResolvedScene(scene)
+        self.resolved = resolved
+        self.scene = scene = resolved.scene
+        self.parameter_names = resolved.leaf_names
+        self.parameter_values = resolved.leaf_values.copy()
         self.has_loops = any(isinstance(c, Loop) for c in scene.points)
         sym = ca.MX if self.has_loops else ca.SX
         self.sym = sym
         self.s = sym.sym(scene.sweep.name)
-        self.p = sym.sym("p", len(leaves))
-        env = {n: self.p[i] for i, n in enumerate(self.parameter_names)}
-        for prm in scene.parameters:
-            if prm.value.names():
-                env[prm.name] = evaluate(prm.value, env, {}, f"[parameters] {prm.name}")
+        self.p, env = resolved.symbols(sym)
         env[scene.sweep.name] = self.s
         self.env = env
         self.points: dict = {}
@@ -132,13 +133,7 @@ class Mechanism:
 
     # --- the stroke ---
     def stroke(self, samples: int | None = None) -> np.ndarray:
-        sw = self.scene.sweep
-        values = self.scene.parameter_values()
-        from ..scene.expressions import constant_value
-
-        a = constant_value(sw.start, values, "[sweep] from")
-        b = constant_value(sw.stop, values, "[sweep] to")
-        return np.linspace(a, b, sw.samples if samples is None else samples)
+        return self.resolved.stroke(samples)
 
     def motion(self):
         """Sweep rate and acceleration (sd, sdd) as expressions of (s, p): from the drive's
@@ -240,9 +235,10 @@ class KinematicsResult:
     bodies: dict  # name -> {"angle","omega","epsilon"} arrays
 
 
-def kinematics(scene: Scene, samples: int | None = None) -> KinematicsResult:
+def kinematics(scene: Scene | ResolvedScene, samples: int | None = None) -> KinematicsResult:
     """Points and body angles with their rates over the stroke, at the scene's motion."""
     mech = Mechanism(scene)
+    scene = mech.scene
     s_values = mech.stroke(samples)
     mech.check_assembly(s_values)
     sd, sdd = mech.motion()

@@ -7,10 +7,10 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from ..scene.expressions import evaluate
 from ..kinematics.mechanism import Mechanism
+from ..scene import ResolvedScene, Scene
+from ..scene.expressions import evaluate
 from .reduction import ReducedModel
-from ..scene.elements import Scene
 from .vectorised import VectorisedSX
 
 
@@ -39,10 +39,11 @@ class AnalysisResult:
 class Analysis:
     """The compiled stroke evaluation of one scene (a class under :func:`analyse`)."""
 
-    def __init__(self, scene: Scene, samples: int | None = None, efficiency_smoothing: float = 0.0):
+    def __init__(self, scene: Scene | ResolvedScene, samples: int | None = None, efficiency_smoothing: float = 0.0):
         t0 = time.perf_counter()
-        self.scene = scene
         self.mech = Mechanism(scene)
+        self.resolved = self.mech.resolved
+        self.scene = scene = self.mech.scene
         self.model = ReducedModel(self.mech, efficiency_smoothing)
         self.s_values = self.mech.stroke(samples)
         outs = dict(self.model.outputs())
@@ -100,16 +101,13 @@ class Analysis:
         if self._points_map is None:  # built once, on the first run that needs it
             self._points_map = mech.function("points", dict(mech.points)).map(len(self.s_values))
         rows = self._points_map(s=self.s_values[None, :], p=p_values)
-        values = dict(zip(mech.parameter_names, p_values))
-        for prm in self.scene.parameters:
-            if prm.value.names():
-                values[prm.name] = evaluate(prm.value, values, {}, prm.name)
+        values = self.resolved.environment(p_values)
         values[self.scene.sweep.name] = ca.DM(self.s_values[None, :])
         points = {k: ca.DM(np.asarray(v)) for k, v in rows.items()}
         return {c.name: float(evaluate(c.expr, values, points, f"[[constraints]] {c.name}"))
                 for c in self.per_stroke}
 
 
-def analyse(scene: Scene, samples: int | None = None) -> AnalysisResult:
+def analyse(scene: Scene | ResolvedScene, samples: int | None = None) -> AnalysisResult:
     """The reduced model of ``scene`` over its stroke (front door)."""
     return Analysis(scene, samples).run()

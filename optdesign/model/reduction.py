@@ -29,8 +29,8 @@ import casadi as ca
 import numpy as np
 
 from ..errors import DeadCentreError, SceneError
-from ..scene.expressions import Expression
 from ..kinematics.mechanism import Mechanism, _fmt_s
+from ..scene.expressions import Expression
 
 
 class ReducedModel:
@@ -41,6 +41,7 @@ class ReducedModel:
         if scene.drive is None:
             raise SceneError(f"{scene.path}: the reduced model needs a [drive] table (rotary crank or linear actuator)")
         self.mech = m = mechanism
+        self.resolved = mechanism.resolved
         self.scene = scene
         self.rotary = scene.drive.kind == "rotary"
         self.k = m.ds(m.q)
@@ -68,14 +69,8 @@ class ReducedModel:
     def _constant_equal(self, expr, target):
         if expr is None:
             return target == 0.0
-        if expr.points() or self.scene.sweep.name in expr.names():
-            return False
-        design = {p.name for p in self.scene.parameters if p.is_design}
-        if _depends_on(self.scene, expr, design):
-            return False
-        from ..scene.expressions import constant_value
-
-        return constant_value(expr, self.scene.parameter_values(), "") == target
+        value = self.resolved.fixed_value(expr)
+        return value is not None and value == target
 
     # --- building ---
     def _bodies(self):
@@ -282,20 +277,6 @@ class ReducedModel:
             "the reduced inertia and load are infinite. Narrow the sweep to exclude it, or move the "
             "drive's pins so that q changes monotonically over the stroke."
         )
-
-
-def _depends_on(scene, expr, names):
-    """True when expr uses any of ``names`` directly or through derived parameters."""
-    seen, todo = set(), set(expr.names())
-    by_name = {p.name: p for p in scene.parameters}
-    while todo:
-        n = todo.pop()
-        if n in names:
-            return True
-        if n in by_name and n not in seen:
-            seen.add(n)
-            todo |= by_name[n].value.names()
-    return False
 
 
 def _bisect(f, a, b, iterations=60):

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..scene.elements import Attach, Dyad, Loop, Polar, Slider
+from ..scene import Attach, Dyad, Loop, Polar, Slider
 
 
 def links(scene):

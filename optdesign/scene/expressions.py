@@ -19,10 +19,14 @@ Evaluation works on scalars and on rows of samples alike (CasADi operations are 
 so the same tree gives a value per sample or, through the aggregates, one value per stroke.
 Every mistake (syntax, an unknown name or function, a wrong number of arguments) raises
 :class:`~optdesign.errors.ExpressionError` before CasADi sees the expression.
+
+Why one module of ~410 lines: the grammar's tables (CONSTANTS, UNARY, GEOMETRIC, AGGREGATES),
+its syntax tree, its parser and its evaluator change together (a new function is one entry in
+the tables, one case in the parser's argument check and one in the evaluator); split, each part
+would import the others' tables and a change would touch three files.
 """
 from __future__ import annotations
 
-import difflib
 import math
 import re
 from dataclasses import dataclass
@@ -31,6 +35,7 @@ import casadi as ca
 import numpy as np
 
 from ..errors import ExpressionError
+from .where import located_error, near_miss, show
 
 _TOKEN = re.compile(
     r"\s*(?:(?P<num>(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)|(?P<name>[A-Za-z_][A-Za-z_0-9]*)"
@@ -45,25 +50,6 @@ UNARY = {
 GEOMETRIC = {"length": 2, "angle": 3, "x": 1, "y": 1}
 AGGREGATES = ("min", "max")
 FUNCTIONS = sorted(set(UNARY) | set(GEOMETRIC) | {"atan2"} | set(AGGREGATES))
-
-
-def located_error(cls, where, detail, path=None):
-    """An error of class ``cls`` that remembers where it happened.
-
-    ``where`` names the item (a string, or any object whose ``str`` does, such as the scene's
-    ``Where``); ``detail`` says what was found and what was expected.  The attributes ``where``,
-    ``detail`` and ``path`` let the scene-file reader add the file name and the line number
-    without parsing the message."""
-    head = f"{path}: " if path else ""
-    exc = cls(f"{head}{where}: {detail}" if where else f"{head}{detail}")
-    exc.where, exc.detail, exc.path = where, detail, path
-    return exc
-
-
-def near_miss(name, known) -> str:
-    """'; did you mean 'X'?' for the closest of ``known``, or ''."""
-    hint = difflib.get_close_matches(str(name), [str(k) for k in known], n=1)
-    return f"; did you mean {hint[0]!r}?" if hint else ""
 
 
 # --- syntax tree ---------------------------------------------------------------------------
@@ -192,18 +178,12 @@ def parse(text, where: str = "expression") -> Expression:
         raise located_error(
             ExpressionError, where,
             f"expected a number or an expression string such as \"2*r\" or \"25 deg\", "
-            f"found {_show(text)} ({kind})")
+            f"found {show(text)} ({kind})")
     if isinstance(text, (int, float)):
         if not math.isfinite(text):
             raise located_error(ExpressionError, where, f"expected a finite number, found {text!r}")
         return Expression(repr(text), Num(float(text)))
     return Expression(text, _Parser(text, where).parse())
-
-
-def _show(value):
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    return repr(value)
 
 
 class _Parser:

@@ -1,4 +1,4 @@
-"""Reading scene files (TOML) into :class:`~optdesign.scene.elements.Scene` objects.
+"""Reading scene files (TOML) into :class:`~optdesign.scene.scene.Scene` objects.
 
 Every error names the file, the line where the item can be found, the table and key, what was
 found and what was expected; an unknown key or name suggests its near miss.  The format is
@@ -12,9 +12,11 @@ import tomllib
 from pathlib import Path
 
 from ..errors import OptdesignError, SceneError
-from .expressions import located_error, near_miss
-from .elements import (ARRAY_TABLES, DRIVE_PINS, Attach, Body, Closure, Constraint, Drive, Dyad, Fixed,
-                    Gravity, Loop, Objective, Parameter, Polar, Scene, Simulation, Slider, Sweep, Where)
+from .elements import (DRIVE_PINS, Body, Constraint, Drive, Gravity, Objective, Parameter, Simulation,
+                       Sweep)
+from .points import Attach, Closure, Dyad, Fixed, Loop, Polar, Slider
+from .scene import Scene
+from .where import ARRAY_TABLES, Where, located_error, near_miss
 
 TOP_KEYS = ("title", "source", "parameters", "sweep", "points", "bodies", "gravity", "drive",
             "constraints", "objective", "reference", "simulation")

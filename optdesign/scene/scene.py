@@ -1,0 +1,92 @@
+"""The scene: one mechanism with its masses, loads, drive, stroke and design problem.
+
+:class:`Scene` holds the items (:mod:`optdesign.scene.elements`, :mod:`optdesign.scene.points`),
+validates them against each other on construction, looks items up and makes copies with other
+parameter values.  Numbers for the pipeline below come from its resolution,
+:class:`~optdesign.scene.resolved.ResolvedScene`.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+from ..errors import SceneError
+from .elements import Drive, Gravity, Objective, Parameter, Simulation, Sweep
+from .expressions import constant_value
+from .validate import Validator
+from .values import set_field
+from .where import Where, fail, located_error, near_miss
+
+
+@dataclass(frozen=True)
+class Scene:
+    """One mechanism with its masses, loads, drive, stroke and design problem: the items of a
+    scene file, checked against each other on construction (:mod:`optdesign.scene.validate`)."""
+
+    title: str
+    parameters: tuple
+    sweep: Sweep
+    points: tuple
+    bodies: tuple = ()
+    gravity: Gravity | None = None
+    drive: Drive | None = None
+    constraints: tuple = ()
+    objective: Objective | None = None
+    source: str = ""
+    reference: dict = field(default_factory=dict)
+    path: str = "<python>"
+    simulation: Simulation | None = None
+
+    def __post_init__(self):
+        for name in ("parameters", "points", "bodies", "constraints"):
+            set_field(self, name, tuple(getattr(self, name)))
+        self.validate()
+
+    # --- lookups ---
+    def parameter(self, name) -> Parameter:
+        for p in self.parameters:
+            if p.name == name:
+                return p
+        names = [p.name for p in self.parameters]
+        fail(Where("parameters", str(name)), f"unknown parameter {name!r}" + near_miss(name, names),
+             path=self.path)
+
+    def point_names(self):
+        out = []
+        for c in self.points:
+            out += list(c.defines)
+        return out
+
+    def parameter_values(self) -> dict:
+        """Every parameter's number, derived parameters evaluated in order."""
+        values = {}
+        for p in self.parameters:
+            values[p.name] = constant_value(p.value, values, f"{self.path}: [parameters] {p.name}")
+        return values
+
+    def with_parameters(self, **values) -> "Scene":
+        """A copy with the given parameters set to new values (numbers or expressions).
+        An unknown name is an error that suggests the near miss."""
+        names = [p.name for p in self.parameters]
+        for name in values:
+            if name not in names:
+                what = (f"{name!r} is the sweep variable, not a parameter (the stroke is set in [sweep])"
+                        if name == self.sweep.name else f"the scene has no parameter {name!r}")
+                fail(None, f"cannot set parameter {name!r}: {what}" + near_miss(name, names)
+                     + f" (its parameters: {', '.join(names) or 'none'})", path=self.path)
+        try:
+            params = tuple(dataclasses.replace(p, value=values[p.name]) if p.name in values else p
+                           for p in self.parameters)
+            return dataclasses.replace(self, parameters=params)
+        except SceneError as exc:
+            where = getattr(exc, "where", None)
+            if not (isinstance(where, Where) and where.table == "parameters" and where.item in values):
+                raise
+            raise located_error(type(exc), where, f"{exc.detail} (a value set by an override such as "
+                                                  f"--set {where.item}=...)", self.path) from None
+
+
+    def validate(self):
+        """Check every cross reference, in the order of the file; raise SceneError on the first
+        problem, naming its place."""
+        Validator(self).run()

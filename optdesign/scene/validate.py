@@ -1,0 +1,320 @@
+"""Whole-scene validation: every cross reference of a scene, in the order of its file.
+
+:class:`Validator` runs when a :class:`~optdesign.scene.scene.Scene` is constructed (each item
+has already checked what it can check alone, see :mod:`optdesign.scene.values`): names used
+twice, points used before they are built, names and points in expressions, design bounds, the
+drive and its law, the simulation's start and span, constraint bounds.  The first problem
+raises a :class:`~optdesign.errors.SceneError` (or :class:`~optdesign.errors.ExpressionError`)
+that names its place, worded for the person who wrote the file.
+"""
+from __future__ import annotations
+
+import math
+
+from ..errors import ExpressionError, SceneError
+from .elements import (DRIVE_PINS, LAW_NAMES, Body, Constraint, Drive, Gravity, Objective, Parameter,
+                       Simulation, Sweep)
+from .expressions import constant_value
+from .points import CONSTRUCTIONS, Loop
+from .values import RESERVED
+from .where import Where, fail, near_miss, show
+
+
+class Validator:
+    """The cross-reference checks of one scene: ``Validator(scene).run()``."""
+
+    def __init__(self, scene):
+        self.scene = scene
+
+    def run(self):
+        """Check every cross reference, in the order of the file; raise SceneError on the first
+        problem, naming its place."""
+        if not isinstance(self.scene.title, str):
+            self._fail(Where("", key="title"), f"expected a string, found {show(self.scene.title)}")
+        if not isinstance(self.scene.source, str):
+            self._fail(Where("", key="source"), f"expected a string, found {show(self.scene.source)}")
+        if not isinstance(self.scene.reference, dict):
+            self._fail(Where("reference"), f"expected a table of free data, found {show(self.scene.reference)}")
+        self._check_types()
+        values = self._check_parameters()
+        names = set(values) | {self.scene.sweep.name}
+        built = self._check_points(names)
+        self._check_bodies(names, built)
+        if self.scene.gravity is not None:
+            self._check_expression(Where("gravity", key="g"), self.scene.gravity.g, set(values), [])
+        if self.scene.drive is not None:
+            self._check_drive(values, built)
+        self._check_constraints(values, names, built)
+        if self.scene.simulation is not None:
+            self._check_simulation(values)
+
+    def _fail(self, where, detail, cls=SceneError):
+        fail(where, detail, cls, self.scene.path)
+
+    def _check_types(self):
+        for table, items, kinds in (("parameters", self.scene.parameters, (Parameter,)),
+                                    ("points", self.scene.points, CONSTRUCTIONS),
+                                    ("bodies", self.scene.bodies, (Body,)),
+                                    ("constraints", self.scene.constraints, (Constraint,))):
+            for i, item in enumerate(items):
+                if not isinstance(item, kinds):
+                    self._fail(Where(table, index=i), f"expected {' or '.join(k.__name__ for k in kinds)}, "
+                                                      f"found {show(item)}")
+        for attr, kind in (("sweep", Sweep), ("gravity", Gravity), ("drive", Drive), ("objective", Objective),
+                           ("simulation", Simulation)):
+            value = getattr(self.scene, attr)
+            if not isinstance(value, kind) and not (value is None and attr != "sweep"):
+                self._fail(Where(attr), f"expected a {kind.__name__}, found {show(value)}")
+
+    def _check_parameters(self):
+        values, seen = {}, set()
+        all_names = [p.name for p in self.scene.parameters]
+        for p in self.scene.parameters:
+            where = Where("parameters", p.name)
+            self._check_unique(where, "parameter", p.name, seen)
+            if p.name == self.scene.sweep.name:
+                self._fail(where, f"{p.name!r} is also the sweep variable's name; rename one of them")
+            later = all_names[all_names.index(p.name) + 1:]
+            self._check_expression(where, p.value, set(values), [], later=later)
+            values[p.name] = constant_value(p.value, values, where)
+            if p.is_design:
+                self._check_design(p, values[p.name])
+        sweep = self.scene.sweep
+        for key, attr in (("from", "start"), ("to", "stop"), ("rate", "rate"), ("acceleration", "acceleration")):
+            expr = getattr(sweep, attr)
+            if expr is not None:
+                self._check_expression(Where("sweep", key=key), expr, set(values), [])
+                constant_value(expr, values, Where("sweep", key=key))
+        if constant_value(sweep.start, values, "") == constant_value(sweep.stop, values, ""):
+            self._fail(Where("sweep", key="to"), "the stroke is empty: from and to are equal; "
+                                                 "expected two different values")
+        return values
+
+    def _check_design(self, p, value):
+        where = Where("parameters", p.name)
+        lo = -math.inf if p.lower is None else p.lower
+        hi = math.inf if p.upper is None else p.upper
+        if p.value.names():
+            self._fail(where.at("value"), f"a design variable's start must be a number, found {p.value.source!r} "
+                                          "(which depends on other parameters)")
+        if not lo < hi:
+            self._fail(where.at("min"), f"min {lo:g} must be below max {hi:g}")
+        if not lo <= value <= hi:
+            self._fail(where.at("value"), f"the start value {value:g} lies outside its bounds "
+                                          f"[{lo:g}, {hi:g}]; move the start inside or widen the bounds")
+
+    def _check_points(self, names):
+        if not self.scene.points:
+            self._fail(Where("points"), "no points: expected at least one construction, e.g. A = { fixed = [0, 0] }")
+        built, first = [], {}
+        for c in self.scene.points:
+            where = Where("points", c.name)
+            for name in c.defines:
+                if name in first:
+                    self._fail(where, f"point {name!r} is constructed twice (also at [points] {first[name]}); "
+                                      "rename one of them")
+                if name in names:
+                    self._fail(where, f"point {name!r} has the name of a parameter or of the sweep; rename one")
+            for ref, key in zip(c.uses(), self._use_keys(c)):
+                if ref not in built:
+                    self._missing_point(where.at(key), ref, built, SceneError)
+            local = set(names)
+            if isinstance(c, Loop):
+                self._check_loop(c, where, names, built)
+                local |= set(c.unknowns)
+            for key, expr in self._expressions_of(c):
+                self._check_expression(where.at(key), expr, local, built)
+            for name in c.defines:
+                first[name] = c.name
+            built.extend(c.defines)
+        return built
+
+    @staticmethod
+    def _use_keys(c):
+        if isinstance(c, Loop):
+            return ["loop"] + ["closure"] * (len(c.uses()) - 1)
+        return [f"{c.KIND} {label}" for _, label, kind in c.ROLES if kind == "point"]
+
+    @staticmethod
+    def _expressions_of(c):
+        if isinstance(c, Loop):
+            out = [(f"lengths[{i}]", e) for i, e in enumerate(c.lengths)]
+            out += [(f"angles[{i}]", e) for i, e in enumerate(c.angles)]
+            if c.closure is not None and c.closure.angle is not None:
+                out.append(("closure line angle", c.closure.angle))
+            return out
+        return [(f"{c.KIND} {label}", getattr(c, attr)) for attr, label, kind in c.ROLES if kind == "expr"]
+
+    def _check_loop(self, c, where, names, built):
+        used = set().union(*(a.names() for a in c.angles))
+        for u, guess in c.unknowns.items():
+            if u in names:
+                self._fail(where.at("unknowns"), f"unknown angle {u!r} has the name of a parameter or of the sweep")
+            if u not in used:
+                self._fail(where.at("unknowns"), f"the unknown {u!r} appears in none of the angles "
+                                                 f"{[a.source for a in c.angles]}" + near_miss(u, used - names))
+            self._check_expression(where.at(f"unknowns.{u}"), guess, names, built)
+        needed = 0 if c.closure is None else c.closure.equations
+        if len(c.unknowns) != needed:
+            kind = ("no closure (an open chain)" if c.closure is None else
+                    "a closed loop (closure fixed = POINT)" if needed == 2 else
+                    "a semi-closed loop (closure line = [POINT, angle])")
+            self._fail(where.at("unknowns"),
+                       f"found {len(c.unknowns)} unknown angle(s) {sorted(c.unknowns)}, but {kind} gives "
+                       f"{needed} equation(s): expected {needed} unknown(s) (a closed loop needs 2, a "
+                       "semi-closed one 1, an open chain none)")
+
+    def _check_bodies(self, names, built):
+        seen = set()
+        for b in self.scene.bodies:
+            where = Where("bodies", b.name)
+            self._check_unique(where, "body", b.name, seen)
+            for ref in b.frame:
+                if ref not in built:
+                    self._missing_point(where.at("frame"), ref, built, SceneError)
+            for key in ("mass", "inertia", "torque"):
+                if getattr(b, key) is not None:
+                    self._check_expression(where.at(key), getattr(b, key), names, built)
+            for key in ("com", "force"):
+                for i, e in enumerate(getattr(b, key) or ()):
+                    self._check_expression(where.at(f"{key}[{i}]"), e, names, built)
+
+    def _check_drive(self, values, built):
+        d = self.scene.drive
+        where = Where("drive")
+        key = DRIVE_PINS[d.kind]
+        for ref in d.pins:
+            if ref not in built:
+                self._missing_point(where.at(key), ref, built, SceneError)
+        for name in ("speed", "acceleration", "efficiency"):
+            if getattr(d, name) is not None:
+                self._check_expression(where.at(name), getattr(d, name), set(values), [])
+                constant_value(getattr(d, name), values, where.at(name))
+        if d.efficiency is not None:
+            eta = constant_value(d.efficiency, values, where.at("efficiency"))
+            if not 0.0 < eta <= 1.0:
+                self._fail(where.at("efficiency"), f"expected 0 < eta <= 1, found {eta:g}")
+            if eta < 1.0 and constant_value(d.speed, values, where.at("speed")) == 0.0:
+                self._fail(where.at("speed"), f"efficiency {eta:g} < 1 needs the direction of power flow, "
+                                              "which a zero speed does not give; set a nonzero speed (its "
+                                              "sign is the direction of motion)")
+        for key in ("rate", "acceleration"):
+            if getattr(self.scene.sweep, key) is not None:
+                self._fail(Where("sweep", key=key), f"the scene has a [drive], whose speed and acceleration "
+                                                    f"set the motion; remove {key} from [sweep]")
+        self._check_drive_law(values)
+
+    def _check_drive_law(self, values):
+        """The simulation keys of [drive]: ``law`` uses parameters, q and qd; ``inertia`` is a
+        number >= 0 of parameters."""
+        d, where = self.scene.drive, Where("drive")
+        if d.law is not None:
+            for name in LAW_NAMES:
+                if name in values or name == self.scene.sweep.name:
+                    what = "parameter" if name in values else "sweep variable"
+                    self._fail(where.at("law"), f"the {what} {name!r} has the name the law uses for the drive "
+                                                f"coordinate (q) or its rate (qd); rename the {what}")
+            self._check_expression(where.at("law"), d.law, set(values) | set(LAW_NAMES), [])
+        if d.inertia is not None:
+            self._check_expression(where.at("inertia"), d.inertia, set(values), [])
+            value = constant_value(d.inertia, values, where.at("inertia"))
+            if value < 0:
+                unit = "kg m^2, the rotor's moment of inertia" if d.kind == "rotary" else "kg, the moving mass"
+                self._fail(where.at("inertia"), f"expected a drive inertia >= 0 ({unit}), found {value:g}")
+
+    def _check_simulation(self, values):
+        """[simulation]: needs a [drive] with a law; start inside the stroke, t_end > 0,
+        tolerance in (0, 0.1]."""
+        sim, where = self.scene.simulation, Where("simulation")
+        if self.scene.drive is None or self.scene.drive.law is None:
+            self._fail(where, "a simulation needs the drive's law: add law = \"...\" to [drive] (a torque "
+                              "or force in q, qd and parameters, e.g. \"T0*(1 - qd/omega0)\")")
+        numbers = {}
+        for key in ("start", "speed", "t_end", "tolerance"):
+            expr = getattr(sim, key)
+            if expr is not None:
+                self._check_expression(where.at(key), expr, set(values), [])
+                numbers[key] = constant_value(expr, values, where.at(key))
+        lo, hi = sorted((constant_value(self.scene.sweep.start, values, ""), constant_value(self.scene.sweep.stop, values, "")))
+        if not lo <= numbers["start"] <= hi:
+            self._fail(where.at("start"), f"the start {numbers['start']:g} lies outside the stroke "
+                                          f"[{lo:g}, {hi:g}] of [sweep] {self.scene.sweep.name}; start inside it")
+        if not numbers["t_end"] > 0:
+            self._fail(where.at("t_end"), f"expected an end time > 0 s, found {numbers['t_end']:g}")
+        if "tolerance" in numbers and not 0 < numbers["tolerance"] <= 0.1:
+            self._fail(where.at("tolerance"), f"expected a relative tolerance in (0, 0.1], e.g. 1e-8, "
+                                              f"found {numbers['tolerance']:g}")
+
+    def _check_constraints(self, values, names, built):
+        seen = set()
+        for c in self.scene.constraints:
+            where = Where("constraints", c.name)
+            self._check_unique(where, "constraint", c.name, seen)
+            self._check_expression(where.at("expr"), c.expr, names, built, aggregate=True)
+            if c.expr.is_aggregate:
+                varying_names, varying_points = c.expr.outside_aggregates()
+                varying = sorted(varying_names & {self.scene.sweep.name}) + sorted(varying_points)
+                if varying:
+                    self._fail(where.at("expr"),
+                               f"{c.expr.source!r} mixes one value per stroke (min/max with one argument) "
+                               f"with values per sample ({', '.join(map(repr, varying))} outside min/max); "
+                               "expected every sweep-dependent part inside min(...) or max(...)",
+                               ExpressionError)
+            bounds = []
+            for key, attr in (("min", "lower"), ("max", "upper")):
+                e = getattr(c, attr)
+                if e is not None:
+                    self._check_expression(where.at(key), e, set(values), [])
+                    bounds.append(constant_value(e, values, where.at(key)))
+            if len(bounds) == 2 and bounds[0] > bounds[1]:
+                self._fail(where, f"min {bounds[0]:g} is above max {bounds[1]:g}; nothing can satisfy it")
+
+    # --- names ---
+    def _check_unique(self, where, what, name, seen):
+        """``name`` is not among the names ``seen`` so far in its table; it is added to them."""
+        if name in seen:
+            self._fail(where, f"the {what} name {name!r} is used twice; rename one of them")
+        seen.add(name)
+
+    def _check_expression(self, where, expr, names, built, aggregate=False, later=()):
+        """Every name and point of ``expr`` must be known here; aggregates only where allowed."""
+        if expr.is_aggregate and not aggregate:
+            self._fail(where, f"{expr.source!r}: min() or max() with one argument is the extreme over "
+                              "the whole stroke, which only a [[constraints]] expr may use; for the "
+                              "smaller or larger of two values give two arguments, e.g. max(a, b)",
+                       ExpressionError)
+        for name in sorted(expr.names()):
+            if name not in names:
+                self._unknown_name(where, expr, name, names, built, later)
+        for point in sorted(expr.points()):
+            if point not in built:
+                self._missing_point(where, point, built, ExpressionError, expr)
+
+    def _unknown_name(self, where, expr, name, names, built, later):
+        src = expr.source
+        if name in built or name in self.scene.point_names():
+            detail = (f"{name!r} is a point, not a number; use x({name}), y({name}), "
+                      f"length({name}, Q) or angle(P, {name}, Q)")
+        elif name == self.scene.sweep.name:
+            detail = (f"the sweep variable {name!r} cannot be used here: expected a value that is the "
+                      "same over the whole stroke (numbers, parameters, pi, deg)")
+        elif name in later:
+            detail = (f"{name!r} is defined further down; a parameter may use only the parameters "
+                      "above it: move its line")
+        elif where.table == "parameters" and name == where.item:
+            detail = f"the parameter {name!r} refers to itself; expected a number or earlier parameters"
+        else:
+            known = sorted(names) + list(RESERVED)
+            detail = f"unknown name {name!r}" + (near_miss(name, known) or f"; expected one of: {', '.join(known)}")
+        self._fail(where, f"{src!r}: {detail}", ExpressionError)
+
+    def _missing_point(self, where, ref, built, cls, expr=None):
+        src = f"{expr.source!r}: " if expr is not None else ""
+        if ref in self.scene.point_names():
+            detail = (f"point {ref!r} is used before it is built (it is constructed further down in "
+                      "[points]); move its line above this one")
+        else:
+            detail = f"no point {ref!r} is constructed" + (
+                near_miss(ref, self.scene.point_names()) or
+                (f"; points built so far: {', '.join(built)}" if built else "; no point is built before this"))
+        self._fail(where, src + detail, cls)
