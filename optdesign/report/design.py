@@ -85,7 +85,8 @@ def load_figure(result, folder) -> Path:
 
     scene = result.scene
     after = scene.with_parameters(**result.design)
-    analyses = {"start": Analysis(scene).run(), "optimum": Analysis(after).run()}
+    start = Analysis(scene)
+    analyses = {"start": start.run(), "optimum": Analysis(after).run()}
     per_sample = [k for k, v in analyses["start"].constraints.items() if np.ndim(v)]
     fig, axes = new_figure(1 + len(per_sample), 1, figsize=(7, 3.2 * (1 + len(per_sample))), squeeze=False)
     for label, res in analyses.items():
@@ -99,9 +100,7 @@ def load_figure(result, folder) -> Path:
         conv = np.degrees if "angle" in name else (lambda v: v)
         for bound in (c.lower, c.upper):
             if bound is not None:
-                from ..scene.expressions import constant_value
-
-                axes[i + 1, 0].axhline(conv(constant_value(bound, scene.parameter_values(), name)), color="k", ls=":", lw=1)
+                axes[i + 1, 0].axhline(conv(start.resolved.constant(bound, name)), color="k", ls=":", lw=1)
         axes[i + 1, 0].set_ylabel(name + (" [deg]" if "angle" in name else ""))
     for ax in axes[:, 0]:
         ax.grid(alpha=0.3)
@@ -116,15 +115,17 @@ def mechanism_figure(result, folder) -> Path:
     """The mechanism drawn at a few positions of the stroke, before and after."""
     from .drawing import draw_positions
     from ..kinematics.mechanism import kinematics
+    from ..scene import ResolvedScene
 
     scene = result.scene
     after = scene.with_parameters(**result.design)
     fig, axes = new_figure(1, 2, figsize=(11, 5))
     for ax, (label, sc) in zip(axes, (("start", scene), ("optimum", after))):
-        draw_positions(ax, sc, kinematics(sc), positions=5)
+        resolved = ResolvedScene(sc)
+        draw_positions(ax, sc, kinematics(resolved), positions=5)
         ax.set_title(f"{label}: " + ", ".join(f"{k}={v:.3g}" for k, v in
                                                (result.design if label == "optimum" else
-                                                {p.name: sc.parameter_values()[p.name] for p in sc.parameters if p.is_design}).items()),
+                                                {n: resolved.values[n] for n in resolved.design_names}).items()),
                      fontsize=9)
     path = Path(folder) / "mechanism.png"
     save_figure(fig, path)
