@@ -117,8 +117,12 @@ def run(args):
         result = study.run(out=out, workers=args.workers, scheduler=args.scheduler,
                            progress=cli.progress_bar("cases"), restart=args.restart, figures=not args.no_figures)
     except StudyInterrupted as exc:
+        for note in exc.result.notes:
+            print(f"optdesign study: journal: {note}", file=sys.stderr)
         print(f"\noptdesign study: {exc}", file=sys.stderr)
         raise SystemExit(130) from None
+    for note in result.notes:
+        print(f"optdesign study: journal: {note}", file=sys.stderr)
     for path in result.paths:
         print(f"wrote {path}", file=sys.stderr)
     if args.json:

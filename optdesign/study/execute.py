@@ -22,18 +22,20 @@ from ..report import study as study_figures
 from . import journal as study_journal
 from . import table as study_table
 from .results import StudyInterrupted, StudyResult
+from ..report.folder import inspect
 from ..report.output import write_atomic
 from .tasks import run_task, scene_digest
+
+
+# the files a study derives from its journal (replaced at the end; a restart drops them)
+DERIVED = (study_table.CSV, "pareto.csv", "study.png", "pareto.png", "study.json", "summary.txt")
 
 
 def execute(study, folder: Path, workers, scheduler, progress, restart, figures):
     t0 = time.perf_counter()
     cases = study.cases()
-    if restart and folder.exists():
-        for name in (study_journal.JOURNAL, study_table.CSV, "pareto.csv", "study.png", "pareto.png",
-                     "study.json", "summary.txt"):
-            (folder / name).unlink(missing_ok=True)
-    with study_journal.Journal(folder) as journal:
+    inspect(folder, {study_journal.JOURNAL, *DERIVED}, "study folder")   # a folder we may write, before any work
+    with study_journal.Journal(folder, restart=restart, produces=DERIVED) as journal:
         write_atomic(folder / "study.json", json.dumps(definition(study, cases), indent=1) + "\n")
         reused = sum(1 for c in cases if c.id in journal.records)
         chains = {}
@@ -60,7 +62,7 @@ def execute(study, folder: Path, workers, scheduler, progress, restart, figures)
             if pareto:
                 paths.append(study_table.pareto_csv(study, rows, folder))
         wall = time.perf_counter() - t0
-        result = StudyResult(study, folder, rows, complete, computed, reused, wall, paths)
+        result = StudyResult(study, folder, rows, complete, computed, reused, wall, paths, tuple(journal.notes))
         paths.append(write_summary(result, where))
     if interrupted:
         raise StudyInterrupted(
@@ -107,6 +109,7 @@ def write_summary(result, where) -> Path:
     bad = [r for r in rows if not r.get("success")]
     for r in bad[:20]:
         lines.append(f"  case {r['case']} failed: {r.get('status')}")
+    lines += [f"journal: {note}" for note in result.notes]
     lines.append(f"files: {', '.join(p.name for p in result.paths)}")
     path = result.folder / "summary.txt"
     write_atomic(path, "\n".join(lines) + "\n")

@@ -1,72 +1,156 @@
-"""The study journal: the append-only record of finished cases, and how its folder is written.
+"""The study journal: the append-only record of finished cases, and the lock on its folder.
 
 Loss-free by construction:
 
+* The lock comes first.  :class:`Journal` opens ``journal.jsonl`` and takes an exclusive
+  ``flock`` on it before anything in the folder is read, cut, moved or written (``--restart``
+  included), then checks that the path still names the file it locked (a run that just
+  finished may have replaced the folder: it tries again).  Two runs never write one folder.
 * ``journal.jsonl`` gets one line per finished case, written with a single ``write`` and made
   durable with ``fsync`` before the next case is recorded.  A process killed at any instant
-  leaves at most one torn last line (no newline, or not valid JSON); :meth:`Journal.open`
-  ignores it and cuts it off before appending.  Lines are keyed by the case's id, a digest of
-  everything its result depends on, so a resumed study (or a changed one in the same folder)
-  takes a finished case only when it is the very same computation.
-* ``cases.csv`` and every other file are written whole through a temporary file and a rename
-  (:func:`optdesign.report.output.write_atomic`): never half-written.
-* An exclusive lock on the journal stops two runs from writing the same folder at once.
+  leaves at most one torn last line (no newline); it is cut off before appending.  Lines are
+  keyed by the case's id, a digest of everything its result depends on, so a resumed study (or
+  a changed one in the same folder) takes a finished case only when it is the very same
+  computation.
+* A damaged line anywhere else (not JSON, or JSON that is not a record: no ``"id"``, no
+  ``"row"``) is *quarantined*: copied with its line number to ``journal.corrupt-TIME.jsonl``
+  (fsynced), then the journal is rewritten without it through a temporary file and a rename.
+  Every valid record, before and after the damage, is kept; a kill at any instant leaves the old
+  journal or the cleaned one.  The notes say what was moved where.
+* ``--restart`` swaps in a folder with a new, empty (already locked) journal as a whole
+  (:func:`optdesign.report.folder.replace_folder`): a kill leaves the old study or the new one.
+* The journal is carried by a hard link whenever the study's folder is replaced (the derived
+  files are swapped in as a whole at the end, :mod:`optdesign.study.execute`): it is the same
+  file, with the same lock, before and after.
 """
 from __future__ import annotations
 
 import fcntl
 import json
 import os
+import time
 from pathlib import Path
 
 from ..errors import OptdesignError
 
 JOURNAL = "journal.jsonl"
+QUARANTINE = "journal.corrupt-{}.jsonl"
 
 
 class Journal:
-    """The append-only record of finished cases in ``folder`` (use as a context manager)."""
+    """The append-only record of finished cases in ``folder`` (use as a context manager).
+    ``records``: id -> record; ``notes``: what opening it found and did (damaged lines)."""
 
-    def __init__(self, folder):
-        self.path = Path(folder) / JOURNAL
+    def __init__(self, folder, restart: bool = False, produces=()):
+        self.folder = Path(folder)
+        self.path = self.folder / JOURNAL
+        self.restart = restart
+        self.produces = tuple(produces)   # the folder's derived files (dropped by a restart)
         self.records: dict = {}
+        self.notes: list = []
+        self.quarantined: list = []        # (line number, quarantine file)
         self._fh = None
 
     def __enter__(self):
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._fh = open(self.path, "a+b")
+        self._fh = _open_locked(self.path)
         try:
-            fcntl.flock(self._fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
+            if self.restart:
+                self._fresh()
+            self._read()
+        except BaseException:
             self._fh.close()
-            raise OptdesignError(f"{self.path.parent}: another study is running in this folder "
-                                 "(its journal is locked); wait for it or choose another --out") from None
-        self._read()
+            self._fh = None
+            raise
         return self
 
     def __exit__(self, *exc):
-        self._fh.close()
-        self._fh = None
+        if self._fh is not None:
+            self._fh.close()
+            self._fh = None
 
+    # --- restart ---
+    def _fresh(self):
+        """Forget the finished cases: the folder is replaced as a whole by one with a new, empty
+        journal (locked before it is swapped in) and without the derived files."""
+        from ..report.folder import replace_folder
+
+        new = []
+
+        def write(tmp):
+            fh = open(tmp / JOURNAL, "a+b")
+            new.append(fh)
+            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)   # nobody else can know this file yet
+            return []
+
+        try:
+            replace_folder(self.folder, write, produces={JOURNAL, *self.produces}, label="study folder")
+        except BaseException:
+            for fh in new:
+                fh.close()
+            raise
+        self._fh.close()
+        self._fh = new[0]
+
+    # --- reading ---
     def _read(self):
-        """Load every complete line; cut a torn last line off the file."""
+        """Load every record; cut a torn last line; quarantine damaged lines."""
         fh = self._fh
         fh.seek(0)
-        data = fh.read()
-        good = 0
-        for line in data.splitlines(keepends=True):
-            if not line.endswith(b"\n"):
-                break
-            try:
-                record = json.loads(line)
-            except ValueError:
-                break
-            self.records[record["id"]] = record
-            good += len(line)
-        if good < len(data):
-            fh.truncate(good)
+        try:
+            data = fh.read()
+        except OSError as exc:
+            raise OptdesignError(f"{self.path}: cannot read the study journal ({exc.strerror or exc})") from None
+        pieces = data.split(b"\n")
+        tail = pieces.pop()                  # b"" when the file ends with a newline
+        good, bad = [], []
+        for number, raw in enumerate(pieces, 1):
+            record, why = parse_record(raw)
+            if record is None:
+                bad.append((number, raw, why))
+            else:
+                self.records[record["id"]] = record
+                good.append(raw)
+        if tail:
+            self.notes.append(f"{self.path}: the last line (line {len(pieces) + 1}, {len(tail)} bytes, no newline) "
+                              "was cut off: a write torn by a killed process")
+        if bad:
+            self._quarantine(good, bad)
+        elif tail:
+            fh.truncate(len(data) - len(tail))
             os.fsync(fh.fileno())
-        fh.seek(0, os.SEEK_END)
+        self._fh.seek(0, os.SEEK_END)
+
+    def _quarantine(self, good, bad):
+        stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
+        target, n = self.folder / QUARANTINE.format(stamp), 1
+        while target.exists():
+            n += 1
+            target = self.folder / QUARANTINE.format(f"{stamp}-{n}")
+        text = "".join(json.dumps({"line": number, "why": why, "text": raw.decode("utf-8", "surrogateescape")})
+                       + "\n" for number, raw, why in bad)
+        _write_synced(target, text.encode())
+        # the journal without the bad lines: a new file, locked before it takes the journal's name
+        tmp = self.folder / f".{JOURNAL}.{os.getpid()}.tmp"
+        fh = open(tmp, "w+b")
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            fh.write(b"".join(line + b"\n" for line in good))
+            fh.flush()
+            os.fsync(fh.fileno())
+            os.replace(tmp, self.path)
+            _fsync_dir(self.folder)
+        except BaseException:
+            fh.close()
+            if tmp.exists():
+                tmp.unlink()
+            raise
+        self._fh.close()
+        self._fh = fh
+        for number, raw, why in bad:
+            self.quarantined.append((number, target))
+        lines = ", ".join(str(number) for number, _, _ in bad[:10]) + (", ..." if len(bad) > 10 else "")
+        self.notes.append(f"{self.path}: {len(bad)} damaged line{'s' if len(bad) > 1 else ''} ({lines}: "
+                          f"{bad[0][2]}) moved to {target.name}; the {len(good)} valid records are kept")
 
     def add(self, record: dict):
         """Append one finished case, durably (one write, then fsync)."""
@@ -75,3 +159,78 @@ class Journal:
         self._fh.flush()
         os.fsync(self._fh.fileno())
         self.records[record["id"]] = record
+
+
+def parse_record(raw: bytes):
+    """(record, None) for a journal line that is a record, else (None, why it is not)."""
+    try:
+        record = json.loads(raw)
+    except (ValueError, RecursionError):
+        return None, "not JSON"
+    if not isinstance(record, dict):
+        return None, f"JSON {type(record).__name__}, not an object"
+    if not isinstance(record.get("id"), str):
+        return None, 'no "id" string'
+    if not isinstance(record.get("row"), dict):
+        return None, 'no "row" object'
+    x = record.get("x")
+    if x is not None and not (isinstance(x, list) and all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                                            for v in x)):
+        return None, '"x" is not a list of numbers'
+    return record, None
+
+
+def _open_locked(path: Path, attempts: int = 20):
+    """``path`` opened for appending, with an exclusive lock held on the file it names."""
+    folder = path.parent
+    for _ in range(attempts):
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+        except FileExistsError:
+            raise OptdesignError(f"study folder {folder}: is a file, not a folder") from None
+        except OSError as exc:
+            raise OptdesignError(f"study folder {folder}: cannot create it ({exc.strerror or exc})") from None
+        try:
+            fh = open(path, "a+b")
+        except IsADirectoryError:
+            raise OptdesignError(f"{path}: the study journal is a folder, not a file; move it away or choose "
+                                 "another --out") from None
+        except OSError as exc:
+            raise OptdesignError(f"{path}: cannot open the study journal for reading and appending "
+                                 f"({exc.strerror or exc})") from None
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            fh.close()
+            raise OptdesignError(f"{folder}: another study is running in this folder "
+                                 "(its journal is locked); wait for it or choose another --out") from None
+        try:
+            now = os.stat(path)
+        except FileNotFoundError:
+            now = None
+        mine = os.fstat(fh.fileno())
+        if now is not None and (now.st_ino, now.st_dev) == (mine.st_ino, mine.st_dev):
+            return fh
+        fh.close()                           # the folder was replaced meanwhile: lock the new journal
+    raise OptdesignError(f"{path}: could not lock the study journal (the folder keeps being replaced)")
+
+
+def _write_synced(path: Path, data: bytes):
+    with open(path, "xb") as fh:
+        fh.write(data)
+        fh.flush()
+        os.fsync(fh.fileno())
+    _fsync_dir(path.parent)
+
+
+def _fsync_dir(folder: Path):
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)

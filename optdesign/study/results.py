@@ -27,6 +27,7 @@ class StudyResult:
     reused: int              # finished cases found in the journal
     wall_s: float
     paths: list
+    notes: tuple = ()        # what opening the journal found and did (a torn last line cut, damaged lines moved)
 
     def column(self, name):
         """A column as a float array (missing values as nan)."""
