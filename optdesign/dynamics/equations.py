@@ -1,0 +1,183 @@
+"""The equation of motion of seed 1 ("motion from drive", eqs. 17, 38), compiled once per scene.
+
+The drive delivers T_m = law(q, qd) (a torque T_S for a rotary drive, a force F_S for a linear
+one; ``[drive] law``) and has its own inertia J_d (``[drive] inertia``: rotor [kg m^2] or moving
+piston mass [kg]).  What reaches the mechanism is T_S = T_m - J_d qdd, and the mechanism takes
+T_S = c (T_Su + I_zS' eps_S - dT_S') in the seed's terms (c: efficiency factor, ' = ideal).
+
+**Which coordinate.**  The seed writes the motion in the drive coordinate q:
+I_zS eps_S = T_S - T_Su + dT_S with I_zS = M_s / k^2, k = dq/ds.  Where k -> 0 (a linear drive
+at a dead centre) I_zS and T_Su blow up although nothing physical does.  We integrate in the
+sweep coordinate s instead (state s, sd), multiplying the equation by k:
+
+    (c M_s + J_d k^2) sdd = k T_m - J_d k k' sd^2 - c (1/2 M_s' sd^2 + Q_s)
+
+(M_s, Q_s: the sweep-referred inertia and static load of :class:`~optdesign.model.reduction.ReducedModel`,
+' = d/ds).  This form is regular wherever the total inertia c M_s + J_d k^2 > 0, in particular
+at a dead centre of a linear drive (k = 0, M_s > 0).  For a rotary crank whose angle is the
+sweep (the slider-crank), k = 1 and it is the seed's equation (17) itself; there M_s -> 0 at the
+piston's dead centres, and only the rotor inertia J_d keeps the equation regular (a small J_d
+makes the problem stiff: the crank whips through the dead centres).  A stroke where the total
+inertia vanishes is reported as a :class:`~optdesign.errors.DeadCentreError` before integrating
+(:func:`check_inertia`).
+
+**Efficiency.**  c = 1/eta while power flows into the mechanism (T_S qd > 0), eta while it flows
+back, as in :class:`~optdesign.model.reduction.ReducedModel` (an exact switch).  With drive inertia
+T_S depends on the acceleration, but the sign of T_S qd does not depend on c: solving the
+equation above for both c gives T_S k = c E_s with
+E_s = [M_s (k T_m - J_d k k' sd^2) + J_d k^2 (1/2 M_s' sd^2 + Q_s)] / (c M_s + J_d k^2),
+whose sign is that of the bracket.  So the direction of power flow, and with it c, is unique at
+every state: the switch is exact (no smoothing changes the physics); the integrators see a jump
+in acceleration at a switch and step through it by rejecting a step or two.  The *one-sided*
+equation takes the power's direction from a given direction of motion d = +-1 instead of sd
+(d * bracket instead of sd * bracket): it continues smoothly through ds/dt = 0, which is what
+:mod:`.events` needs to locate a rest.
+"""
+from __future__ import annotations
+
+import math
+
+import casadi as ca
+import numpy as np
+
+from ..errors import DeadCentreError
+from ..kinematics.mechanism import _fmt_s
+from ..scene.expressions import evaluate
+
+
+class Equations:
+    """The compiled right-hand side (``rhs``, and ``rhs_one`` with eta < 1: the one-sided
+    equation, direction d after the parameters), the ``outputs`` (a function of the state vector
+    and the parameters; names in ``output_names``) and ``inertia_check`` (s, p -> total inertia
+    M_s + J_d k^2, k).  The state is (s, sd), and for a rotary drive also the continuous crank
+    angle q (``n_x`` components)."""
+
+    def __init__(self, mech, model, drive):
+        self.mech = mech
+        self.rotary = model.rotary
+        self.uses_efficiency = model.uses_efficiency
+        sym, s, p = mech.sym, mech.s, mech.p
+        k, dk = model.k, model.dk
+        sd = sym.sym("sd")
+        M_s = model.M_s if model.has_inertia else 0
+        dM_s = mech.ds(M_s) if model.has_inertia else 0
+        Q_s = model.Q_s if model.has_static else 0
+        J = mech.value(drive.inertia, "[drive] inertia") if drive.inertia is not None else 0
+        qd = k * sd
+        # the rotary drive's angle is an atan2 (wrapped): the law sees the continuous angle,
+        # carried as a third state q' = k sd
+        q_state = sym.sym("q") if self.rotary else None
+        q = q_state if self.rotary else mech.q
+        env = dict(mech.env, q=q, qd=qd)
+        T_m = evaluate(drive.law, env, mech.points, "[drive] law")
+        V = 0.5 * dM_s * sd**2  # velocity term in s: -dT_S referred to s
+        rest = k * T_m - J * k * dk * sd**2
+        if model.uses_efficiency:
+            eta = model.eta
+            bracket = M_s * rest + J * k**2 * (V + Q_s)  # T_S qd = sd * bracket / (c M_s + J k^2)
+            c = ca.if_else(sd * bracket >= 0, 1 / eta, eta)  # sign of T_S qd, independent of c
+        else:
+            c = 1.0
+
+        def acceleration(c):
+            return (rest - c * (V + Q_s)) / (c * M_s + J * k**2)
+
+        sdd = acceleration(c)
+        qdd = k * sdd + dk * sd**2
+        # Functions of the state's parts (an MX state cannot be a vertcat of symbols)
+        states = [s, sd, q_state] if self.rotary else [s, sd]
+        self.n_x = len(states)
+
+        def rate(sdd):
+            return ca.vertcat(sd, sdd, qd) if self.rotary else ca.vertcat(sd, sdd)
+
+        self.rhs = ca.Function("rhs", states + [p], [rate(sdd)])
+        if model.uses_efficiency:  # the one-sided equation: power direction from d = +-1, not sd
+            direction = sym.sym("d")
+            c_one = ca.if_else(direction * bracket >= 0, 1 / eta, eta)
+            self.rhs_one = ca.Function("rhs_one", states + [p, direction], [rate(acceleration(c_one))])
+        outs = {"q": q, "qd": qd, "qdd": qdd, "sdd": sdd, "drive": T_m, "transmitted": T_m - J * qdd,
+                "kinetic_energy": 0.5 * M_s * sd**2 + 0.5 * J * qd**2, "power": T_m * qd}
+        if model.uses_efficiency:
+            outs["efficiency_factor"] = c
+        self.output_names = list(outs)
+        f = ca.Function("outputs", states + [p], [ca.vertcat(*[o + 0 * s for o in outs.values()])])
+        xs = sym.sym("x", self.n_x)
+        self.outputs = ca.Function("outputs", [xs, p], [f(*[xs[i] for i in range(self.n_x)], p)])
+        self.inertia_check = ca.Function("inertia", [s, p], [M_s + J * k**2 + 0 * s, k + 0 * s])
+
+    def output(self, name, x, p):
+        """One output (e.g. 'sdd', 'qd') at the state x."""
+        return float(self.outputs(x, p)[self.output_names.index(name)])
+
+    def output_row(self, name, X, p):
+        """One output over the states X (columns)."""
+        return np.asarray(self.outputs.map(X.shape[1])(X, p))[self.output_names.index(name)]
+
+    def columns(self, X, p):
+        """The result's columns over the states X: s, sd and every output."""
+        f = self.outputs.map(X.shape[1])
+        out = np.asarray(f(X, p))
+        cols = {"s": X[0].copy(), "sd": X[1].copy()}
+        for i, name in enumerate(self.output_names):
+            cols[name] = out[i].copy()
+        return cols
+
+
+def check_inertia(eq, scene, stroke_grid, p):
+    """The equation is singular where M_s + J_d k^2 vanishes (no mass moves and the drive has
+    no inertia of its own): find the smallest value over the stroke, refined between samples."""
+    f = eq.inertia_check.map(len(stroke_grid))
+    v = np.asarray(f(stroke_grid[None, :], p)[0]).ravel()
+    top = float(np.max(v)) if v.size else 0.0
+    where = stroke_grid[int(np.argmin(v))]
+    low = float(np.min(v))
+    i = int(np.argmin(v))
+    if 0 < i < len(v) - 1:  # golden-section refinement of the smallest sample's neighbourhood
+        where, low = _golden(lambda x: float(eq.inertia_check(x, p)[0]), stroke_grid[i - 1], stroke_grid[i + 1])
+    if not top > 0 or low <= 1e-12 * top:
+        name, unit = scene.sweep.name, "kg m^2 (rotor)" if eq.rotary else "kg (moving piston and rod)"
+        raise DeadCentreError(
+            f"{scene.path}: [drive] the reduced inertia vanishes at {name} = {_fmt_s(where)} "
+            f"(smallest M_s + J_d k^2 = {low:.3g}, largest {top:.3g}): no mass moves with the drive "
+            "there, so any drive torque or force gives an infinite acceleration (a dead centre of the "
+            f"one-element model). Give the drive its own inertia ([drive] inertia, {unit}), or "
+            "narrow the sweep to exclude it.")
+
+
+def initial_state(eq, scene, s0, qd0, p):
+    """The state at t = 0 from the sweep value s0 and the drive speed qd0 (sd0 = qd0 / k; for a
+    rotary drive also the crank angle, unwrapped from 0)."""
+    k0 = float(eq.inertia_check(s0, p)[1])
+    if abs(k0) < 1e-12:
+        if qd0 != 0:
+            raise DeadCentreError(
+                f"{scene.path}: [simulation] start: {scene.sweep.name} = {_fmt_s(s0)} is a dead "
+                f"centre of the drive (dq/d{scene.sweep.name} = 0), where the drive cannot have the "
+                f"speed {qd0:g}; start elsewhere or with speed = 0")
+        sd0 = 0.0
+    else:
+        sd0 = qd0 / k0
+    x0 = [s0, sd0]
+    if eq.rotary:
+        q_of = ca.Function("q", [eq.mech.s, eq.mech.p], [eq.mech.q])
+        x0.append(float(np.unwrap([0.0, float(q_of(s0, p))])[1]))
+    return np.array(x0)
+
+
+def _golden(f, a, b, iterations=80):
+    """Minimum of f on [a, b] by golden-section search: (x, f(x))."""
+    r = (math.sqrt(5) - 1) / 2
+    c, d = b - r * (b - a), a + r * (b - a)
+    fc, fd = f(c), f(d)
+    for _ in range(iterations):
+        if fc <= fd:
+            b, d, fd = d, c, fc
+            c = b - r * (b - a)
+            fc = f(c)
+        else:
+            a, c, fc = c, d, fd
+            d = a + r * (b - a)
+            fd = f(d)
+    x = 0.5 * (a + b)
+    return x, f(x)
