@@ -56,7 +56,8 @@ from optdesign import __version__ as optdesign_version  # noqa: E402
 from optdesign.model.analysis import Analysis  # noqa: E402
 from optdesign.design.problem import DesignProblem  # noqa: E402
 from optdesign.errors import OptdesignError  # noqa: E402
-from optdesign.design.optimise import Solver, draw_starts, optimise  # noqa: E402
+from optdesign.design.multistart import draw_starts, optimise  # noqa: E402
+from optdesign.design.solver import Solver  # noqa: E402
 from benchmarks.benchfile import git_state, write_section  # noqa: E402
 from optdesign.scene.file import load  # noqa: E402
 
@@ -455,7 +456,8 @@ def profile_ours(scene, starts) -> dict:
     """One pass of ours from the same starts with the pieces timed separately: NLP build,
     repair build, IPOPT (its own work and the NLP function evaluations), the continuous check
     in Python, repairs, and the rest of each start."""
-    from optdesign.design.optimise import Repair, solve_start
+    from optdesign.design.multistart import solve_start
+    from optdesign.design.repair import Repair
 
     class TimedSolver(Solver):
         checks = []
@@ -573,7 +575,7 @@ def de_time_to_best(run: MethodRun, pb: DesignProblem, best) -> list:
 # --- the command ---------------------------------------------------------------------------
 def startup_floor(repeats=3):
     """Wall time of a Python process that only imports what the optimise command imports."""
-    code = "import casadi, optdesign.cli.main, optdesign.design.optimise, optdesign.report.design, matplotlib.pyplot"
+    code = "import casadi, optdesign.cli.main, optdesign.design.multistart, optdesign.report.design, matplotlib.pyplot"
     times = []
     for _ in range(repeats):
         t0 = time.perf_counter()

@@ -30,7 +30,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from benchfile import ROOT, write_section  # noqa: E402
 
 import optdesign  # noqa: E402
-from optdesign.design.optimise import optimise  # noqa: E402
+from optdesign.design import optimise  # noqa: E402
 from optdesign.study import Study, grid  # noqa: E402
 
 SCENE = ROOT / "problems" / "seed1_jib_design.toml"

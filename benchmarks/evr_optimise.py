@@ -32,7 +32,7 @@ import numpy as np  # noqa: E402
 from optdesign.model.analysis import Analysis  # noqa: E402
 from optdesign.design.problem import SolverSettings  # noqa: E402
 from optdesign.scene.expressions import constant_value  # noqa: E402
-from optdesign.design.optimise import optimise  # noqa: E402
+from optdesign.design import optimise  # noqa: E402
 from optdesign.report.output import save_figure  # noqa: E402
 from optdesign.scene.file import load  # noqa: E402
 

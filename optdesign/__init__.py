@@ -6,7 +6,7 @@ Front doors: :func:`load` (a scene file), :func:`kinematics`, :func:`analyse`, :
 from .model.analysis import AnalysisResult, analyse
 from .errors import (AssemblyError, DeadCentreError, ExpressionError, OptdesignError, SceneError,
                      SolverError)
-from .design.optimise import OptimisationResult, optimise
+from .design import OptimisationResult, optimise
 from .dynamics.simulator import SimulationResult, simulate
 from .study import Study, StudyResult
 from .kinematics.mechanism import KinematicsResult, Mechanism, kinematics

@@ -21,14 +21,9 @@ import optdesign
 from optdesign.study import tasks as study_run
 from optdesign.design.problem import DesignProblem
 from optdesign.errors import SceneError
-from optdesign.design.optimise import (
-    Repair,
-    Solver,
-    draw_starts,
-    optimise,
-    solve_start,
-    summarise,
-)
+from optdesign.design.multistart import draw_starts, optimise, solve_start, summarise
+from optdesign.design.repair import Repair
+from optdesign.design.solver import Solver
 from optdesign.study import Study, pareto
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -10,7 +10,8 @@ import numpy as np
 
 import optdesign
 from optdesign.design.problem import DesignProblem
-from optdesign.design.optimise import Solver, optimise
+from optdesign.design.multistart import optimise
+from optdesign.design.solver import Solver
 
 TRUCK = Path(__file__).resolve().parents[1] / "problems" / "truck_crane.toml"
 

@@ -27,7 +27,7 @@ import pytest
 
 from optdesign import AssemblyError, SceneError
 from optdesign.model.analysis import analyse
-from optdesign.design.optimise import optimise
+from optdesign.design import optimise
 from optdesign.scene.file import loads
 
 a, d = 1.0, 2.0
@@ -166,7 +166,9 @@ def test_a_repaired_start_lies_where_ipopt_will_start():
     from pathlib import Path
 
     from optdesign.design.problem import DesignProblem
-    from optdesign.design.optimise import Repair, Solver, draw_starts, solve_start
+    from optdesign.design.multistart import draw_starts, solve_start
+    from optdesign.design.repair import Repair
+    from optdesign.design.solver import Solver
     from optdesign.scene.file import load
 
     pb = DesignProblem(load(Path(__file__).resolve().parents[1] / "problems" / "level_luffing_path.toml"))

@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 
 from optdesign.model.analysis import analyse
-from optdesign.design.optimise import optimise
+from optdesign.design import optimise
 from optdesign.scene.file import loads
 
 G = 9.81

@@ -36,7 +36,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq, minimize, minimize_scalar
 
-from optdesign.design.optimise import optimise
+from optdesign.design import optimise
 from optdesign.scene.file import load
 
 ROOT = Path(__file__).resolve().parents[1]

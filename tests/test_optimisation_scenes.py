@@ -36,7 +36,7 @@ from scipy.optimize import minimize
 
 from optdesign.scene.expressions import BinOp, Call, Name, Neg, Num, constant_value, parse
 from optdesign.kinematics.mechanism import Mechanism
-from optdesign.design.optimise import optimise
+from optdesign.design import optimise
 from optdesign.model.reduction import ReducedModel
 from optdesign.scene.file import load
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from optdesign import analyse, loads
-from optdesign.design.optimise import optimise
+from optdesign.design import optimise
 
 JIB = (Path(__file__).parents[1] / "problems" / "seed1_jib.toml").read_text()
 

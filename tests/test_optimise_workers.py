@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from optdesign.design.optimise import optimise
+from optdesign.design import optimise
 from optdesign.scene.file import load
 
 SCENE = Path(__file__).resolve().parents[1] / "problems" / "seed1_jib_design.toml"

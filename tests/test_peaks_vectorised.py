@@ -23,7 +23,7 @@ from scipy.optimize import brentq
 
 from optdesign.design.problem import DesignProblem
 from optdesign.model.mapped import MappedFunction
-from optdesign.design.optimise import Solver
+from optdesign.design.solver import Solver
 from optdesign.model.peaks import (
     Request,
     continuous_maxima,

@@ -17,7 +17,7 @@ import pytest
 
 import optdesign
 from optdesign.errors import OptdesignError, SceneError
-from optdesign.design.optimise import optimise
+from optdesign.design import optimise
 from optdesign.study import Study, grid, pareto, together, values
 from optdesign.study import read_csv
 from optdesign.study.journal import JOURNAL, Journal

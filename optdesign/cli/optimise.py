@@ -24,7 +24,7 @@ def run(args):
 
     from ..report import design as design_report
     from ..report.output import to_json
-    from ..design.optimise import optimise
+    from ..design import optimise
 
     scene = load_scene(args)
     bar = progress_bar("starts")

@@ -128,12 +128,12 @@ def _built(task: Task, base, structural: dict, bounds: tuple):
         return c.models[key]
     scene = base.with_parameters(**structural)
     if bounds:
-        from ..design.problem import scene_with_bounds
+        from ..design.bounds import scene_with_bounds
 
         scene = scene_with_bounds(scene, bounds)
     if task.mode == "optimise":
         from ..design.problem import DesignProblem, SolverSettings
-        from ..design.optimise import Repair
+        from ..design.repair import Repair
 
         problem = DesignProblem(scene, SolverSettings(**dict(task.settings)))
         model = (problem, Repair(problem))
@@ -185,7 +185,8 @@ def _leaf_values(names, scene, default):
 def _optimise(task: Task, model, scene):
     import numpy as np
 
-    from ..design.optimise import Solver, draw_starts, solve_start, summarise
+    from ..design.multistart import draw_starts, solve_start, summarise
+    from ..design.solver import Solver
 
     problem, repair = model
     # a fresh Solver per case: a Solver carries what it learned from one start to the next

@@ -1,0 +1,130 @@
+"""Quantities of the whole stroke: stroke aggregates max(e)/min(e) and the rms.
+
+A stroke aggregate is an epigraph variable of the NLP (:mod:`.rows` takes it out of its
+expression, leaving an *outer* expression of named aggregates); :func:`outer_value` evaluates
+such an expression, and :func:`check_monotone` makes sure a bound on it is conservative.  The
+rms of the objective's quantity is a composite Gauss-Legendre :func:`quadrature` over the
+continuous stroke.
+
+The functions take the problem (``pb``: a :class:`~optdesign.design.problem.DesignProblem`,
+which imports this module; hence no annotation) and read or set its attributes.
+"""
+from __future__ import annotations
+
+import math
+
+import casadi as ca
+import numpy as np
+
+from ..errors import SceneError
+from ..scene.expressions import evaluate
+
+
+# --- stroke aggregates ---
+def sampled_extreme(ag, q) -> float:
+    """The aggregate ``ag`` (its max or min) of the per-sample quantities ``q`` (rows x samples)."""
+    return float(np.max(q[ag.index]) if ag.func == "max" else np.min(q[ag.index]))
+
+
+def aggregate_start(pb, ag) -> float:
+    """The aggregate's value on the scene's samples at the start design."""
+    return sampled_extreme(ag, pb.start_quantities)
+
+
+def aggregates_of(pb, w) -> np.ndarray:
+    """The stroke aggregates' values (physical units) in an NLP solution vector ``w``."""
+    nd = len(pb.design_names)
+    return np.asarray(w[nd + pb.n_t:], float) * pb.a_scale
+
+
+def parameter_values(pb, p=None) -> dict:
+    """Every scene parameter's value by name, from the leaf parameter vector ``p`` (numbers or
+    CasADi symbols; default: the scene's values)."""
+    names, p = pb.mech.parameter_names, pb.mech.parameter_values if p is None else p
+    values = {n: p[i] for i, n in enumerate(names)}
+    for prm in pb.scene.parameters:
+        if prm.value.names():
+            values[prm.name] = evaluate(prm.value, values, {}, prm.name)
+    return values
+
+
+def outer_value(pb, expr, a, p=None):
+    """A stroke expression (its aggregates replaced by their names) with the aggregates'
+    values ``a`` (in the order of ``pb.aggregates``) and the parameters ``p``."""
+    values = parameter_values(pb, p)
+    values.update({ag.name: a[i] for i, ag in enumerate(pb.aggregates)})
+    return evaluate(expr, values, {}, expr.source)
+
+
+def outer_start(pb, expr):
+    """A stroke expression at the start design (its aggregates on the scene's samples)."""
+    return outer_value(pb, expr, [aggregate_start(pb, ag) for ag in pb.aggregates])
+
+
+def stroke_value(pb, outer, extremes) -> float:
+    """A stroke expression evaluated with its aggregates taken from ``extremes``
+    ((aggregate name, 'max'|'min') -> value, as found by the continuous check)."""
+    return float(outer_value(pb, outer, [extremes.get((ag.name, ag.func), math.nan) for ag in pb.aggregates]))
+
+
+def check_monotone(pb, outer, where, source, lo, hi):
+    """The epigraph of an aggregate is conservative only if the bound pushes the outer
+    expression the right way: an upper bound needs it increasing in each max(...) and
+    decreasing in each min(...), a lower bound the reverse."""
+    if not pb.aggregates:
+        return
+    a = ca.SX.sym("a", len(pb.aggregates))
+    expr = outer_value(pb, outer, a)
+    grad = ca.Function("g", [a], [ca.gradient(expr, a)])
+    start = [aggregate_start(pb, ag) for ag in pb.aggregates]
+    grad_v = np.asarray(grad(start)).ravel()
+    for i, ag in enumerate(pb.aggregates):
+        if grad_v[i] == 0:  # this aggregate belongs to another expression
+            continue
+        increasing = grad_v[i] > 0
+        ok_upper = increasing == (ag.func == "max")
+        if (math.isfinite(hi) and not ok_upper) or (math.isfinite(lo) and ok_upper):
+            raise SceneError(
+                f"{pb.scene.path}: {where}: a {'lower' if ok_upper else 'upper'} "
+                f"bound on {source!r} is not conservative in its {ag.func}(...) over the stroke; "
+                "write it so that the bound limits a max from above or a min from below "
+                "(e.g. max(L)/min(L) <= r, or max(L) - r*min(L) <= 0)"
+            )
+
+
+# --- rms ---
+def rms(pb, x, fixed=None, panels=None) -> float:
+    """RMS of the objective's quantity over the continuous stroke at design x (composite
+    Gauss-Legendre, ``panels`` x 4 nodes; default: the problem's ``rms_panels``)."""
+    nodes, weights = quadrature(pb.s_grid[0], pb.s_grid[-1], panels or pb.rms_panels)
+    v = pb.evaluate_grid(x, fixed, nodes)[pb.objective_quantity]
+    return float(np.sqrt(np.dot(weights, v**2)))
+
+
+def rms_sampled(pb, x, fixed=None) -> float:
+    """RMS on the scene's samples (trapezoid rule)."""
+    v = pb.evaluate_grid(x, fixed)[pb.objective_quantity]
+    return float(np.sqrt(np.trapezoid(v**2, pb.s_grid) / (pb.s_grid[-1] - pb.s_grid[0])))
+
+
+def rms_panels(pb) -> int:
+    """Panels for the rms quadrature: doubled from the settings' count until the start
+    design's rms agrees with twice as many panels within ``rms_tol``."""
+    panels = pb.settings.rms_panels
+    while panels < 1024:
+        a, b = rms(pb, pb.start, panels=panels), rms(pb, pb.start, panels=2 * panels)
+        if abs(a - b) <= pb.settings.rms_tol * max(abs(b), 1e-300):
+            return panels
+        panels *= 2
+    return panels
+
+
+def quadrature(a, b, panels, order=4):
+    """Nodes and weights of composite Gauss-Legendre quadrature for the mean over [a, b]."""
+    x, w = np.polynomial.legendre.leggauss(order)
+    edges = np.linspace(a, b, panels + 1)
+    half = 0.5 * np.diff(edges)
+    mid = 0.5 * (edges[:-1] + edges[1:])
+    nodes = (mid[:, None] + half[:, None] * x[None, :]).ravel()
+    weights = (half[:, None] * w[None, :]).ravel() / (b - a)
+    return nodes, weights

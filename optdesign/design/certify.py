@@ -1,0 +1,115 @@
+"""The continuous check: the worst value of every block over the continuous stroke at a
+solution, against its bound (or, for the peak, against the epigraph), with the sampled worst
+values beside it.  A solve is certified when nothing is exceeded by more than its tolerance;
+otherwise the located extrema are where the exchange moves the slots (:mod:`.solver`)."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..model.mapped import MappedFunction
+from ..model.peaks import Request, continuous_maxima_rows
+from .problem import DesignProblem
+
+
+@dataclass(frozen=True)
+class Check:
+    """One comparison of the continuous check: the extrema of quantity row ``row`` (|v|, max
+    or min: ``sense``) against ``bound`` (an upper bound unless ``upper`` is False), in units
+    of ``scale``, with tolerance ``tol``.  kind 'rms': the rms block's peak, certified only."""
+
+    name: str
+    row: int
+    sense: str
+    scale: float
+    bound: float
+    tol: float
+    upper: bool = True
+    kind: str = "bound"
+
+    @property
+    def request(self) -> Request:
+        """Refine only the extrema within 10 % of the scale of the bound: the others cannot matter."""
+        sign = 1.0 if self.upper else -1.0
+        limit = sign * self.bound / self.scale - 0.1 if math.isfinite(self.bound) else None
+        return Request(self.row, self.sense, None if limit is None else limit * self.scale)
+
+    def amount(self, value) -> float:
+        """By how much ``value`` exceeds the bound, in units of the scale (< 0: within it)."""
+        if self.sense == "abs":
+            return (abs(value) - self.bound) / self.scale
+        sign = 1.0 if self.upper else -1.0
+        return (sign * value - sign * self.bound) / self.scale
+
+
+class ContinuousCheck:
+    """The continuous check of one problem's solutions (with its own buffered evaluation of
+    the per-sample quantities' s-derivatives: one per solver, not for concurrent use)."""
+
+    def __init__(self, problem: DesignProblem):
+        self.pb = problem
+        # the per-sample quantities' s-derivatives at many sweep values
+        self.derivatives = MappedFunction(problem.quantity_derivatives)
+
+    def __call__(self, x, fixed, w, s_points):
+        """Worst values of every block over the continuous stroke at design x.
+
+        Returns (violations, certified, sampled): violations is a list of (amount, s, row) with
+        amount > 0 where a bound (or the epigraph) is exceeded by more than its tolerance,
+        sorted largest first, near-active extrema included with amount <= 0.  The extrema of
+        all blocks are refined together (:func:`~optdesign.model.peaks.continuous_maxima_rows`: one
+        evaluation of every row per Newton step of all brackets)."""
+        pb, st = self.pb, self.pb.settings
+        p = pb.full_parameters(x, fixed)
+        grid = pb.s_grid
+        V = pb.evaluate_grid(x, fixed)
+        checks = self.checks(x, fixed, w, s_points)
+        extrema = continuous_maxima_rows(lambda s: self.derivatives(s, p), grid, V, [c.request for c in checks])
+        out, certified, sampled = [], {}, {}
+        for c, ext in zip(checks, extrema):
+            vals = V[c.row]
+            certified[(c.name, c.sense)] = ext[0].value
+            sampled[(c.name, c.sense)] = float(np.max(np.abs(vals)) if c.sense == "abs" else (np.max(vals) if c.sense == "max" else np.min(vals)))
+            if c.kind == "rms":
+                # the quadrature of the NLP against one with twice the panels
+                rms, finer = pb.rms(x, fixed), pb.rms(x, fixed, 2 * pb.rms_panels)
+                certified[(c.name, "rms")], sampled[(c.name, "rms")] = finer, pb.rms_sampled(x, fixed)
+                out.append((abs(rms - finer) / max(finer, 1e-300) - st.rms_tol, 0.5 * (grid[0] + grid[-1]), None))
+            else:
+                out += [(c.amount(e.value) - c.tol, e.s, c.row) for e in ext]
+        out.sort(key=lambda v: v[0], reverse=True)
+        return out, certified, sampled
+
+    def checks(self, x, fixed, w, s_points) -> list:
+        """What the continuous check compares, in the order it reports: the epigraph of the
+        peak (or the rms block's peak, bound-free), each constraint's upper then lower bound,
+        each aggregate against its NLP value, and the dead-centre guard."""
+        pb, st = self.pb, self.pb.settings
+        nd = len(pb.design_names)
+        t = float(w[nd]) if pb.n_t else None
+        a = pb.aggregates_of(w)
+        checks = []
+        for b in pb.blocks:
+            if b.kind == "peak":
+                # the epigraph's own value: the largest |v| at the NLP's points (IPOPT may leave t
+                # a hair below it, within its constraint tolerance)
+                at_points = pb.evaluate_grid(x, fixed, s_points)
+                reference = max(t * pb.f_ref, float(np.max(np.abs(at_points[b.index]))))
+                checks.append(Check(b.name, b.index, "abs", pb.f_ref, reference, st.peak_tol * reference / pb.f_ref))
+            elif b.kind == "rms":
+                checks.append(Check(b.name, b.index, "abs", 1.0, math.inf, 0.0, kind="rms"))
+            elif b.kind in ("constraint", "design constraint", "margin"):
+                if math.isfinite(b.upper):
+                    checks.append(Check(b.name, b.index, "max", b.scale, b.upper, st.constraint_tol))
+                if math.isfinite(b.lower):
+                    checks.append(Check(b.name, b.index, "min", b.scale, b.lower, st.constraint_tol, upper=False))
+        for i, ag in enumerate(pb.aggregates):
+            if ag.func == "max":
+                checks.append(Check(ag.name, ag.index, "max", ag.scale, float(a[i]), st.constraint_tol))
+            else:
+                checks.append(Check(ag.name, ag.index, "min", ag.scale, float(a[i]), st.constraint_tol, upper=False))
+        checks.append(Check("dead centre", pb.k_row, "min" if pb.k_sign > 0 else "max", pb.k_ref,
+                            pb.k_sign * st.dead_centre_margin * pb.k_ref, 0.0, upper=pb.k_sign < 0))
+        return checks

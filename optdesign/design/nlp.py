@@ -1,0 +1,209 @@
+"""The NLP of the design problem: variables, objective, constraint rows, their bounds, and
+the IPOPT solvers (cold, and warm for an exchange step).
+
+Variables w = (z, t, a): the design scaled to [0, 1], the epigraph variable t of a peak
+objective, and each stroke aggregate scaled by its start value.  Parameters: the fixed scene
+parameters, the sample points, and how each slot follows its extremum to first order in the
+design.  Rows: the epigraph of the peak, each per-sample constraint and margin at every
+sample point, each aggregate and the dead-centre guard at the stroke's ends and the slots,
+each stroke constraint once (see :mod:`.problem` for the formulation).
+
+The functions take the problem (``pb``: a :class:`~optdesign.design.problem.DesignProblem`,
+which imports this module; hence no annotation) and read or set its attributes.
+"""
+from __future__ import annotations
+
+import math
+
+import casadi as ca
+import numpy as np
+
+from .aggregates import aggregate_start, check_monotone, outer_start, outer_value, quadrature, rms_panels
+from .bounds import numeric_bounds
+
+
+def build_nlp(pb):
+    """Build the NLP and its solver.  Sets on ``pb``: rms_panels (rms objective),
+    objective_scale (expression objective), n_points, a_scale, the rows (g_blocks: (name,
+    kind, first row, rows); g_points, g_scale, lbg, ubg), stroke_bounds, stroke_outer,
+    sparse_rows, nw, n_t, the variable bounds lbw, ubw, the sample points base_points and
+    initial_slots, solver, solver_options and _nlp_dict."""
+    st = pb.settings
+    if pb.objective_kind == "rms":
+        pb.rms_panels = rms_panels(pb)
+    # an rms objective needs the whole stroke: MX with mapped calls keeps its graph small
+    # (inlining hundreds of quadrature nodes into SX takes seconds to build)
+    sym = ca.MX if pb.objective_kind == "rms" else pb.mech.sym
+    nd = len(pb.design_names)
+    z = sym.sym("z", nd)
+    fixed = sym.sym("fixed", len(pb.fixed_names))
+    pb.n_points = st.grid + st.slots
+    s_pts = sym.sym("s_points", pb.n_points)
+    # each sample point follows its extremum to first order in the design:
+    # s_j(x) = s_j + G_j . (x - x_ref), G_j = -(d2v/ds dx) / (d2v/ds2) at the last solution
+    x_ref = sym.sym("x_ref", nd)
+    G = sym.sym("tracking", pb.n_points, nd)
+    x = ca.DM(pb.z_offset) + ca.DM(pb.z_scale) * z
+    p = pb.full_parameters(x, fixed)
+    t = sym.sym("t", 1 if pb.objective_kind == "peak" else 0)
+    # each stroke aggregate's variable is scaled by its size at the start design (a length
+    # of 1e-4 m must not become a column 1e4 times larger than the others)
+    pb.a_scale = np.array([ag.scale for ag in pb.aggregates])
+    a_hat = sym.sym("a", len(pb.aggregates))
+    a = a_hat * ca.DM(pb.a_scale) if pb.aggregates else a_hat
+    nb = st.grid  # base points stay put: tracking only the slots keeps the Hessian small
+    moved = s_pts[nb:] + ca.mtimes(G[nb:, :], x - x_ref)
+    s_eff = ca.vertcat(s_pts[:nb], ca.fmin(ca.fmax(moved, pb.s_grid[0]), pb.s_grid[-1]))
+    if sym is ca.MX:
+        Q = pb.quantity.map(pb.n_points)(s_eff.T, p)  # rows x points
+    else:
+        Q = ca.horzcat(*[pb.quantity(s_eff[j], p) for j in range(pb.n_points)])
+    g, lbg, ubg, pb.g_blocks = [], [], [], []
+    # the sample points each per-point block is imposed at (g_points: name -> index into
+    # the points, one per row): the epigraph and the scene's per-sample constraints at every
+    # point; a stroke aggregate and the dead-centre guard, whose extrema lie mostly at the
+    # stroke's ends, only at the ends and the slots (the exchange puts a slot wherever one
+    # of them is exceeded, on a base point too: see row_bounds).  Fewer rows make each IPOPT
+    # iteration cheaper (truck crane: 115 -> 82 rows, 1082 -> 720 iterations for 20 starts)
+    every = np.arange(pb.n_points)
+    sparse = np.r_[0, nb - 1, np.arange(nb, pb.n_points)]
+    pb.g_points, pb.g_scale, pb.stroke_outer = {}, {}, {}
+
+    def add(name, kind, expr, lo, hi, scale=1.0, points=None):
+        pb.g_scale[name] = scale
+        if points is not None:
+            pb.g_points[name] = points
+        start = sum(int(e.numel()) for e in g)
+        g.append(expr)
+        n = int(expr.numel())
+        lbg.extend([lo] * n)
+        ubg.extend([hi] * n)
+        pb.g_blocks.append((name, kind, start, n))
+
+    if pb.objective_kind == "peak":
+        if pb.objective_fraction is not None:  # |N| <= t K: no division by k = dq/ds
+            num, den = (Q[i, :].T for i in pb.objective_fraction)
+            v, bound = num / pb.f_ref, t * den
+        else:
+            v, bound = Q[pb.objective_quantity, :].T / pb.f_ref, t
+        add(pb.objective_text, "peak", ca.vertcat(v - bound, -v - bound), -math.inf, 0.0, points=np.r_[every, every])
+        f = t
+    elif pb.objective_kind == "rms":
+        # the mean square over the continuous stroke by composite Gauss-Legendre quadrature
+        nodes, weights = quadrature(pb.s_grid[0], pb.s_grid[-1], pb.rms_panels)
+        vals = pb.quantity.map(len(nodes))(ca.DM(nodes).T, p)[pb.objective_quantity, :]
+        f = ca.dot(ca.DM(weights), (vals.T / pb.f_ref) ** 2)
+    else:
+        pb.objective_scale = max(abs(float(outer_start(pb, pb.objective_expr))), 1e-12)
+        check_monotone(pb, pb.objective_expr, "[objective] minimise", pb.objective_text, -math.inf, 0.0)
+        f = outer_value(pb, pb.objective_expr, a, p) / pb.objective_scale
+    for b in pb.blocks:
+        if b.kind in ("peak", "rms"):
+            continue
+        one = b.kind == "design constraint" or b.index in pb.constant_margins
+        if one:
+            add(b.name, b.kind, Q[b.index, 0] / b.scale, b.lower / b.scale, b.upper / b.scale, b.scale)
+        else:
+            add(b.name, b.kind, Q[b.index, :].T / b.scale, b.lower / b.scale, b.upper / b.scale, b.scale, every)
+    for i, ag in enumerate(pb.aggregates):
+        diff = Q[ag.index, sparse].T / ag.scale - a_hat[i]
+        lo, hi = (-math.inf, 0.0) if ag.func == "max" else (0.0, math.inf)
+        add(ag.name, "aggregate", diff, lo, hi, points=sparse)
+    pb.stroke_bounds = {}   # name -> (lower, upper) in physical units
+    for c, outer in pb.stroke_constraints:
+        scale = max(abs(float(outer_start(pb, outer))), 1e-12)
+        pb.stroke_bounds[c.name] = numeric_bounds(pb.scene, c)
+        lo, hi = (v / scale for v in pb.stroke_bounds[c.name])
+        check_monotone(pb, outer, f"[[constraints]] {c.name!r}", c.expr.source, lo, hi)
+        pb.stroke_outer[c.name] = outer
+        add(c.name, "stroke constraint", outer_value(pb, outer, a, p) / scale, lo, hi, scale)
+    add("dead centre", "dead centre", pb.k_sign * Q[pb.k_row, sparse].T / pb.k_ref, st.dead_centre_margin,
+        math.inf, points=sparse)
+    # the quantity rows imposed only at the stroke's ends and the slots
+    pb.sparse_rows = frozenset([ag.index for ag in pb.aggregates] + [pb.k_row])
+    w = ca.vertcat(z, t, a_hat)
+    pb.nw = int(w.numel())
+    pb.n_t = int(t.numel())
+    nlp = {"x": w, "p": ca.vertcat(fixed, s_pts, x_ref, ca.vec(G)), "f": f, "g": ca.vertcat(*g)}
+    opts = ipopt_options(st, pb.objective_kind)
+    pb._nlp_dict = nlp
+    pb.solver = ca.nlpsol("design", "ipopt", nlp, opts)
+    pb.solver_options = opts  # IPOPT options (the warm solver and the benchmark reuse them)
+    pb.lbg, pb.ubg = np.array(lbg), np.array(ubg)
+    # an aggregate keeps the sign it has at the start design: this keeps outer expressions
+    # such as max(L)/min(L) regular and monotone (a min(...) cannot run to zero or below)
+    a_start = np.array([aggregate_start(pb, ag) for ag in pb.aggregates])
+    a_lo = np.where(a_start > 0, 1e-3 * a_start, -np.inf)
+    a_hi = np.where(a_start < 0, 1e-3 * a_start, np.inf)
+    pb.lbw = np.r_[np.where(np.isfinite(pb.lower), 0.0, -np.inf), np.zeros(pb.n_t), a_lo / pb.a_scale]
+    pb.ubw = np.r_[np.where(np.isfinite(pb.upper), 1.0, np.inf), np.full(pb.n_t, np.inf), a_hi / pb.a_scale]
+    base = np.linspace(pb.s_grid[0], pb.s_grid[-1], st.grid)
+    mids = 0.5 * (base[:-1] + base[1:])
+    pb.base_points = base
+    pb.initial_slots = mids[np.linspace(0, len(mids) - 1, st.slots).round().astype(int)] if st.slots else np.zeros(0)
+
+
+def ipopt_options(st, objective_kind) -> dict:
+    """IPOPT's options for the design NLP (why each one: below)."""
+    opts = {"ipopt.print_level": st.print_level, "print_time": False, "ipopt.sb": "yes",
+            "ipopt.tol": st.tol, "ipopt.constr_viol_tol": st.tol, "ipopt.max_iter": st.max_iter, "ipopt.mu_strategy": "adaptive",
+            # constraint multipliers from the least dual infeasibility: starts that begin
+            # far from feasible (transmission angle against length ratio) otherwise
+            # stall with exploding multipliers (truck crane: 17 -> 20 of 20 starts)
+            "ipopt.alpha_for_y": "min-dual-infeas",
+            # initial constraint multipliers zero: fewer iterations from infeasible starts
+            "ipopt.constr_mult_init_max": 0.0,
+            # a start far from feasible can make the constraint multipliers grow without
+            # bound while the line search takes ever shorter steps: switch to the
+            # restoration phase once they exceed 1e8 (truck crane: four starts took about
+            # 100 iterations each; 20 starts 720 -> 621 iterations, all at the optimum)
+            "ipopt.expect_infeasible_problem": "yes",
+            # no MUMPS scaling: our rows are scaled to order one already, and on a KKT
+            # system of a few hundred rows computing the scaling costs more than the
+            # factorisation (about 18 % of the time per start, same iterations)
+            "ipopt.mumps_scaling": 0, "ipopt.mumps_permuting_scaling": 0,
+            # no iterative refinement unless the residual asks for it
+            "ipopt.min_refinement_steps": 0,
+            # IPOPT steps back from a trial design that does not assemble (NaN rows): a
+            # normal event of the line search, not a warning for the user
+            "show_eval_warnings": False,
+            "error_on_fail": False}
+    if objective_kind == "rms":
+        # the exact Hessian of hundreds of mapped quadrature nodes costs more than the
+        # iterations it saves (crank press: 2.6 times faster per start, same iterations)
+        opts["ipopt.hessian_approximation"] = "limited-memory"
+    return opts
+
+
+def warm_solver(pb):
+    """IPOPT for an exchange step, which moves a few sample points and solves again from
+    the last solution: started there with its multipliers and a small barrier parameter it
+    needs a third of the iterations of a cold start (truck crane: 6 instead of 16)."""
+    warm = dict(pb.solver_options, **{"ipopt.warm_start_init_point": "yes", "ipopt.mu_strategy": "monotone",
+                                      "ipopt.mu_init": 1e-6, **{f"ipopt.warm_start_{k}": 1e-8 for k in (
+                                          "bound_push", "bound_frac", "slack_bound_push", "slack_bound_frac",
+                                          "mult_bound_push")}})
+    return ca.nlpsol("design_warm", "ipopt", pb._nlp_dict, warm)
+
+
+def row_bounds(pb, s_points):
+    """The bounds of the NLP's rows (lbg, ubg) for the sample points ``s_points``.
+
+    A slot on a base point (put there for a block imposed only at the ends and the slots)
+    repeats the rows of every block that is imposed at that base point: those copies are
+    left free, since a repeated row makes the constraint Jacobian rank-deficient."""
+    nb = len(pb.base_points)
+    on_base = {j: int(np.argmin(np.abs(pb.base_points - s_points[j]))) for j in range(nb, pb.n_points)
+               if np.min(np.abs(pb.base_points - s_points[j])) <= 1e-9}
+    if not on_base:
+        return pb.lbg, pb.ubg
+    lbg, ubg = pb.lbg.copy(), pb.ubg.copy()
+    for name, _, start, n in pb.g_blocks:
+        points = pb.g_points.get(name)
+        if points is None:
+            continue
+        imposed = set(points.tolist())
+        for i, point in enumerate(points):
+            if point in on_base and on_base[point] in imposed:
+                lbg[start + i], ubg[start + i] = -math.inf, math.inf
+    return lbg, ubg

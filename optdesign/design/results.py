@@ -1,0 +1,69 @@
+"""What solving the design problem gives: one start's report, one converged solve, and the
+result of :func:`~optdesign.design.multistart.optimise` (frozen dataclasses, fixed fields)."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..scene.elements import Scene
+from .problem import SolverSettings
+
+
+@dataclass(frozen=True)
+class StartReport:
+    """What one start did."""
+
+    index: int
+    start: dict
+    status: str            # IPOPT's return status, or 'skipped: ...'
+    success: bool          # IPOPT converged and the continuous check agreed
+    objective: float | None
+    repaired: bool
+    iterations: int
+    exchanges: int
+    time_s: float
+
+
+@dataclass(frozen=True)
+class Solution:
+    """One converged solve (internal, with what the reports need)."""
+
+    x: np.ndarray
+    w: np.ndarray
+    lam_g: np.ndarray
+    lam_x: np.ndarray
+    lam_p: np.ndarray
+    g: np.ndarray
+    f: float
+    s_points: np.ndarray
+    status: str
+    success: bool
+    iterations: int
+    exchanges: int
+    certified: dict        # (block name, sense) -> worst continuous value (physical units)
+    sampled: dict          # (block name, sense) -> worst value on the scene's samples
+    converged: bool
+
+
+@dataclass(frozen=True)
+class OptimisationResult:
+    """The result of :func:`~optdesign.design.multistart.optimise` (frozen; fixed fields)."""
+
+    scene: Scene
+    design: dict
+    objective: float | None          # certified (continuous stroke) value of the objective
+    objective_sampled: float | None  # the same on the scene's samples only
+    objective_kind: str
+    peak_certified: float | None     # continuous peak |drive| (or |objective quantity|)
+    peak_sampled: float | None
+    success: bool
+    status: str
+    message: str
+    constraints: dict                # name -> {value, lower, upper, multiplier, active}
+    sensitivities: dict              # fixed parameter -> d objective / d parameter
+    starts_total: int
+    starts_at_best: int
+    starts: tuple
+    timings: dict = field(default_factory=dict)
+    settings: SolverSettings = field(default_factory=SolverSettings)

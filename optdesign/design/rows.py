@@ -1,0 +1,164 @@
+"""The per-sample quantities of the design problem: one row per quantity, all evaluated
+together at any sweep value.
+
+In order: the objective's quantity (peak(NAME) or rms(NAME); for a peak of the drive load or
+power also its numerator and denominator, so that the epigraph needs no division by k =
+dq/ds), each per-sample constraint, the inner expression of each stroke aggregate
+max(...)/min(...), each assembly margin, and k itself.  A :class:`Block` names a family of rows
+with its bounds; an :class:`Aggregate` is a max/min over the stroke that the NLP replaces by
+an epigraph variable (:func:`lift` takes them out of an expression).
+
+The functions take the problem (``pb``: a :class:`~optdesign.design.problem.DesignProblem`,
+which imports this module; hence no annotation) and read or set its attributes.
+"""
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from ..errors import SceneError
+from ..model.mapped import MappedFunction
+from ..scene.expressions import Call, Expression, Name, parse
+from .bounds import numeric_bounds
+
+
+@dataclass(frozen=True)
+class Block:
+    """A named family of per-sample quantities with bounds (scaled)."""
+
+    name: str
+    kind: str       # 'peak', 'constraint', 'aggregate', 'margin', 'dead centre'
+    index: int      # row in the per-sample quantity vector
+    lower: float    # bounds in physical units (+-inf when open); the NLP's rows are
+    upper: float    # quantity/scale in [lower/scale, upper/scale]; for 'peak' unused
+    scale: float
+
+
+@dataclass
+class Aggregate:
+    """A one-argument max/min over the stroke, replaced by an epigraph variable."""
+
+    name: str
+    func: str          # 'max' or 'min'
+    inner: Expression
+    index: int = -1    # row of its inner expression in the per-sample vector
+    scale: float = 1.0
+
+
+_OBJECTIVE = re.compile(r"^\s*(peak|rms)\s*\(\s*(.+?)\s*\)\s*$")
+
+
+def build_quantities(pb):
+    """The problem's per-sample quantity rows and what they mean.  Sets on ``pb``: rows,
+    blocks, aggregates, the objective's form (objective_text, objective_kind,
+    objective_quantity, objective_fraction, objective_expr), stroke_constraints,
+    constant_margins, k_row, and the CasADi functions quantity (and _quantity_many, at many
+    samples), quantity_derivatives (v, dv/ds, d2v/ds2) with _dv."""
+    scene, mech = pb.scene, pb.mech
+    outputs = pb.model.outputs()
+    rows, pb.blocks, pb.aggregates = [], [], []
+    pb.objective_text = scene.objective.minimise
+    m = _OBJECTIVE.match(pb.objective_text)
+    pb.objective_quantity = pb.objective_fraction = None
+    if m:
+        pb.objective_kind, what = m.group(1), m.group(2)
+        expr = outputs.get(what)
+        if expr is None:
+            expr = mech.value(parse(what, "[objective] minimise"), "[objective] minimise")
+        pb.objective_quantity = len(rows)
+        rows.append(expr)
+        if what in ("drive", "power") and pb.objective_kind == "peak":
+            k_ref = _k_ref_start(pb)
+            numerator, denominator = pb.model.drive_numerator(k_ref)
+            if what == "power":
+                numerator = numerator * pb.model.qd
+            pb.objective_fraction = (len(rows), len(rows) + 1)
+            rows += [numerator, denominator]
+        pb.blocks.append(Block(pb.objective_text, "peak" if pb.objective_kind == "peak" else "rms",
+                               0, -math.inf, math.inf, 1.0))
+    else:
+        pb.objective_kind = "expression"
+        pb.objective_expr = lift(pb, parse(pb.objective_text, "[objective] minimise"), "objective")
+        if not pb.aggregates:
+            raise SceneError(
+                f"{scene.path}: [objective] minimise = {pb.objective_text!r}: expected peak(NAME), "
+                "rms(NAME) or an expression over the stroke with max(...)/min(...), e.g. "
+                "\"max(y(T)) - min(y(T))\""
+            )
+    pb.stroke_constraints = []
+    for c in scene.constraints:
+        if c.expr.is_aggregate:
+            pb.stroke_constraints.append((c, lift(pb, c.expr, c.name)))
+        else:
+            lo, hi = numeric_bounds(scene, c)
+            expr = mech.value(c.expr, f"[[constraints]] {c.name}")
+            # a constraint on the design alone (no dependence on the sweep) is one row,
+            # not one per sample point (repeated rows would be degenerate)
+            kind = "constraint" if ca.depends_on(expr, mech.s) else "design constraint"
+            pb.blocks.append(Block(c.name, kind, len(rows), lo, hi, 1.0))
+            rows.append(expr)
+    for a in pb.aggregates:
+        a.index = len(rows)
+        rows.append(mech.value(a.inner, a.name))
+    # a construction that does not move with the sweep has one margin, not one per point
+    # (repeated rows would be degenerate and cost time)
+    pb.constant_margins = set()
+    for margin in mech.margins:
+        if margin.kind == "loop":
+            continue
+        if not ca.depends_on(margin.expr, mech.s):
+            pb.constant_margins.add(len(rows))
+        pb.blocks.append(Block(f"assembly of {margin.construction}", "margin", len(rows), 0.0, math.inf, 1.0))
+        rows.append(margin.expr)
+    pb.k_row = len(rows)
+    rows.append(pb.model.k)
+    pb.rows = rows
+    pb.quantity = mech.function("quantities", {"v": ca.vertcat(*rows)})
+    pb._quantity_many = MappedFunction(pb.quantity)  # at many samples (evaluate_grid)
+    v = ca.vertcat(*rows)
+    dv = mech.ds(v)
+    pb.quantity_derivatives = mech.function("quantities_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)})
+    pb._dv = dv
+
+
+def lift(pb, expr: Expression, where):
+    """Replace one-argument max/min calls by epigraph variables (appended to
+    ``pb.aggregates``); return the outer tree."""
+
+    def walk(node):
+        if isinstance(node, Call):
+            if node.func in ("max", "min") and len(node.args) == 1:
+                name = f"__aggregate_{len(pb.aggregates)}"
+                inner = Expression(f"{node.func}(...) in {where}", node.args[0])
+                pb.aggregates.append(Aggregate(name, node.func, inner))
+                return Name(name)
+            return Call(node.func, tuple(walk(a) for a in node.args))
+        for attr in ("left", "right", "operand"):
+            if hasattr(node, attr):
+                kwargs = {k: walk(getattr(node, k)) if k in ("left", "right", "operand") else getattr(node, k)
+                          for k in node.__dataclass_fields__}
+                return type(node)(**kwargs)
+        return node
+
+    return Expression(expr.source, walk(expr.tree))
+
+
+def row_name(pb, row):
+    """What a per-sample quantity row is, in the scene's words."""
+    names = {b.index: b.name for b in pb.blocks}
+    names.update({a.index: a.inner.source for a in pb.aggregates})
+    if pb.objective_fraction is not None:
+        names.update(dict(zip(pb.objective_fraction, ("the drive load times k^4", "k^4"))))
+    names[pb.k_row] = "k = dq/ds"
+    return names.get(row, f"row {row}")
+
+
+def _k_ref_start(pb):
+    """Median |k| = |dq/ds| over the stroke at the start design (a scale, not a bound)."""
+    f = pb.mech.function("k", {"k": pb.model.k})
+    k = np.asarray(f.map(len(pb.s_grid))(pb.s_grid[None, :], pb.mech.parameter_values)).ravel()
+    return max(float(np.median(np.abs(k))), 1e-12)

@@ -1,0 +1,153 @@
+"""Solving the design problem from one start: IPOPT, then the continuous check
+(:mod:`.certify`); while some bound or the epigraph is exceeded between the sample points,
+an exchange step moves the slots onto the located extrema and solves again (warm)."""
+from __future__ import annotations
+
+import numpy as np
+
+from .aggregates import sampled_extreme
+from .certify import ContinuousCheck
+from .problem import DesignProblem
+from .results import Solution
+
+
+class Solver:
+    """Solves a :class:`DesignProblem` from one start by exchange of sample points."""
+
+    def __init__(self, problem: DesignProblem):
+        self.pb = problem
+        # the sample points (and their tracking) that certified the last optimum: the next
+        # start begins with them, so that a start that reaches the same optimum needs no
+        # exchange step
+        self.learned = None
+        # the continuous check at a solution (with its own evaluation of the s-derivatives)
+        self.checker = ContinuousCheck(problem)
+
+    def fixed_values(self, fixed=None):
+        pb = self.pb
+        return pb.mech.parameter_values[pb.fixed_index] if fixed is None else np.asarray(fixed, float)
+
+    def solve(self, x0, fixed=None) -> Solution | str:
+        """Solve from design x0: IPOPT, then the continuous check; while some bound or the
+        epigraph is exceeded between the sample points, move slots onto the located extrema
+        (each following its extremum to first order in the design) and solve again."""
+        pb, st = self.pb, self.pb.settings
+        fixed = self.fixed_values(fixed)
+        nd = len(pb.design_names)
+        if self.learned is not None:  # the sample points that certified the last optimum
+            s_pts, x_ref, tracking, rows = self.learned
+        else:
+            s_pts = np.r_[pb.base_points, pb.initial_slots]
+            x_ref, tracking, rows = np.clip(np.asarray(x0, float), pb.lower, pb.upper), np.zeros((pb.n_points, nd)), {}
+        w = self._initial_w(x0, fixed, s_pts)
+        if isinstance(w, str):
+            return w
+        iterations, res = 0, None
+        for exchange in range(st.max_exchanges + 1):
+            res, stats, its = self._ipopt(w, pb.nlp_parameters(fixed, s_pts, x_ref, tracking), pb.row_bounds(s_pts), res)
+            iterations += its
+            status = stats["return_status"]
+            w = np.asarray(res["x"]).ravel()
+            x = pb.to_x(w[:nd])
+            s_now = np.clip(s_pts + tracking @ (x - x_ref), pb.s_grid[0], pb.s_grid[-1])  # the NLP's points at its solution
+            if not stats["success"]:
+                return self._solution(res, x, fixed, s_now, status, False, iterations, exchange, {}, {}, False)
+            violations, certified, sampled = self.continuous_check(x, fixed, w, s_now)
+            if not any(v[0] > 0 for v in violations):
+                self.learned = (s_pts, x_ref, tracking, rows)
+                return self._solution(res, x, fixed, s_now, status, True, iterations, exchange, certified, sampled, True)
+            slots, rows = self._slots(violations, s_now, rows, np.asarray(res["lam_g"]).ravel())
+            s_pts = np.r_[pb.base_points, slots]
+            tracking = np.zeros((pb.n_points, nd))
+            for j, s_j in enumerate(slots):
+                row = rows.get(round(s_j, 12))
+                if row is not None:
+                    tracking[len(pb.base_points) + j] = pb.tracking_gradient(s_j, x, fixed, row)
+            x_ref = x
+        return self._solution(res, x, fixed, s_now, status + " (exchange did not converge)", False,
+                              iterations, exchange, certified, sampled, False)
+
+    def _ipopt(self, w, p, row_bounds, last=None):
+        """One IPOPT solve: warm from the last solution's multipliers after an exchange step
+        (cold again if that fails).  Returns (result, stats, iterations)."""
+        pb = self.pb
+        bounds = {"lbx": pb.lbw, "ubx": pb.ubw, "lbg": row_bounds[0], "ubg": row_bounds[1]}
+        iterations = 0
+        if last is not None:
+            res = pb.warm_solver(x0=w, p=p, lam_x0=last["lam_x"], lam_g0=last["lam_g"], **bounds)
+            stats = pb.warm_solver.stats()
+            iterations += int(stats.get("iter_count", 0))
+            if stats["success"]:
+                return res, stats, iterations
+        res = pb.solver(x0=w, p=p, **bounds)
+        stats = pb.solver.stats()
+        return res, stats, iterations + int(stats.get("iter_count", 0))
+
+    def _solution(self, res, x, fixed, s_pts, status, success, iterations, exchanges, certified, sampled, converged):
+        return Solution(
+            x=x, w=np.asarray(res["x"]).ravel(), lam_g=np.asarray(res["lam_g"]).ravel(),
+            lam_x=np.asarray(res["lam_x"]).ravel(), lam_p=np.asarray(res["lam_p"]).ravel(),
+            g=np.asarray(res["g"]).ravel(), f=float(res["f"]), s_points=s_pts, status=status, success=success and converged,
+            iterations=iterations, exchanges=exchanges, certified=certified, sampled=sampled,
+            converged=converged,
+        )
+
+    def _initial_w(self, x0, fixed, s_pts):
+        pb = self.pb
+        x0 = np.clip(np.asarray(x0, float), pb.lower, pb.upper)
+        q = pb.evaluate_grid(x0, fixed, s_pts)
+        if not np.all(np.isfinite(q)):
+            return "skipped: the start does not assemble and could not be repaired"
+        t = []
+        if pb.n_t:
+            t = [float(np.max(np.abs(q[pb.objective_quantity]))) / pb.f_ref]
+        a = [sampled_extreme(ag, q) for ag in pb.aggregates]
+        return np.r_[pb.to_z(x0), t, np.asarray(a) / pb.a_scale]
+
+    def continuous_check(self, x, fixed, w, s_points):
+        """Worst values of every block over the continuous stroke at design x: (violations,
+        certified, sampled), see :class:`~optdesign.design.certify.ContinuousCheck`."""
+        return self.checker(x, fixed, w, s_points)
+
+    def _checks(self, x, fixed, w, s_points) -> list:
+        """What the continuous check compares (:meth:`~optdesign.design.certify.ContinuousCheck.checks`)."""
+        return self.checker.checks(x, fixed, w, s_points)
+
+    def _slots(self, violations, s_now, rows, lam_g):
+        """Sample points for the slots, and the row whose extremum each one follows.
+
+        Violated continuous extrema first, then slots whose constraints carry a multiplier at
+        the last solution (dropping them lets the next solve cycle between designs), then the
+        most nearly active extrema.  Returns (sorted points, {round(point, 12): row})."""
+        pb = self.pb
+        n_base, n_slots = len(pb.base_points), len(pb.initial_slots)
+        weight = self._point_weights(lam_g, len(s_now))
+        kept = sorted(((weight[j], s_now[j], rows.get(round(s_now[j], 12))) for j in range(n_base, len(s_now))
+                       if weight[j] > 0), key=lambda k: k[0], reverse=True)
+        new = [(s, row) for amount, s, row in violations if amount > 0]
+        near = [(s, row) for amount, s, row in violations if amount <= 0]
+        spare = np.linspace(pb.base_points[0], pb.base_points[-1], 4 * (n_base + n_slots))
+        candidates = new + [(s, row) for _, s, row in kept] + near + [(s, None) for s in (*pb.initial_slots, *spare)]
+        chosen = {}
+        for s, row in candidates:
+            if len(chosen) == n_slots:
+                break
+            base = int(np.argmin(np.abs(pb.base_points - s)))
+            on_base = abs(pb.base_points[base] - s) <= 1e-9
+            # no slot on a base point, where every block is imposed already, except for a row
+            # imposed only at the ends and the slots (stroke aggregate, dead-centre guard)
+            # between the ends: there the other blocks' repeated rows are freed (row_bounds)
+            free = not on_base or (row in pb.sparse_rows and 0 < base < n_base - 1)
+            if free and all(abs(s - c) > 1e-9 for c in chosen):
+                chosen[s] = row
+        points = np.array(sorted(chosen))
+        return points, {round(s, 12): chosen[s] for s in points}
+
+    def _point_weights(self, lam_g, n_points):
+        """Sum of |multipliers| of all per-point constraint rows, per sample point."""
+        w = np.zeros(n_points)
+        for name, _, start, n in self.pb.g_blocks:
+            points = self.pb.g_points.get(name)
+            if points is not None:
+                np.add.at(w, points, np.abs(lam_g[start:start + n]))
+        return np.where(w > 1e-9 * max(float(np.max(w, initial=0.0)), 1e-300), w, 0.0)
