@@ -422,7 +422,7 @@ def polish(problem, x0, check_samples, base=61, rounds=40, tol=1e-11, radius=0.1
         z_new = np.clip(res.x[:-1], [b[0] for b in box], [b[1] for b in box])
         inside = all((abs(zn - b[0]) > 1e-7 or b[0] == 0.0) and (abs(zn - b[1]) > 1e-7 or b[1] == 1.0)
                      for zn, b in zip(z_new, box))
-        x_new = lo + span * z_new
+        x_new = np.clip(lo + span * z_new, lo, hi)  # lo + span*1 may round past hi
         peak_new, viol_new, _, _ = evaluate(problem, x_new, check_samples)
         if not math.isfinite(peak_new):
             return x, peak, viol  # keep the last design that assembled
