@@ -51,7 +51,7 @@ _NUMBER_DEG = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*deg
 
 # --- the scene's numbers ----------------------------------------------------------------------
 def number(value, known=None):
-    """A scene number: a float, 'N deg', or the name of a parameter defined above."""
+    """A scene number: a float, 'N deg', or the name of a parameter defined above (or minus it)."""
     if isinstance(value, bool):
         raise ValueError(value)
     if isinstance(value, (int, float)):
@@ -62,6 +62,8 @@ def number(value, known=None):
         return math.radians(float(m.group(1)))
     if known is not None and text in known:
         return known[text]
+    if known is not None and text.startswith("-") and text[1:].strip() in known:
+        return -known[text[1:].strip()]
     return float(text)
 
 
@@ -86,7 +88,7 @@ class SceneData:
         sw = data["sweep"]
         self.sweep = (number(sw["from"], p), number(sw["to"], p))
         self.samples = int(sw["samples"])
-        self.g = float(data["gravity"]["g"]) if "gravity" in data else 0.0
+        self.g = number(data["gravity"]["g"], p) if "gravity" in data else 0.0
         d = data["drive"]
         self.drive_kind = d["type"]
         self.v = number(d["speed"], p)
@@ -369,7 +371,8 @@ class Problem:
         pts = [self.s0, self.s1]
         for row, sense in self.senses():
             v = self._signed(np.broadcast_to(vals[row], (1, m))[0], sense)
-            inner = np.flatnonzero((v[1:-1] >= v[:-2]) & (v[1:-1] >= v[2:])) + 1
+            left, right = v[1:-1] - v[:-2], v[1:-1] - v[2:]
+            inner = np.flatnonzero((left >= 0) & (right >= 0) & ((left > 0) | (right > 0))) + 1
             for i in inner:
                 pts.append(self._refine(x, row, sense, s[i - 1], s[i + 1])[1])
         return np.unique(np.array(pts))
