@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import sys
 
-from .common import add_scene_arguments, emit, load_scene
+from .common import add_scene_arguments, emit, load_scene, results_folder
 
 HELP = "the reduced one-element model (drive torque or force) over the stroke"
 
@@ -18,8 +18,10 @@ def run(args):
     from ..report.output import to_json
     from ..model.analysis import analyse
 
+    if args.plot:
+        results_folder(args.plot, "--plot", report.FIGURES)
     result = analyse(load_scene(args), args.samples)
     if args.plot:
-        for path in report.analysis_figures(result, args.plot):
+        for path in report.analysis_figures(result, args.plot, label="--plot"):
             print(f"wrote {path}", file=sys.stderr)
     emit(args, to_json(report.analysis_json(result)) if args.json else "", report.analysis_table(result))

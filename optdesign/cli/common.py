@@ -54,6 +54,15 @@ def load_scene(args):
     return load(args.scene, overrides(args.set))
 
 
+def results_folder(path, flag, produces):
+    """The folder an option names, checked before any work: it will be replaced as a whole, so it
+    must be new, empty or hold only what optdesign writes there (see optdesign.report.folder)."""
+    from ..report.folder import inspect
+
+    inspect(path, produces, flag)
+    return path
+
+
 def emit(args, json_text, table_text):
     sys.stdout.write((json_text if args.json else table_text) + "\n")
 

@@ -25,16 +25,28 @@ def parser():
 
 
 def main(argv=None):
+    from ..report import folder
+
     args = parser().parse_args(argv)
+    del folder.replaced[:]
     try:
         args.func(args)
     except OptdesignError as exc:
         print(f"optdesign {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"\noptdesign {args.command}: interrupted (no result file was written or changed)", file=sys.stderr)
+        print(f"\noptdesign {args.command}: interrupted ({interrupted_outcome(folder.replaced)})", file=sys.stderr)
         return 130
     return 0
+
+
+def interrupted_outcome(replaced) -> str:
+    """What an interrupted command left behind, truthfully: every folder it replaced was
+    replaced as a whole, every other one is as it was."""
+    if not replaced:
+        return "nothing was written: every results folder is as it was"
+    return ("the new results were written before the interrupt, each folder replaced as a whole: "
+            + ", ".join(str(p) for p in replaced))
 
 
 if __name__ == "__main__":  # pragma: no cover

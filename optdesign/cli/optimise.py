@@ -5,7 +5,8 @@ import os
 import sys
 
 from ..errors import SolverError
-from .common import add_scene_arguments, deferred_interrupt, emit, load_scene, progress_bar, whole_number, workers
+from .common import (add_scene_arguments, deferred_interrupt, emit, load_scene, progress_bar, results_folder,
+                     whole_number, workers)
 
 HELP = "minimise the scene's objective over its design variables (IPOPT, multistart)"
 
@@ -26,6 +27,8 @@ def run(args):
     from ..report.output import to_json
     from ..design import optimise
 
+    folder = Path(args.out or Path("results") / Path(args.scene).stem)
+    results_folder(folder, "--out", design_report.FILES)
     scene = load_scene(args)
     bar = progress_bar("starts")
 
@@ -37,8 +40,7 @@ def run(args):
     with deferred_interrupt() as interrupted:
         result = optimise(scene, starts=args.starts, seed=args.seed, progress=progress, workers=args.workers)
     if result.success:
-        folder = Path(args.out or Path("results") / Path(args.scene).stem)
-        for path in design_report.write_results(result, folder, workers=args.workers):
+        for path in design_report.write_results(result, folder, workers=args.workers, label="--out"):
             print(f"wrote {path}", file=sys.stderr)
     emit(args, to_json(design_report.optimisation_json(result)) if args.json else "",
           design_report.summary(result))

@@ -24,14 +24,16 @@ def add_arguments(p):
 
 
 def run(args):
-    from .common import emit as _emit, load_scene as _load
+    from .common import emit as _emit, load_scene as _load, results_folder
     from ..report.output import to_json
-    from ..report.simulation import figures, simulation_json, summary
+    from ..report.simulation import FIGURES, figures, simulation_json, summary
     from ..dynamics.simulator import simulate
 
+    if args.plot:
+        results_folder(args.plot, "--plot", FIGURES)
     result = simulate(_load(args), integrator=args.integrator, tolerance=args.tolerance, steps=args.steps,
                       samples=args.samples, t_end=args.t_end)
     if args.plot:
-        for path in figures(result, args.plot):
+        for path in figures(result, args.plot, label="--plot"):
             print(f"wrote {path}", file=sys.stderr)
     _emit(args, to_json(simulation_json(result)) if args.json else "", summary(result))

@@ -95,8 +95,18 @@ def analysis_table(result) -> str:
     return "\n".join(lines)
 
 
-def analysis_figures(result, folder) -> list:
-    """Figures of the reduced model over the drive coordinate; returns the paths written."""
+FIGURES = ("drive.png", "reduced_inertia.png", "constraints.png")
+
+
+def analysis_figures(result, folder, label="folder") -> list:
+    """Figures of the reduced model over the drive coordinate; they replace ``folder`` as a
+    whole (:func:`optdesign.report.folder.replace_folder`).  Returns the paths written."""
+    from .folder import replace_folder
+
+    return replace_folder(folder, lambda tmp: _analysis_figures(result, tmp), FIGURES, label=label)
+
+
+def _analysis_figures(result, folder) -> list:
     kind = result.drive_kind
     cols, names, units = result.columns, SEED_NAMES[kind], UNITS[kind]
     q = cols["q"]

@@ -57,11 +57,20 @@ def _fmt(v):
     return "-" if v is None else f"{v:.6g}"
 
 
-def write_results(result, folder, workers=1) -> list:
-    """Write result.json, summary.txt and the figures into ``folder``; returns the paths.
-    With ``workers`` > 1 the mechanism figure is drawn by a forked process while this one
-    draws the other (each figure takes ~0.3 s of rasterising)."""
-    folder = Path(folder)
+FILES = ("result.json", "summary.txt", "drive_and_constraints.png", "mechanism.png")
+
+
+def write_results(result, folder, workers=1, label="results folder") -> list:
+    """Replace ``folder`` as a whole (:func:`optdesign.report.folder.replace_folder`) by one
+    holding result.json, summary.txt and the figures; returns the paths.  With ``workers`` > 1
+    the mechanism figure is drawn by a forked process while this one draws the other (each
+    figure takes ~0.3 s of rasterising)."""
+    from .folder import replace_folder
+
+    return replace_folder(folder, lambda tmp: _write_results(result, tmp, workers), FILES, label=label)
+
+
+def _write_results(result, folder, workers) -> list:
     written = [folder / "result.json", folder / "summary.txt"]
     write_atomic(written[0], to_json(optimisation_json(result)) + "\n")
     write_atomic(written[1], summary(result) + "\n")

@@ -62,7 +62,10 @@ def inspect(folder, produces, label="folder") -> list:
         _check_parent(folder, label)
         return []
     except NotADirectoryError:
-        raise OptdesignError(f"{label} {folder}: a part of this path is a file, not a folder") from None
+        p = folder.parent
+        while not p.is_dir() and p != p.parent and not p.is_file():
+            p = p.parent
+        raise OptdesignError(f"{label} {folder}: {p} is a file, not a folder") from None
     except OSError as exc:
         raise OptdesignError(f"{label} {folder}: {_why(exc)}") from None
     import stat as _stat

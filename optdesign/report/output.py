@@ -13,8 +13,9 @@ import numpy as np
 SCHEMA = "optdesign/1"
 
 
-def write_atomic(path, text: str | bytes):
-    """Write ``text`` to ``path`` through a temporary file in the same folder and a rename."""
+def write_atomic(path, text: str | bytes) -> Path:
+    """Write ``text`` to ``path`` through a temporary file in the same folder and a rename;
+    returns the path."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     mode = "wb" if isinstance(text, bytes) else "w"
@@ -30,6 +31,7 @@ def write_atomic(path, text: str | bytes):
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+    return path
 
 
 def new_figure(nrows=1, ncols=1, figsize=(7, 4), **subplot_kw):

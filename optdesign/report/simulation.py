@@ -61,8 +61,18 @@ def summary(result) -> str:
     return "\n".join(lines)
 
 
-def figures(result, folder) -> list:
-    """q(t), its rate and the drive load over time, one PNG each; returns the paths written."""
+FIGURES = ("q.png", "q_rate.png", "drive_load.png")
+
+
+def figures(result, folder, label="folder") -> list:
+    """q(t), its rate and the drive load over time, one PNG each; they replace ``folder`` as a
+    whole (:func:`optdesign.report.folder.replace_folder`).  Returns the paths written."""
+    from .folder import replace_folder
+
+    return replace_folder(folder, lambda tmp: _figures(result, tmp), FIGURES, label=label)
+
+
+def _figures(result, folder) -> list:
     import matplotlib
 
     matplotlib.use("Agg")

@@ -8,6 +8,7 @@ exactly what an uninterrupted one would have."""
 from __future__ import annotations
 
 import concurrent.futures as cf
+import dataclasses
 import json
 import multiprocessing
 import os
@@ -18,11 +19,12 @@ import threading
 import time
 from pathlib import Path
 
+from ..errors import OptdesignError
 from ..report import study as study_figures
 from . import journal as study_journal
 from . import table as study_table
 from .results import StudyInterrupted, StudyResult
-from ..report.folder import inspect
+from ..report.folder import NoHardLinks, inspect, replace_folder
 from ..report.output import write_atomic
 from .tasks import run_task, scene_digest
 
@@ -36,7 +38,6 @@ def execute(study, folder: Path, workers, scheduler, progress, restart, figures)
     cases = study.cases()
     inspect(folder, {study_journal.JOURNAL, *DERIVED}, "study folder")   # a folder we may write, before any work
     with study_journal.Journal(folder, restart=restart, produces=DERIVED) as journal:
-        write_atomic(folder / "study.json", json.dumps(definition(study, cases), indent=1) + "\n")
         reused = sum(1 for c in cases if c.id in journal.records)
         chains = {}
         for c in cases:
@@ -54,22 +55,48 @@ def execute(study, folder: Path, workers, scheduler, progress, restart, figures)
                 where = executor.describe()
                 executor.close()
         rows = merged_rows(cases, journal.records)
-        complete = len(rows) == len(cases)
-        paths = [study_table.write_csv(folder, rows, study.input_columns)]
-        if complete and figures:
-            pareto = bool(study.axes) and study.axes[-1].kind == "pareto"
-            paths += study_figures.figures(study, rows, folder, study_table.front(study, rows) if pareto else None)
-            if pareto:
-                paths.append(study_table.pareto_csv(study, rows, folder))
-        wall = time.perf_counter() - t0
-        result = StudyResult(study, folder, rows, complete, computed, reused, wall, paths, tuple(journal.notes))
-        paths.append(write_summary(result, where))
+        try:
+            result = write_folder(study, cases, folder, rows, figures, computed, reused, t0, where, journal.notes)
+        except OptdesignError as exc:
+            raise OptdesignError(f"{exc}; the {len(rows)} finished cases are kept in {journal.path}: run the same "
+                                 "study again with the same folder to write them") from None
     if interrupted:
         raise StudyInterrupted(
             f"study interrupted: {len(rows)} of {len(cases)} cases are finished and kept in "
             f"{folder / study_journal.JOURNAL} ({folder / study_table.CSV} holds them); run the same study "
             "again with the same folder to resume (finished cases are not redone)", result)
     return result
+
+
+def write_folder(study, cases, folder, rows, figures, computed, reused, t0, where, notes) -> StudyResult:
+    """The derived files (study.json, cases.csv, figures, summary.txt) swapped in as a whole,
+    with the journal held (its lock too) and carried into the new folder as the same file by a
+    hard link: a kill at any instant leaves the old whole folder or the new whole one, and the
+    journal at its place.  Where the filesystem has no hard links, written in place one by one."""
+    complete = len(rows) == len(cases)
+    made = []
+
+    def write(tmp) -> list:
+        paths = [write_atomic(tmp / "study.json", json.dumps(definition(study, cases), indent=1) + "\n"),
+                 study_table.write_csv(tmp, rows, study.input_columns)]
+        if complete and figures:
+            pareto = bool(study.axes) and study.axes[-1].kind == "pareto"
+            paths += study_figures.figures(study, rows, tmp, study_table.front(study, rows) if pareto else None)
+            if pareto:
+                paths.append(study_table.pareto_csv(study, rows, tmp))
+        result = StudyResult(study, tmp, rows, complete, computed, reused, time.perf_counter() - t0, paths,
+                             tuple(notes))
+        paths.append(write_summary(result, where))
+        made.append(result)
+        return paths
+
+    try:
+        paths = replace_folder(folder, write, DERIVED, linked={study_journal.JOURNAL}, label="study folder")
+    except NoHardLinks:
+        notes = [*notes, f"{folder}: no hard links on this filesystem: the files were replaced one by one"]
+        made.clear()
+        paths = write(folder)
+    return dataclasses.replace(made[-1], folder=folder, paths=paths)
 
 
 def merged_rows(cases, records) -> list:
@@ -85,8 +112,6 @@ def merged_rows(cases, records) -> list:
 
 def definition(study, cases) -> dict:
     """study.json: what the study is (not how long it took)."""
-    import dataclasses
-
     return {"schema": "optdesign/study/1", "title": study.scene.title, "file": study.scene.path,
             "scene_digest": scene_digest(study.scene), "mode": study.mode, "cases": len(cases),
             "chains": len({c.chain for c in cases}),

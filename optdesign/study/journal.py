@@ -94,6 +94,8 @@ class Journal:
     # --- reading ---
     def _read(self):
         """Load every record; cut a torn last line; quarantine damaged lines."""
+        for stale in self.folder.glob(f".{JOURNAL}.*.tmp"):   # a quarantine rewrite cut short by a kill
+            stale.unlink(missing_ok=True)
         fh = self._fh
         fh.seek(0)
         try:
