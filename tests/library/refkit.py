@@ -391,10 +391,9 @@ class Problem:
         base_s = np.linspace(self.s0, self.s1, base)
         x = np.asarray(x0, float)
         extra = self.local_extremes(x)
-        last = None
-        for _ in range(rounds):
+        for round_ in range(rounds):
             S = np.unique(np.r_[base_s, extra])
-            ratio_pts = self._ratio_points(x, extra)
+            ratio_pts = self._ratio_points(x)
 
             def cons(z, S=S, ratio_pts=ratio_pts):
                 xx = self.lo + span * z[:n]
@@ -454,14 +453,13 @@ class Problem:
             extra = self.local_extremes(x_new)
             change = np.max(np.abs(x_new - x) / span)
             x = x_new
-            if last is not None and change < 1e-12:
+            if round_ > 0 and change < 1e-12:
                 break
-            last = res
         return x
 
-    def _ratio_points(self, x, extra):
-        """The stroke points where the ratio rows have their extremes (from the sampled
-        local extremes) plus the ends: few points, so that every pair can be a constraint."""
+    def _ratio_points(self, x):
+        """The stroke points where the ratio rows have their extremes (refined) plus the
+        ends: few points, so that every pair of them can be a constraint."""
         if not self.ratios:
             return np.array([self.s0, self.s1])
         pts = [self.s0, self.s1]
