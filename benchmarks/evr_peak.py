@@ -2,7 +2,7 @@
 
 A sampled peak (the largest |drive| at N equally spaced samples) is what a table of the analysis
 gives; it misses the continuous peak between samples by O(1/N^2) where the peak is a smooth
-interior maximum.  optdesign's certified peak (``optdesign.model.peaks.continuous_maxima``) refines every
+interior maximum.  optdesign's certified peak (``optdesign.kinematics.peaks.continuous_maxima``) refines every
 sampled local maximum by safeguarded Newton steps on d|drive|/ds = 0 with exact (AD) derivatives.
 
 For each scene and N = 11 .. 10,000 samples we measure
@@ -28,7 +28,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from optdesign.kinematics.mechanism import Mechanism  # noqa: E402
-from optdesign.model.peaks import continuous_maxima  # noqa: E402
+from optdesign.kinematics.peaks import continuous_maxima  # noqa: E402
 from optdesign.model.reduction import ReducedModel  # noqa: E402
 from optdesign.report.output import save_figure  # noqa: E402
 from optdesign.scene.file import load  # noqa: E402

@@ -1,4 +1,4 @@
-"""Continuous extrema refined in lockstep (optdesign.model.peaks.refine_all / continuous_maxima_rows).
+"""Continuous extrema refined in lockstep (optdesign.kinematics.peaks.refine_all / continuous_maxima_rows).
 
 * Closed forms: the refined maxima of v(s) = sin(3 s) + 0.3 cos(7 s) (as |v|, v and -v) are the
   roots of the analytic v'(s) found here independently (sign changes of v' on a fine grid, then
@@ -24,7 +24,7 @@ from scipy.optimize import brentq
 from optdesign.design.problem import DesignProblem
 from optdesign.model.mapped import MappedFunction
 from optdesign.design.solver import Solver
-from optdesign.model.peaks import (
+from optdesign.kinematics.peaks import (
     Request,
     continuous_maxima,
     continuous_maxima_rows,

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model.mapped import MappedFunction
-from ..model.peaks import Request, continuous_maxima_rows
+from ..kinematics.peaks import Request, continuous_maxima_rows
 from .problem import DesignProblem
 
 
@@ -59,7 +59,7 @@ class ContinuousCheck:
         Returns (violations, certified, sampled): violations is a list of (amount, s, row) with
         amount > 0 where a bound (or the epigraph) is exceeded by more than its tolerance,
         sorted largest first, near-active extrema included with amount <= 0.  The extrema of
-        all blocks are refined together (:func:`~optdesign.model.peaks.continuous_maxima_rows`: one
+        all blocks are refined together (:func:`~optdesign.kinematics.peaks.continuous_maxima_rows`: one
         evaluation of every row per Newton step of all brackets)."""
         pb, st = self.pb, self.pb.settings
         p = pb.full_parameters(x, fixed)

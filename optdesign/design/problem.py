@@ -9,7 +9,7 @@ Formulation (what makes it fast and regular):
   sample points s_j: a uniform base grid plus movable *slots*.  The s_j are NLP parameters too,
   so an exchange step moves slots onto the continuous extrema found at the last solution and
   re-solves without rebuilding anything.  The loop ends when the epigraph value and the peak of
-  the continuous stroke (refined by Newton, :mod:`optdesign.model.peaks`) agree within ``peak_tol``.
+  the continuous stroke (refined by Newton, :mod:`optdesign.kinematics.peaks`) agree within ``peak_tol``.
 * Per-sample constraints (transmission angle, any expression) and assembly margins live on the
   same points and are checked on the continuous stroke in the same way.
 * A stroke aggregate max(e)/min(e) in a constraint or objective becomes an epigraph variable a
