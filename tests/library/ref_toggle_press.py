@@ -31,7 +31,7 @@ DESIGN = ["r", "lc", "yO"]
 LEVELS = {  # grid points per variable, grid stroke samples, polish's check samples, polished grid
     #          minima, final check samples
     "small": (11, 181, 2001, 2, 2001),
-    "full": (31, 721, 4001, 5, 20001),
+    "full": (31, 361, 4001, 4, 20001),
 }
 
 

@@ -434,12 +434,23 @@ def polish(problem, x0, check_samples, base=61, rounds=40, tol=1e-11, radius=0.1
     return x, peak, viol
 
 
-def global_minimax(problem, per_dim, grid_samples, check_samples, polish_starts, extra_starts=(), final_samples=None):
-    """The grid, then a polish from each of the best ``polish_starts`` grid local minima (and
+def global_minimax(problem, per_dim, grid_samples, check_samples, polish_starts, extra_starts=(), final_samples=None,
+                   refine_best=10):
+    """The grid; the ``refine_best`` best grid points judged again on ``check_samples`` samples
+    with every extreme refined (the best of them that is feasible on the continuous stroke is
+    ``grid_best``); then a polish from each of the best ``polish_starts`` grid local minima (and
     ``extra_starts``), each polished design judged again on ``final_samples`` stroke samples
-    (every extreme refined); the best one that is feasible on the continuous stroke.
-    Returns a dict: design, peak, violation, grid_best (value, design), polished (list)."""
+    (every extreme refined); the best one that is feasible on the continuous stroke, which must
+    be no worse than ``grid_best``.  Returns a dict: design, peak, violation, grid_best (value,
+    design), grid_feasible, grid_total, polished (list of (peak, violation, x))."""
     designs, peaks = grid_search(problem, per_dim, grid_samples)
+    grid_best = (math.inf, None)
+    for i in np.argsort(peaks)[:refine_best]:
+        if not np.isfinite(peaks[i]):
+            break
+        peak, viol, _, _ = evaluate(problem, designs[i], check_samples)
+        if viol <= 1e-9 and peak < grid_best[0]:
+            grid_best = (float(peak), dict(zip(problem.names, map(float, designs[i]))))
     starts = list(grid_local_minima(designs, peaks, per_dim, polish_starts)) + [np.asarray(x, float) for x in extra_starts]
     polished = []
     for x0 in starts:
@@ -449,9 +460,7 @@ def global_minimax(problem, per_dim, grid_samples, check_samples, polish_starts,
         polished.append((peak, viol, x))
     feasible = [p for p in polished if math.isfinite(p[0]) and p[1] <= 1e-9]
     best = min(feasible, key=lambda p: p[0]) if feasible else (math.nan, math.inf, None)
-    i = int(np.argmin(peaks))
     return {"design": None if best[2] is None else dict(zip(problem.names, map(float, best[2]))),
-            "peak": best[0], "violation": best[1],
-            "grid_best": (float(peaks[i]), dict(zip(problem.names, map(float, designs[i])))),
+            "peak": best[0], "violation": best[1], "grid_best": grid_best,
             "grid_feasible": int(np.sum(np.isfinite(peaks))), "grid_total": len(peaks),
             "polished": polished}
