@@ -14,12 +14,13 @@ from pathlib import Path
 from ..errors import OptdesignError, SceneError
 from .elements import (DRIVE_PINS, Body, Constraint, Drive, Gravity, Objective, Parameter, Simulation,
                        Sweep)
+from .file_sizing import SIZING_KEYS, read_sizing
 from .points import Attach, Closure, Dyad, Fixed, Loop, Polar, Slider
 from .scene import Scene
 from .where import ARRAY_TABLES, Where, located_error, near_miss
 
 TOP_KEYS = ("title", "source", "parameters", "sweep", "points", "bodies", "gravity", "drive",
-            "constraints", "objective", "reference", "simulation")
+            "constraints", "objective", "reference", "simulation") + SIZING_KEYS
 REQUIRED_TOP = {"title": "a string naming the scene", "sweep": "the table [sweep] (the stroke)",
                 "points": "the table [points] (the constructions)"}
 CLOSED_FORM = {cls.KIND: cls for cls in (Fixed, Polar, Dyad, Slider, Attach)}
@@ -180,6 +181,7 @@ class _Reader:
             reference=data.get("reference", {}),
             path=path,
             simulation=self.simulation(data["simulation"]) if "simulation" in data else None,
+            **read_sizing(self, data),
         )
 
     def parameters(self, data):
@@ -249,7 +251,7 @@ class _Reader:
         for i, item in enumerate(data):
             where = Where(table, item.get("name") if isinstance(item, dict) else None, index=i)
             self.check_keys(where, item, allowed)
-            for key in ("name",) + (("frame",) if table == "bodies" else ("expr",)):
+            for key in ("name",) + {"bodies": ("frame",), "constraints": ("expr",)}.get(table, ()):
                 if key not in item:
                     _raise(where.at(key), f"missing key {key!r}")
             out.append(build(item))

@@ -11,8 +11,10 @@ import dataclasses
 from dataclasses import dataclass, field
 
 from ..errors import SceneError
+from .cases import Duty
 from .elements import Drive, Gravity, Objective, Parameter, Simulation, Sweep
 from .expressions import constant_value
+from .train import Cylinder, Gearbox
 from .validate import Validator
 from .values import set_field
 from .where import Where, fail, located_error, near_miss
@@ -36,9 +38,16 @@ class Scene:
     reference: dict = field(default_factory=dict)
     path: str = "<python>"
     simulation: Simulation | None = None
+    # sizing the drive (scene/cases.py, profiles.py, train.py; docs/scenes.md)
+    profiles: tuple = ()
+    cases: tuple = ()
+    duty: Duty | None = None
+    gearbox: Gearbox | None = None
+    motors: tuple = ()
+    cylinder: Cylinder | None = None
 
     def __post_init__(self):
-        for name in ("parameters", "points", "bodies", "constraints"):
+        for name in ("parameters", "points", "bodies", "constraints", "profiles", "cases", "motors"):
             set_field(self, name, tuple(getattr(self, name)))
         self.validate()
 

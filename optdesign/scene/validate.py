@@ -16,6 +16,7 @@ from .elements import (DRIVE_PINS, LAW_NAMES, Body, Constraint, Drive, Gravity, 
                        Simulation, Sweep)
 from .expressions import constant_value
 from .points import CONSTRUCTIONS, Loop
+from .validate_cases import DriveSizingValidator
 from .values import RESERVED
 from .where import Where, fail, near_miss, show
 
@@ -47,6 +48,7 @@ class Validator:
         self._check_constraints(values, names, built)
         if self.scene.simulation is not None:
             self._check_simulation(values)
+        DriveSizingValidator(self, values).run()
 
     def _fail(self, where, detail, cls=SceneError):
         fail(where, detail, cls, self.scene.path)

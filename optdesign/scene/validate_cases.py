@@ -1,0 +1,208 @@
+"""Validation of the items that size a drive: [profiles], [[cases]], [duty], [gearbox],
+[[motors]] and [cylinder], against the rest of the scene.
+
+Called by :class:`optdesign.scene.validate.Validator` after the other checks.  Every error
+names the item: a case overriding an unknown parameter (with the near miss), a design variable
+or a derived one; a case naming an unknown profile; a profile whose top speed cannot be
+reached in the stroke (with the case whose values were used); a duty step naming an unknown
+case; a gear ratio <= 0 (also as a design variable's lower bound); a motor or cylinder value
+<= 0; a gearbox or motor beside a linear drive, a cylinder beside a rotary one.
+"""
+from __future__ import annotations
+
+from .cases import Case, Duty, case_values
+from .expressions import constant_value
+from .profiles import Profile, profile_shape
+from .train import MOTOR_UNITS, Cylinder, Gearbox, Motor
+from .where import Where, near_miss, show
+
+
+class DriveSizingValidator:
+    """The checks of one scene's drive-sizing items: ``DriveSizingValidator(validator, values).run()``."""
+
+    def __init__(self, validator, values):
+        self.v = validator
+        self.scene = validator.scene
+        self.values = values
+        params = {p.name: p for p in self.scene.parameters}
+        self.params = params
+        self.design = {n for n, p in params.items() if p.is_design}
+        self.uses = {n: p.value.names() for n, p in params.items()}
+
+    def fail(self, where, detail):
+        self.v._fail(where, detail)
+
+    def run(self):
+        sc = self.scene
+        for attr, kinds in (("profiles", Profile), ("cases", Case), ("motors", Motor)):
+            for i, item in enumerate(getattr(sc, attr)):
+                if not isinstance(item, kinds):
+                    self.fail(Where(attr, index=i), f"expected a {kinds.__name__}, found {show(item)}")
+        for attr, kind in (("duty", Duty), ("gearbox", Gearbox), ("cylinder", Cylinder)):
+            if getattr(sc, attr) is not None and not isinstance(getattr(sc, attr), kind):
+                self.fail(Where(attr), f"expected a {kind.__name__}, found {show(getattr(sc, attr))}")
+        self.length = abs(constant_value(sc.sweep.stop, self.values, "") - constant_value(sc.sweep.start, self.values, ""))
+        self.profiles = {}
+        for p in sc.profiles:
+            if p.name in self.profiles:
+                self.fail(p.where(), f"the profile name {p.name!r} is used twice; rename one of them")
+            self.profiles[p.name] = p
+            self._profile(p, self.values)
+        self._cases()
+        self._duty()
+        self._gearbox()
+        self._motors()
+        self._cylinder()
+
+    # --- helpers ---
+    def depends_on_design(self, expr) -> str | None:
+        """The design variable ``expr`` uses (directly or through derived parameters), or None."""
+        seen, todo = set(), set(expr.names())
+        while todo:
+            n = todo.pop()
+            if n in self.design:
+                return n
+            if n in self.uses and n not in seen:
+                seen.add(n)
+                todo |= self.uses[n]
+        return None
+
+    def number(self, where, expr, values=None, what="parameters", design=False):
+        """``expr`` as a number of the scene's parameters (no sweep, no points); unless
+        ``design``, it may not depend on a design variable."""
+        self.v._check_expression(where, expr, set(self.params), [])
+        if not design:
+            name = self.depends_on_design(expr)
+            if name is not None:
+                self.fail(where, f"{expr.source!r} depends on the design variable {name!r}; expected a value "
+                                 f"that is the same for every design ({what})")
+        return constant_value(expr, self.values if values is None else values, where)
+
+    def positive(self, where, expr, what, strict=True, design=False):
+        value = self.number(where, expr, design=design)
+        if not (value > 0 if strict else value >= 0):
+            self.fail(where, f"expected {what} {'>' if strict else '>='} 0, found {value:g}")
+        return value
+
+    # --- profiles and cases ---
+    def _profile(self, p, values, suffix=""):
+        names = set(self.params) | ({self.scene.sweep.name} if p.kind == "law" else set())
+        for key in p.keys:
+            expr = getattr(p, key)
+            self.v._check_expression(p.where(key), expr, names, [])
+            name = self.depends_on_design(expr)
+            if name is not None:
+                self.fail(p.where(key), f"{expr.source!r} depends on the design variable {name!r}: a profile "
+                                        "is the same motion for every design")
+        return profile_shape(p, values, self.length, suffix)
+
+    def _cases(self):
+        sc = self.scene
+        seen = set()
+        for case in sc.cases:
+            where = Where("cases", case.name)
+            if case.name in seen:
+                self.fail(where, f"the case name {case.name!r} is used twice; rename one of them")
+            seen.add(case.name)
+            if sc.drive is None:
+                self.fail(where, "load cases need a [drive] (the drive they load)")
+            values = self.case_values(case)
+            if isinstance(case.profile, str):
+                if case.profile not in self.profiles:
+                    known = sorted(self.profiles)
+                    self.fail(where.at("profile"), f"no profile {case.profile!r} in [profiles]" + (
+                        near_miss(case.profile, known) or f"; profiles: {', '.join(known) or 'none'}"))
+                self._profile(self.profiles[case.profile], values, f" (with the parameters of case {case.name!r})")
+            elif case.profile is not None:
+                self._profile(case.profile, values)
+            if case.weight is not None:
+                self.positive(where.at("weight"), case.weight, "a weight", strict=False)
+
+    def case_values(self, case):
+        """The parameter values of ``case``: its overrides (evaluated with the scene's values)
+        in place of the leaf parameters they name, derived parameters recomputed."""
+        where = Where("cases", case.name)
+        for name, expr in case.overrides.items():
+            at = where.at(f"set.{name}")
+            if name not in self.params:
+                known = sorted(self.params)
+                what = ("the sweep variable (the stroke is the same in every case)" if name == self.scene.sweep.name
+                        else f"an unknown parameter {name!r}")
+                self.fail(at, f"the case overrides {what}" + (near_miss(name, known) or
+                                                              f"; parameters: {', '.join(known) or 'none'}"))
+            if name in self.design:
+                self.fail(at, f"{name!r} is a design variable: the design is the same in every case; override "
+                              "a plain parameter (a payload, a load, a friction value)")
+            if self.uses[name]:
+                self.fail(at, f"{name!r} is derived from other parameters ({self.params[name].value.source!r}); "
+                              "override the parameters it is made of")
+            self.number(at, expr)
+        return case_values(self.scene, case, self.values)
+
+    def _duty(self):
+        duty = self.scene.duty
+        if duty is None:
+            return
+        names = [c.name for c in self.scene.cases]
+        if not names:
+            self.fail(Where("duty"), "a duty cycle needs [[cases]]: its steps run the cases")
+        for step in duty.steps:
+            where = Where("duty", key=f"cycle[{step.index}]")
+            if step.case is not None and step.case not in names:
+                self.fail(where, f"no case {step.case!r}" + (near_miss(step.case, names) or f"; cases: {', '.join(names)}"))
+            if step.duration is not None:
+                self.positive(where, step.duration, f"a {step.kind} duration in s")
+
+    # --- the drive train ---
+    def _gearbox(self):
+        g, drive = self.scene.gearbox, self.scene.drive
+        if g is None:
+            return
+        where = Where("gearbox")
+        if drive is None or drive.kind != "rotary":
+            self.fail(where, "a gearbox needs a rotary [drive] (type = \"rotary\"); a linear drive is sized by [cylinder]")
+        ratio = self.number(where.at("ratio"), g.ratio, design=True)
+        if not ratio > 0:
+            self.fail(where.at("ratio"), f"expected a gear ratio i = motor speed / drive speed > 0, found {ratio:g}")
+        name = g.ratio.source.strip()
+        if name in self.design and (self.params[name].lower is None or not self.params[name].lower > 0):
+            lo = self.params[name].lower
+            self.fail(Where("parameters", name, "min"), f"the gear ratio's lower bound must be > 0, found "
+                                                        f"{'none' if lo is None else f'{lo:g}'}; give min > 0")
+        if g.efficiency is not None:
+            eta = self.number(where.at("efficiency"), g.efficiency)
+            if not 0 < eta <= 1:
+                self.fail(where.at("efficiency"), f"expected 0 < eta <= 1, found {eta:g}")
+
+    def _motors(self):
+        sc = self.scene
+        if not sc.motors:
+            return
+        if sc.gearbox is None:
+            self.fail(Where("motors", sc.motors[0].name), "a motor needs a [gearbox] (ratio = 1 for a direct drive)")
+        seen = set()
+        for m in sc.motors:
+            where = Where("motors", m.name)
+            if m.name in seen:
+                self.fail(where, f"the motor name {m.name!r} is used twice; rename one of them")
+            seen.add(m.name)
+            numbers = {k: self.positive(where.at(k), getattr(m, k), f"a value in {MOTOR_UNITS[k]}", strict=k != "inertia")
+                       for k in MOTOR_UNITS}
+            if numbers["peak_torque"] < numbers["rated_torque"]:
+                self.fail(where.at("peak_torque"), f"the peak torque {numbers['peak_torque']:g} is below the rated "
+                                                   f"torque {numbers['rated_torque']:g}; expected peak >= rated")
+
+    def _cylinder(self):
+        c, drive = self.scene.cylinder, self.scene.drive
+        if c is None:
+            return
+        where = Where("cylinder")
+        if drive is None or drive.kind != "linear":
+            self.fail(where, "a cylinder needs a linear [drive] (type = \"linear\"); a rotary drive is sized by "
+                             "[gearbox] and [[motors]]")
+        for key in ("pressure", "modulus", "buckling_safety", "length_factor"):
+            self.positive(where.at(key), getattr(c, key), key.replace("_", " "))
+        sizes = {k: self.positive(where.at(k), getattr(c, k), f"a {k} diameter in m", design=True)
+                 for k in ("rod", "bore") if getattr(c, k) is not None}
+        if len(sizes) == 2 and not sizes["rod"] < sizes["bore"]:
+            self.fail(where.at("rod"), f"the rod ({sizes['rod']:g} m) must be thinner than the bore ({sizes['bore']:g} m)")
