@@ -11,9 +11,8 @@ from .dynamics.simulator import SimulationResult, simulate
 from .study import Study, StudyResult
 from .kinematics.mechanism import KinematicsResult, Mechanism, kinematics
 from .model.reduction import ReducedModel
-from .scene.elements import (Attach, Body, Closure, Constraint, Drive, Dyad, Fixed, Gravity, Loop, Objective,
-                    Parameter, Polar, Scene, Slider, Sweep)
-from .scene.file import load, loads
+from .scene import (Attach, Body, Closure, Constraint, Drive, Dyad, Fixed, Gravity, Loop, Objective, Parameter,
+                    Polar, Scene, Slider, Sweep, load, loads)
 
 __all__ = [
     "load", "loads", "kinematics", "analyse", "simulate", "optimise", "Study", "StudyResult",

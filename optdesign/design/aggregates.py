@@ -40,12 +40,7 @@ def aggregates_of(pb, w) -> np.ndarray:
 def parameter_values(pb, p=None) -> dict:
     """Every scene parameter's value by name, from the leaf parameter vector ``p`` (numbers or
     CasADi symbols; default: the scene's values)."""
-    names, p = pb.mech.parameter_names, pb.mech.parameter_values if p is None else p
-    values = {n: p[i] for i, n in enumerate(names)}
-    for prm in pb.scene.parameters:
-        if prm.value.names():
-            values[prm.name] = evaluate(prm.value, values, {}, prm.name)
-    return values
+    return pb.mech.resolved.environment(pb.mech.parameter_values if p is None else p)
 
 
 def outer_value(pb, expr, a, p=None):

@@ -15,17 +15,16 @@ import dataclasses
 import math
 
 from ..errors import SceneError
-from ..scene.elements import Scene
-from ..scene.expressions import constant_value, near_miss, parse
+from ..scene import ResolvedScene, Scene
+from ..scene.expressions import near_miss, parse
 from .aggregates import check_monotone
 
 
-def numeric_bounds(scene: Scene, c) -> tuple:
+def numeric_bounds(resolved: ResolvedScene, c) -> tuple:
     """A constraint's (lower, upper) as numbers (they may name fixed parameters)."""
-    values = scene.parameter_values()
-    where = f"{scene.path}: [[constraints]] {c.name!r}"
-    lo = -math.inf if c.lower is None else constant_value(c.lower, values, f"{where} min")
-    hi = math.inf if c.upper is None else constant_value(c.upper, values, f"{where} max")
+    where = f"{resolved.scene.path}: [[constraints]] {c.name!r}"
+    lo = -math.inf if c.lower is None else resolved.constant(c.lower, f"{where} min")
+    hi = math.inf if c.upper is None else resolved.constant(c.upper, f"{where} max")
     return lo, hi
 
 
@@ -121,7 +120,7 @@ def _requested_bounds(pb, bounds) -> tuple:
             raise SceneError(f"{where}: given twice; give each bound once")
         seen.add((name, side))
         if isinstance(value, str):
-            value = constant_value(parse(value, where), pb.scene.parameter_values(), where)
+            value = pb.mech.resolved.constant(parse(value, where), where)
         try:
             value = float(value)
         except (TypeError, ValueError):

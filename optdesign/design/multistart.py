@@ -8,7 +8,7 @@ import time
 
 import numpy as np
 
-from ..scene.elements import Scene
+from ..scene import Scene
 from .problem import DesignProblem, SolverSettings
 from .repair import Repair
 from .results import OptimisationResult, StartReport

@@ -112,7 +112,7 @@ def build_nlp(pb):
     pb.stroke_bounds = {}   # name -> (lower, upper) in physical units
     for c, outer in pb.stroke_constraints:
         scale = max(abs(float(outer_start(pb, outer))), 1e-12)
-        pb.stroke_bounds[c.name] = numeric_bounds(pb.scene, c)
+        pb.stroke_bounds[c.name] = numeric_bounds(pb.mech.resolved, c)
         lo, hi = (v / scale for v in pb.stroke_bounds[c.name])
         check_monotone(pb, outer, f"[[constraints]] {c.name!r}", c.expr.source, lo, hi)
         pb.stroke_outer[c.name] = outer

@@ -42,7 +42,7 @@ import numpy as np
 from ..errors import SceneError
 from ..kinematics.mechanism import Mechanism
 from ..model.reduction import ReducedModel
-from ..scene.elements import Scene
+from ..scene import Scene
 from . import aggregates, nlp, rows
 from . import bounds as bounds_  # (with_bounds' argument is named bounds)
 from .rows import Block

@@ -94,7 +94,7 @@ def build_quantities(pb):
         if c.expr.is_aggregate:
             pb.stroke_constraints.append((c, lift(pb, c.expr, c.name)))
         else:
-            lo, hi = numeric_bounds(scene, c)
+            lo, hi = numeric_bounds(mech.resolved, c)
             expr = mech.value(c.expr, f"[[constraints]] {c.name}")
             # a constraint on the design alone (no dependence on the sweep) is one row,
             # not one per sample point (repeated rows would be degenerate)

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..scene.elements import Scene
+from ..scene import Scene
 
 
 @dataclass(frozen=True)

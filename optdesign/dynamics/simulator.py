@@ -5,7 +5,7 @@ the sweep coordinate, its efficiency switch, the checks of its inertia and start
 :meth:`Simulator.run` integrates it over the output grid (:mod:`.integrate`) and cuts the run at
 its stop (:mod:`.events`: a stroke end located in time, or the rest of a self-locking drive);
 :func:`simulate` is the front door.  The scene's numbers are read here, once: the parameter
-values and the constants of ``[simulation]`` and ``[sweep]``.
+values and the constants of ``[simulation]`` and ``[sweep]``, from the mechanism's resolved scene.
 """
 from __future__ import annotations
 
@@ -17,8 +17,8 @@ import numpy as np
 from ..errors import SceneError
 from ..kinematics.mechanism import Mechanism
 from ..model.reduction import ReducedModel
-from ..scene.elements import INTEGRATORS, Scene
-from ..scene.expressions import constant_value
+from ..scene import Scene
+from ..scene.elements import INTEGRATORS
 from .equations import Equations, check_inertia, initial_state
 from .events import held_rest, stop
 from .integrate import Integration, integrate_grid, rk4_error, state_scales
@@ -45,13 +45,13 @@ class Simulator:
         self.mech = mech = Mechanism(scene)
         self.model = model = ReducedModel(mech)
         self.rotary = model.rotary
-        self.values = scene.parameter_values()
+        self.resolved = res = mech.resolved
         self.equations = eq = Equations(mech, model, scene.drive)
         sim = scene.simulation
-        self.s_start = constant_value(sim.start, self.values, "[simulation] start")
-        self.qd_start = constant_value(sim.speed, self.values, "[simulation] speed")
-        self.t_end = constant_value(sim.t_end, self.values, "[simulation] t_end")
-        lo, hi = (constant_value(e, self.values, "[sweep]") for e in (scene.sweep.start, scene.sweep.stop))
+        self.s_start = res.constant(sim.start, "[simulation] start")
+        self.qd_start = res.constant(sim.speed, "[simulation] speed")
+        self.t_end = res.constant(sim.t_end, "[simulation] t_end")
+        lo, hi = res.start, res.stop
         self.ends = {"from": lo, "to": hi}
         self.lo, self.hi = min(lo, hi), max(lo, hi)
         self.stroke_grid = np.linspace(self.lo, self.hi, max(scene.sweep.samples, 2001))
@@ -71,7 +71,7 @@ class Simulator:
         if method not in INTEGRATORS:
             raise SceneError(f"integrator {method!r}: expected one of {', '.join(INTEGRATORS)}")
         tol = tolerance if tolerance is not None else (
-            constant_value(sim.tolerance, self.values, "[simulation] tolerance") if sim.tolerance is not None
+            self.resolved.constant(sim.tolerance, "[simulation] tolerance") if sim.tolerance is not None
             else DEFAULT_TOLERANCE)
         n = samples or sim.samples
         t_end = self.t_end if t_end is None else float(t_end)

@@ -241,15 +241,3 @@ class Objective:
         where = Where("objective", key="minimise")
         if not isinstance(self.minimise, str) or not self.minimise.strip():
             fail(where, f"expected a string such as \"peak(drive)\", found {show(self.minimise)}")
-
-
-_MOVED = ("Scene", "CONSTRUCTIONS", "Fixed", "Polar", "Dyad", "Slider", "Attach", "Closure", "Loop")
-
-
-def __getattr__(name):
-    """TEMPORARY (issue 13, until every import reads them from :mod:`optdesign.scene`): the
-    scene and the constructions moved to :mod:`.scene` and :mod:`.points`."""
-    if name in _MOVED:
-        import optdesign.scene as package
-        return getattr(package, name) if name != "CONSTRUCTIONS" else package.points.CONSTRUCTIONS
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
