@@ -49,7 +49,7 @@ class Aggregate:
     scale: float = 1.0
 
 
-_OBJECTIVE = re.compile(r"^\s*(peak|rms)\s*\(\s*(.+?)\s*\)\s*$")
+_OBJECTIVE = re.compile(r"^\s*(peak|rms_sweep|rms)\s*\(\s*(.+?)\s*\)\s*$")  # rms = rms_sweep (over s)
 
 
 def build_quantities(pb):
@@ -65,7 +65,7 @@ def build_quantities(pb):
     m = _OBJECTIVE.match(pb.objective_text)
     pb.objective_quantity = pb.objective_fraction = None
     if m:
-        pb.objective_kind, what = m.group(1), m.group(2)
+        pb.objective_kind, what = m.group(1).replace("rms_sweep", "rms"), m.group(2)
         expr = outputs.get(what)
         if expr is None:
             expr = mech.value(parse(what, "[objective] minimise"), "[objective] minimise")

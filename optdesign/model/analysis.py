@@ -10,6 +10,7 @@ import numpy as np
 from ..kinematics.mechanism import Mechanism
 from ..scene import ResolvedScene, Scene
 from ..scene.expressions import evaluate
+from .cases import CaseAnalysis
 from .reduction import ReducedModel
 from .vectorised import VectorisedSX
 
@@ -30,6 +31,9 @@ class AnalysisResult:
     constraints: dict
     peaks: dict
     timings: dict = field(default_factory=dict)
+    # the scene's [[cases]] (model/cases.py: CasesResult): every case, the governing case of
+    # each peak, the duty cycle and the drive train; None without cases
+    cases: object = None
 
     @property
     def drive_kind(self):
@@ -62,6 +66,7 @@ class Analysis:
         except NotImplementedError:
             self.vectorised = None
         self._points_map = None
+        self.case_analysis = CaseAnalysis(self.mech, self.s_values) if scene.cases else None
         self.build_time = time.perf_counter() - t0
 
     def run(self, p_values=None) -> AnalysisResult:
@@ -92,7 +97,8 @@ class Analysis:
         peaks = {k: float(np.max(np.abs(columns[k]))) for k in
                  ("drive", "static_load", "reduced_inertia", "power") if k in columns}
         timings = {"build_s": self.build_time, "evaluate_s": time.perf_counter() - t0}
-        return AnalysisResult(self.scene, columns, bodies, constraints, peaks, timings)
+        return AnalysisResult(self.scene, columns, bodies, constraints, peaks, timings,
+                              cases=self.case_analysis.run(p_values) if self.case_analysis else None)
 
     def _per_stroke(self, p_values):
         if not self.per_stroke:

@@ -36,7 +36,12 @@ from ..scene.expressions import Expression
 class ReducedModel:
     """The reduced model of a scene with a ``[drive]``: CasADi expressions of (s, p)."""
 
-    def __init__(self, mechanism: Mechanism, efficiency_smoothing: float = 0.0):
+    def __init__(self, mechanism: Mechanism, efficiency_smoothing: float = 0.0, motion=None, flow: str = "auto"):
+        """``motion`` (optional; a load case's, :class:`optdesign.model.profiles.Motion`): the
+        drive's speed, acceleration, speed squared (smooth where the speed is a square root)
+        and a speed of the same sign (smooth) for the power-flow switch, as expressions of (s,
+        p) in place of the constant [drive] speed and acceleration; ``flow`` 'auto' (seed 1's
+        switch), 'driving' (c = 1/eta throughout) or 'braking' (c = eta)."""
         scene = mechanism.scene
         if scene.drive is None:
             raise SceneError(f"{scene.path}: the reduced model needs a [drive] table (rotary crank or linear actuator)")
@@ -47,11 +52,17 @@ class ReducedModel:
         self.k = m.ds(m.q)
         self.dk = m.ds(self.k)
         drive = scene.drive
-        self.uses_speed = not self.is_zero(drive.speed)
-        self.uses_acceleration = not self.is_zero(drive.acceleration)
         self.uses_efficiency = drive.efficiency is not None and not self.is_one(drive.efficiency)
-        self.qd = m.value(drive.speed, "[drive] speed")
-        self.qdd = m.value(drive.acceleration, "[drive] acceleration")
+        self.flow = flow
+        if motion is None:
+            self.uses_speed = not self.is_zero(drive.speed)
+            self.uses_acceleration = not self.is_zero(drive.acceleration)
+            self.qd = m.value(drive.speed, "[drive] speed")
+            self.qdd = m.value(drive.acceleration, "[drive] acceleration")
+            self.qd2, self.flow_speed = self.qd**2, self.qd
+        else:
+            self.uses_speed = self.uses_acceleration = True
+            self.qd, self.qdd, self.qd2, self.flow_speed = motion.qd, motion.qdd, motion.qd2, motion.flow_speed
         self.eta = m.value(drive.efficiency, "[drive] efficiency") if self.uses_efficiency else 1.0
         self.efficiency_smoothing = efficiency_smoothing
         self._k_function = None
@@ -133,9 +144,18 @@ class ReducedModel:
             if self.uses_acceleration:
                 u = u + self.M_q * self.qdd
             if self.uses_speed:
-                u = u + 0.5 * self.dM_q * self.qd**2
+                u = u + 0.5 * self.dM_q * self.qd2
         self.u = u  # the ideal (eta = 1) drive load
-        self.factor = self.efficiency_factor(u * self.qd) if self.uses_efficiency else 1.0
+        self.factor = self.flow_factor(u * self.flow_speed) if self.uses_efficiency else 1.0
+
+    def flow_factor(self, power):
+        """c for a power of the sign of ``power``: :meth:`efficiency_factor`, or fixed by a load
+        case's ``efficiency`` ('driving': 1/eta, 'braking': eta)."""
+        if self.flow == "driving":
+            return 1 / self.eta
+        if self.flow == "braking":
+            return self.eta
+        return self.efficiency_factor(power)
 
     def efficiency_factor(self, power):
         """c = 1/eta while the drive delivers power (power > 0), eta while it takes power back.
@@ -163,7 +183,7 @@ class ReducedModel:
         if self.has_inertia and self.uses_acceleration:
             out["inertia_term"] = c * self.M_q * self.qdd
         if self.has_inertia and self.uses_speed:
-            out["velocity_term"] = -0.5 * self.qd**2 * c * self.dM_q
+            out["velocity_term"] = -0.5 * self.qd2 * c * self.dM_q
         out["drive"] = c * self.u
         if self.uses_speed:
             out["power"] = c * self.u * self.qd
@@ -197,7 +217,7 @@ class ReducedModel:
                     ratios["a_C0"] = direction * speed_ratio * self.qdd
                     parts.append(ratios["a_C0"])
                 if self.uses_speed:
-                    ratios["delta_a_C"] = direction * d_speed_ratio * self.qd**2
+                    ratios["delta_a_C"] = direction * d_speed_ratio * self.qd2
                     parts.append(ratios["delta_a_C"])
                 if parts:
                     ratios["a_C"] = sum(parts[1:], parts[0])
@@ -221,7 +241,7 @@ class ReducedModel:
         if self.has_static:
             rest = rest - self.Q_q
         if self.uses_speed:
-            rest = rest - 0.5 * self.dM_q * self.qd**2
+            rest = rest - 0.5 * self.dM_q * self.qd2
         return rest / self.M_q
 
     def efficiency_inverse(self, power):
@@ -241,10 +261,10 @@ class ReducedModel:
         if self.has_inertia and self.uses_acceleration:
             n = n + self.M_s * k**2 * self.qdd
         if self.has_inertia and self.uses_speed:
-            n = n + 0.5 * self.qd**2 * (self.mech.ds(self.M_s) * k - 2 * self.M_s * self.dk)
+            n = n + 0.5 * self.qd2 * (self.mech.ds(self.M_s) * k - 2 * self.M_s * self.dk)
         n = n / k_ref**4
         if self.uses_efficiency:
-            n = n * self.efficiency_factor(n * self.qd)  # same sign as the power u qd
+            n = n * self.flow_factor(n * self.flow_speed)  # same sign as the power u qd
         return n, (k / k_ref) ** 4
 
     # --- checks ---

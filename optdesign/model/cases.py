@@ -1,0 +1,238 @@
+"""Load cases: the reduced model of each [[cases]] entry, at its parameters and along its motion.
+
+:class:`CaseModel` builds one case's graphs: the drive's speed and acceleration from the case's
+profile (or the constant [drive] speed), seed 1's model with them at every sweep value, its
+power-flow rule, and the drive train behind it (motor side of a [gearbox], a [cylinder]'s rod
+buckling).  Its parameters are the mechanism's parameter vector p with the case's overrides
+put in (:meth:`CaseModel.case_parameters`): one graph serves every case, only p differs.
+
+:class:`CaseAnalysis` evaluates every case over the stroke (:mod:`.duty` integrates over time)
+for :func:`optdesign.model.analysis.analyse`.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from ..scene.cases import Case, case_values
+from ..scene.expressions import evaluate
+from .duty import PEAK_KEYS, CaseTimes, DutyCycle, case_integrals, motor_report
+from .mapped import MappedFunction
+from .profiles import check_law, constant_motion, case_profile
+from .reduction import ReducedModel
+from .train import cylinder_outputs, cylinder_sizing, gear_outputs
+
+
+class CaseModel:
+    """One load case of a scene: its motion, its reduced model and drive train as CasADi
+    expressions of (s, p), p the mechanism's parameter vector read as the case's parameters."""
+
+    def __init__(self, mech, case: Case, efficiency_smoothing: float = 0.0):
+        r = mech.resolved
+        self.mech, self.case, self.name = mech, case, case.name
+        self.values = case_values(mech.scene, case, r.values)
+        self.profile = case_profile(mech.scene, case, r.start, r.stop, r.values)
+        motion = self.profile.motion(mech) if self.profile is not None else constant_motion(mech, case)
+        self.model = ReducedModel(mech, efficiency_smoothing, motion=motion, flow=case.efficiency)
+        self.smoothing = efficiency_smoothing
+        if self.profile is None:
+            self.speed = float(evaluate(mech.scene.drive.speed, self.values, {}, "[drive] speed"))
+            self.acceleration = float(evaluate(mech.scene.drive.acceleration, self.values, {}, "[drive] acceleration"))
+
+    def outputs(self) -> dict:
+        """Named expressions per sample: the sweep's rate (with a profile) and the time (closed
+        form), the drive's speed and acceleration, seed 1's quantities, the drive train's."""
+        m, mech = self.model, self.mech
+        out = {}
+        if self.profile is not None:
+            sd, sdd, _, t = self.profile.graphs(mech.s, lambda e: mech.value(e, "[profiles] speed"))
+            out["sd"] = sd
+            if t is not None:
+                out["t"] = t
+        out["drive_speed"] = m.qd + 0 * mech.s
+        out["drive_acceleration"] = m.qdd + 0 * mech.s
+        out.update(m.outputs())
+        if "power" not in out:
+            out["power"] = out["drive"] * m.qd
+        if mech.scene.gearbox is not None:
+            out.update(gear_outputs(m, mech, out["drive"], self.smoothing))
+        if mech.scene.cylinder is not None:
+            out.update(cylinder_outputs(mech, ca.fmax(out["drive"], 0.0)))
+        return out
+
+    def static_load(self):
+        """The ideal (eta = 1) static reduced load Q_q (T_Su or F_Su) at (s, p), or 0: a hold's
+        load before the efficiency."""
+        return self.model.Q_q if self.model.has_static else 0 * self.mech.s
+
+    # --- parameters ---
+    def case_parameters(self, p):
+        """The case's parameter vector from the scene's p (numbers or CasADi): each overridden
+        leaf replaced by its override evaluated with the scene's parameters."""
+        r = self.mech.resolved
+        if not self.case.overrides:
+            return p
+        env = r.environment(p)
+        parts = []
+        for i, name in enumerate(r.leaf_names):
+            if name in self.case.overrides:
+                parts.append(evaluate(self.case.overrides[name], env, {}, f"[[cases]] {self.name}.set.{name}"))
+            else:
+                parts.append(p[i])
+        if isinstance(p, (ca.SX, ca.MX)):
+            return ca.vertcat(*parts)
+        return np.array([float(v) for v in parts])
+
+    # --- time ---
+    def begins_at(self, k_sign) -> float:
+        """The sweep value where the motion begins (for a constant drive speed: where the sign of
+        the speed and of k = dq/ds send it from)."""
+        r = self.mech.resolved
+        if self.profile is not None:
+            return self.profile.s_begin
+        forward = self.case.sign * math.copysign(1.0, self.speed) * k_sign > 0
+        return r.start if forward else r.stop
+
+
+@dataclass(frozen=True)
+class CaseResult:
+    """One case over the stroke: ``columns`` (arrays over the case's samples: the scene's samples
+    plus, with a profile, each phase boundary twice, once from each side), ``peaks`` (peak |value|
+    of drive, static_load, reduced_inertia, power, motor quantities), ``peak_at`` ({s, value} of
+    each), ``duration`` [s] of the stroke, ``integrals`` over the stroke's time (rule: see
+    :mod:`.duty`), and how the case is set (``direction``, ``profile``, ``efficiency``,
+    ``overrides``)."""
+
+    name: str
+    direction: str
+    profile: str | None
+    efficiency: str
+    overrides: dict
+    columns: dict
+    peaks: dict
+    peak_at: dict
+    duration: float
+    integrals: dict = field(default_factory=dict)
+
+
+class CaseAnalysis:
+    """Every case of a scene over the stroke, compiled once (under :class:`optdesign.model.analysis.Analysis`)."""
+
+    def __init__(self, mech, s_values):
+        self.mech = mech
+        self.s_values = np.asarray(s_values, float)
+        self.cases = [CaseModel(mech, c) for c in mech.scene.cases]
+        self.functions = []
+        for cm in self.cases:
+            outs = cm.outputs()
+            outs["q"], outs["k"] = mech.q, mech.ds(mech.q)
+            outs["hold_load"] = cm.static_load() + 0 * mech.s
+            self.functions.append((list(outs), MappedFunction(mech.function(f"case_{len(self.functions)}", outs))))
+        self.duty = DutyCycle(mech.scene, self.cases)
+
+    def run(self, p_values) -> "CasesResult":
+        """Every case, the governing case of each peak, the duty cycle and the drive train at
+        the parameter vector ``p_values``."""
+        results, evaluated = {}, {}
+        for cm, (names, function) in zip(self.cases, self.functions):
+            p_case = cm.case_parameters(np.asarray(p_values, float))
+            nodes, on_sample = self._nodes(cm)
+            values = dict(zip(names, (np.asarray(v, float).ravel() for v in function(nodes, p_case))))
+            if self.mech.scene.drive.kind == "rotary":
+                values["q"] = np.unwrap(values["q"])
+            if cm.profile is not None and cm.profile.law_speed is not None:
+                check_law(cm.profile, nodes, np.abs(values["sd"]), cm.name)
+            times = CaseTimes.of(cm, nodes, values)
+            values["t"] = times.t
+            hold = values.pop("hold_load")
+            ends = {"start": hold[np.argmin(np.abs(nodes - cm.begins_at(np.sign(values["k"][0]))))],
+                    "end": hold[np.argmax(np.abs(nodes - cm.begins_at(np.sign(values["k"][0]))))]}
+            columns = {"s": nodes}
+            columns.update({k: v for k, v in values.items()})
+            peaks, peak_at = {}, {}
+            for key in PEAK_KEYS:
+                if key in columns:
+                    i = int(np.argmax(np.abs(columns[key])))
+                    peaks[key] = float(abs(columns[key][i]))
+                    peak_at[key] = {"s": float(nodes[i]), "value": float(columns[key][i])}
+            integrals = case_integrals(times, columns, cm.profile.sigma if cm.profile is not None else 1.0)
+            profile = None if cm.case.profile is None else (cm.case.profile if isinstance(cm.case.profile, str)
+                                                            else f"inline {cm.profile.shape.kind}")
+            results[cm.name] = CaseResult(cm.name, cm.case.direction, profile, cm.case.efficiency,
+                                          {k: cm.values[k] for k in cm.case.overrides}, columns, peaks, peak_at,
+                                          times.duration, integrals)
+            evaluated[cm.name] = {"hold": ends, "on_sample": on_sample}
+        governing = governing_cases(results)
+        duty = self.duty.evaluate(results, evaluated, p_values, self.mech)
+        env = self.mech.resolved.environment(np.asarray(p_values, float))
+        values = {k: float(v) for k, v in env.items()}
+        train = {}
+        if self.mech.scene.gearbox is not None:
+            ratio = float(evaluate(self.mech.scene.gearbox.ratio, values, {}, "[gearbox] ratio"))
+            train = {"ratio": ratio, **motor_report(self.mech.scene, values, results, duty, ratio)}
+        if self.mech.scene.cylinder is not None:
+            train = cylinder_report(self.mech.scene, values, results)
+        return CasesResult(results, governing, duty, train)
+
+    def _nodes(self, cm):
+        """The case's samples: the scene's, plus each phase boundary of its profile from both
+        sides (0.5e-9 of the stroke apart); and which of them are the scene's samples."""
+        s = self.s_values
+        breaks = cm.profile.breakpoints() if cm.profile is not None else np.zeros(0)
+        if not breaks.size:
+            return s.copy(), np.ones(len(s), bool)
+        delta = 0.5e-9 * abs(s[-1] - s[0])
+        extra = np.r_[breaks - delta, breaks + delta]
+        for lo, hi, inner in cm.profile.jerk_segments():  # an s-curve's jerk segments, evenly in time
+            extra = np.r_[extra, inner]
+        nodes = np.r_[s, extra]
+        order = np.argsort(nodes, kind="stable")
+        if s[-1] < s[0]:
+            order = order[::-1]
+        on_sample = np.r_[np.ones(len(s), bool), np.zeros(len(extra), bool)][order]
+        return nodes[order], on_sample
+
+
+@dataclass(frozen=True)
+class CasesResult:
+    """What :class:`CaseAnalysis` gives: ``cases`` (name -> :class:`CaseResult`), ``governing``
+    (peak name -> {case, value, s}: the case with the largest peak), ``duty`` (the cycle's time,
+    RMS over time, energy, mean power, steps; or {reason} when a case has no motion in time)
+    and ``train`` (with a gearbox: the ratio, each motor against the cycle, the smallest that
+    fits; with a cylinder: bore, rod, buckling, pump flow)."""
+
+    cases: dict
+    governing: dict
+    duty: dict
+    train: dict
+
+
+def cylinder_report(scene, values, results) -> dict:
+    """The [cylinder]'s sizes from the cases' peak forces and speeds (:func:`.train.cylinder_sizing`)."""
+    cyl = scene.cylinder
+
+    def number(key):
+        expr = getattr(cyl, key)
+        return None if expr is None else float(evaluate(expr, values, {}, f"[cylinder] {key}"))
+
+    cols = [r.columns for r in results.values()]
+    push = max(float(np.max(c["drive"])) for c in cols)
+    pull = max(float(np.max(-c["drive"])) for c in cols)
+    length = max(float(np.max(c["full_extension"])) for c in cols)
+    extend = max(float(np.max(c["drive_speed"])) for c in cols)
+    retract = max(float(np.max(-c["drive_speed"])) for c in cols)
+    return cylinder_sizing(number, push, pull, length, max(extend, 0.0), max(retract, 0.0))
+
+
+def governing_cases(results: dict) -> dict:
+    """For each peak, the case with the largest one: {case, value, s} (brute force over cases)."""
+    out = {}
+    for key in PEAK_KEYS:
+        have = [(r.peaks[key], name) for name, r in results.items() if key in r.peaks]
+        if have:
+            value, name = max(have, key=lambda v: v[0])
+            out[key] = {"case": name, "value": value, "s": results[name].peak_at[key]["s"]}
+    return out

@@ -1,0 +1,318 @@
+"""Quantities over time: each case's stroke in time, and the duty cycle (cases, holds, dwells).
+
+The integral over time, on the sample grid.  For a quantity g sampled at a case's sweep values
+s_0, s_1, ... (the scene's samples plus the profile's phase boundaries, each taken from both
+sides), the integral over the stroke's time is the exact integral of g's linear interpolant
+between neighbouring samples, taken against the profile's exact time law:
+
+    int g dt = sum over intervals [s_i, s_i+1] of  g_i W_i + g_i+1 W'_i,
+    W'_i = int (s - s_i)/(s_i+1 - s_i) dt(s),   W_i = (t_i+1 - t_i) - W'_i,
+
+with dt = ds / V(s), V the profile's sweep speed, W'_i by tanh-sinh quadrature (exact to
+round-off, also in the first and last interval, where V vanishes like a square or cube root).
+The rule is exact for g linear in s between samples and for any g that is constant; since the
+phase boundaries are samples, g is smooth on every interval (it jumps only where the profile's
+acceleration does), and the error falls as the square of the sample spacing
+(benchmarks/evr_time.py measures it against a fine grid).  For a case at the constant [drive]
+speed the time is linear in the drive coordinate q, and the rule is the trapezoid rule in time
+(W_i = W'_i = (t_i+1 - t_i)/2).
+
+Over the cycle, with T the cycle time (every step's duration: a case's stroke times its repeat
+count, holds and dwells):
+
+    RMS over time     sqrt(1/T * (sum of int T_S^2 dt over the cases' strokes + sum of
+                      T_hold^2 * hold time)),   dwells adding time only
+    energy per cycle  sum of int P dt (P = T_S qd; negative where power flows back)
+    mean power        energy per cycle / T
+
+A hold keeps the drive at rest at one end of a case's motion: its load is the static reduced
+load there, T_hold = c Q_q with c = 1/eta ('driving', the default) or eta ('braking'); through
+a gearbox, c_g T_hold / i at the motor.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from ..errors import SceneError
+from .profiles import tanh_sinh
+from .train import gear_factor_at_rest, motor_numbers
+
+PEAK_KEYS = ("drive", "static_load", "reduced_inertia", "power", "motor_load_torque", "motor_speed",
+             "rod_buckling")
+
+
+@dataclass(frozen=True)
+class CaseTimes:
+    """Times at a case's samples and the weights of the time integral, one per sample (None
+    when the case has no motion in time: a constant drive speed with an acceleration)."""
+
+    t: np.ndarray
+    duration: float
+    weights: np.ndarray | None
+    note: str = ""
+    work_weights: np.ndarray | None = None   # with a profile: int P dt = work_weights . (T_S k sigma)
+
+    @classmethod
+    def of(cls, cm, nodes, values):
+        """The times and weights of case model ``cm`` at its sample ``nodes`` (``values``: its
+        evaluated outputs, with ``t`` for a closed-form profile, ``q``, ``k``)."""
+        profile = cm.profile
+        if profile is None:
+            if cm.acceleration != 0.0:
+                t = np.full(len(nodes), math.nan)
+                return cls(t, math.nan, None, f"case {cm.name!r} runs at the constant [drive] speed with an "
+                                              "acceleration: no motion in time; give it a profile")
+            begin = cm.begins_at(np.sign(values["k"][0]))
+            q_begin = values["q"][int(np.argmin(np.abs(nodes - begin)))]
+            t = np.abs(values["q"] - q_begin) / abs(cm.speed)
+            return cls(t, float(np.max(t)), time_weights(nodes, t))
+        t = np.asarray(values["t"] if "t" in values else profile.times(nodes), float)
+        return cls(t, profile.duration, time_weights(nodes, t, profile), "",
+                   work_weights(nodes, t, profile, np.abs(values["sd"])))
+
+    def integral(self, g) -> float:
+        """int g dt over the stroke (the module's rule)."""
+        return float(np.dot(self.weights, np.asarray(g, float)))
+
+    def work(self, drive, k, sign, power) -> float:
+        """int P dt of a power P = drive * qd: with a profile the work int drive dq (P = drive k
+        sigma V, and V dt = ds), ``sign`` = sigma; without one int ``power`` dt."""
+        if self.work_weights is None:
+            return self.integral(power)
+        return float(np.dot(self.work_weights, np.asarray(drive, float) * np.asarray(k, float) * sign))
+
+
+def time_weights(nodes, t, profile=None) -> np.ndarray:
+    """Per sample, its weight in int g dt (the module's rule): the trapezoid rule in time
+    without a profile; with one, g linear in s on each interval against the exact time law,
+    and Simpson's rule in time on an s-curve's jerk segments (their samples evenly spaced in
+    time)."""
+    nodes, t = np.asarray(nodes, float), np.asarray(t, float)
+    dt = np.abs(np.diff(t))
+    w = np.zeros(len(nodes))
+    if profile is None:
+        np.add.at(w, np.arange(len(dt)), dt / 2)
+        np.add.at(w, np.arange(1, len(dt) + 1), dt / 2)
+        return w
+    lo, hi = np.minimum(nodes[:-1], nodes[1:]), np.maximum(nodes[:-1], nodes[1:])
+    width = np.where(hi > lo, hi - lo, 1.0)
+    if profile.law_speed is not None:
+        def integrand(s, d_lo, d_hi):
+            return d_lo / width[:, None] / profile.law_speed(s.ravel()).reshape(s.shape)
+    else:
+        speed = _speed_function(profile)
+        sigma, begin, end = profile.sigma, profile.s_begin, profile.s_end
+
+        def integrand(s, d_lo, d_hi):
+            # the distances from the motion's two ends, each exact next to its own end
+            if sigma > 0:
+                x, y = (lo - begin)[:, None] + d_lo, (end - hi)[:, None] + d_hi
+            else:
+                x, y = (begin - hi)[:, None] + d_hi, (lo - end)[:, None] + d_lo
+            return d_lo / width[:, None] / speed(x, y)
+    w_upper = tanh_sinh(integrand, lo, hi)         # int (s - lo)/(hi - lo) dt per interval
+    upper_first = nodes[:-1] > nodes[1:]           # the interval's first sample is its upper end
+    w_first = np.where(upper_first, w_upper, dt - w_upper)
+    mid = 0.5 * (lo + hi)
+    taken = np.zeros(len(dt), bool)
+    for s_lo, s_hi, _ in profile.jerk_segments():  # smooth in t, not in s: in time
+        margin = 1e-6 * (s_hi - s_lo)
+        idx = np.flatnonzero((mid > s_lo + margin) & (mid < s_hi - margin))
+        if idx.size:
+            taken[idx] = True
+            w[idx[0]:idx[-1] + 2] += quadratic_weights(t[idx[0]:idx[-1] + 2])
+    free = np.flatnonzero(~taken)
+    np.add.at(w, free, w_first[free])
+    np.add.at(w, free + 1, dt[free] - w_first[free])
+    return w
+
+
+def work_weights(nodes, t, profile, speed) -> np.ndarray:
+    """Per sample, its weight in int P dt = int (T_S k sigma) V dt = int (T_S k sigma) ds: the
+    trapezoid rule in s (exact for T_S k linear in s), and on an s-curve's jerk segments, where
+    P is smooth in time but not in s, the quadratic rule in time on P (the weight times V)."""
+    nodes = np.asarray(nodes, float)
+    ds = np.abs(np.diff(nodes))
+    mid = 0.5 * (nodes[:-1] + nodes[1:])
+    taken = np.zeros(len(ds), bool)
+    w = np.zeros(len(nodes))
+    for s_lo, s_hi, _ in profile.jerk_segments():
+        margin = 1e-6 * (s_hi - s_lo)
+        idx = np.flatnonzero((mid > s_lo + margin) & (mid < s_hi - margin))
+        if idx.size:
+            taken[idx] = True
+            w[idx[0]:idx[-1] + 2] += quadratic_weights(t[idx[0]:idx[-1] + 2]) * speed[idx[0]:idx[-1] + 2]
+    free = np.flatnonzero(~taken)
+    np.add.at(w, free, ds[free] / 2)
+    np.add.at(w, free + 1, ds[free] / 2)
+    return w
+
+
+def quadratic_weights(t) -> np.ndarray:
+    """Weights of int g dt over [t_0, t_n] from piecewise quadratic interpolation in t: pairs
+    of intervals (Simpson's rule, for uneven spacing too), the last interval of an odd count
+    from the quadratic through the last three samples.  Exact for g quadratic in t."""
+    t = np.asarray(t, float)
+    n = len(t) - 1
+    w = np.zeros(n + 1)
+    if n == 1:
+        return np.abs(np.diff(t)).repeat(2) / 2
+    for i in range(0, n - 1, 2):
+        w[i:i + 3] += _lagrange_integrals(t[i:i + 3], t[i], t[i + 2])
+    if n % 2:
+        w[n - 2:n + 1] += _lagrange_integrals(t[n - 2:n + 1], t[n - 1], t[n])
+    return w
+
+
+def _lagrange_integrals(nodes, a, b):
+    """int_a^b of the three Lagrange basis polynomials on ``nodes`` (in |dt|: time may run
+    either way along the samples)."""
+    out = np.zeros(3)
+    for i in range(3):
+        others = [nodes[j] for j in range(3) if j != i]
+        coeffs = np.poly(others) / np.prod([nodes[i] - o for o in others])
+        anti = np.polyint(coeffs)
+        out[i] = np.polyval(anti, b) - np.polyval(anti, a)
+    return out if b >= a else -out
+
+
+def _speed_function(profile):
+    """V(x, y) of a closed-form profile, vectorised (x, y: arrays of one shape)."""
+    x, y = ca.SX.sym("x"), ca.SX.sym("y")
+    f = ca.Function("V", [x, y], [ca.fabs(profile.along(x, y)[0])])
+    return lambda a, b: np.asarray(f(np.asarray(a, float).ravel()[None, :], np.asarray(b, float).ravel()[None, :])).reshape(np.shape(a))
+
+
+def case_integrals(times: CaseTimes, columns: dict, sigma: float = 1.0) -> dict:
+    """Integrals of a case over its stroke's time: drive_squared (int T_S^2 dt), energy (int P
+    dt; ``sigma`` the direction of the profile's sweep), energy_driving (int max(P, 0) dt), rms_time (sqrt(drive_squared / duration)), and with
+    a gearbox the motor's three (load torque^2, load torque * acceleration, acceleration^2) from
+    which any rotor inertia's RMS follows."""
+    if times.weights is None:
+        return {}
+    drive = columns["drive"]
+    power = columns.get("power", np.zeros_like(drive))
+    k, sign = columns["k"], sigma
+    out = {"drive_squared": times.integral(drive**2), "energy": times.work(drive, k, sign, power),
+           "energy_driving": times.work(np.where(drive * k * sign >= 0, drive, 0.0), k, sign, np.maximum(power, 0.0))}
+    out["rms_time"] = math.sqrt(out["drive_squared"] / times.duration) if times.duration > 0 else math.nan
+    if "motor_load_torque" in columns:
+        tg, acc = columns["motor_load_torque"], columns["motor_acceleration"]
+        out.update(motor_load_squared=times.integral(tg**2), motor_load_acceleration=times.integral(tg * acc),
+                   motor_acceleration_squared=times.integral(acc**2))
+    return out
+
+
+class DutyCycle:
+    """The duty cycle of a scene's cases: [duty] cycle, or every case once in order."""
+
+    def __init__(self, scene, cases):
+        self.scene, self.cases = scene, {c.name: c for c in cases}
+        if scene.duty is not None:
+            self.steps = scene.duty.steps
+        else:
+            from ..scene.cases import DutyStep
+
+            self.steps = tuple(DutyStep("case", c.name, index=i) for i, c in enumerate(scene.cases))
+
+    def evaluate(self, results, evaluated, p_values, mech=None) -> dict:
+        """The cycle's time, RMS over time of the drive load (and of the motor's load torque),
+        energy per cycle and mean power, with each step's time and load; ``reason`` instead
+        when some case has no motion in time."""
+        missing = [n for n, r in results.items() if not r.integrals and any(
+            st.case == n for st in self.steps if st.kind == "case")]
+        if missing:
+            return {"reason": f"case {missing[0]!r} runs at the constant [drive] speed with an acceleration: no "
+                              "motion in time, so no RMS over time; give it a profile"}
+        steps, T, drive_sq, energy, driving, motor = [], 0.0, 0.0, 0.0, 0.0, np.zeros(3)
+        mech = mech or next(iter(self.cases.values())).mech
+        ratio = self._ratio(mech, p_values)
+        for st in self.steps:
+            if st.kind == "case":
+                r = results[st.case]
+                n = st.repeat
+                T += n * r.duration
+                drive_sq += n * r.integrals["drive_squared"]
+                energy += n * r.integrals["energy"]
+                driving += n * r.integrals["energy_driving"]
+                if ratio is not None:
+                    motor += n * np.array([r.integrals[k] for k in ("motor_load_squared", "motor_load_acceleration",
+                                                                    "motor_acceleration_squared")])
+                steps.append({"kind": "case", "case": st.case, "repeat": n, "time": n * r.duration})
+                continue
+            duration = float(mech.resolved.constant(st.duration, f"[duty] cycle[{st.index}]"))
+            T += duration
+            step = {"kind": st.kind, "time": duration}
+            if st.kind == "hold":
+                cm = self.cases[st.case]
+                eta = cm.model.eta if cm.model.uses_efficiency else 1.0
+                c = 1 / eta if st.efficiency == "driving" else eta
+                load = c * float(evaluated[st.case]["hold"][st.at])
+                drive_sq += load**2 * duration
+                step.update(case=st.case, at=st.at, load=load)
+                if ratio is not None:
+                    motor_load = gear_factor_at_rest(mech, st.efficiency) * load / ratio
+                    motor[0] += motor_load**2 * duration
+                    step["motor_load_torque"] = motor_load
+            steps.append(step)
+        out = {"cycle_time": T, "steps": steps, "rms_time": {"drive": math.sqrt(drive_sq / T)},
+               "energy": energy, "energy_driving": driving, "mean_power": energy / T,
+               "integrals": {"drive_squared": drive_sq}}
+        if ratio is not None:
+            out["rms_time"]["motor_load_torque"] = math.sqrt(motor[0] / T)
+            out["integrals"].update(motor_load_squared=motor[0], motor_load_acceleration=motor[1],
+                                    motor_acceleration_squared=motor[2])
+        return out
+
+    @staticmethod
+    def _ratio(mech, p_values):
+        if mech.scene.gearbox is None:
+            return None
+        env = mech.resolved.environment(np.asarray(p_values, float))
+        from ..scene.expressions import evaluate
+
+        return float(evaluate(mech.scene.gearbox.ratio, env, {}, "[gearbox] ratio"))
+
+
+def motor_report(scene, values, results, duty, ratio) -> dict:
+    """Each motor of [[motors]] against the cases and the cycle: its peak torque (largest |T_g +
+    J_r eps_m| over the cases' samples), RMS torque over the cycle, peak speed, whether it fits
+    (peak <= peak_torque, RMS <= rated_torque, speed <= max_speed), its inertia ratio J_load /
+    (i^2 J_r) and the classical optimal ratio sqrt(J_load / J_r), J_load the largest reduced
+    inertia (I_zS / c) over the cases; and the smallest motor (by rated torque) that fits."""
+    if not scene.motors:
+        return {}
+    j_load = 0.0
+    for r in results.values():
+        if "reduced_inertia" in r.columns:
+            c = r.columns.get("efficiency_factor", 1.0)
+            j_load = max(j_load, float(np.max(np.abs(r.columns["reduced_inertia"] / c))))
+    speed = max(r.peaks.get("motor_speed", 0.0) for r in results.values())
+    motors = {}
+    for m in scene.motors:
+        num = motor_numbers(m, values)
+        J = num["inertia"]
+        peak = max(float(np.max(np.abs(r.columns["motor_load_torque"] + J * r.columns["motor_acceleration"])))
+                   for r in results.values())
+        entry = {**num, "peak": peak, "peak_speed": speed, "inertia_ratio": j_load / (ratio**2 * J) if J > 0 else math.inf,
+                 "optimal_ratio": math.sqrt(j_load / J) if J > 0 else math.inf, "ratio": ratio, "load_inertia": j_load}
+        if duty and "integrals" in duty:
+            a, b, c2 = (duty["integrals"][k] for k in ("motor_load_squared", "motor_load_acceleration",
+                                                        "motor_acceleration_squared"))
+            entry["rms"] = math.sqrt(max(a + 2 * J * b + J * J * c2, 0.0) / duty["cycle_time"])
+        entry["fits"] = bool(peak <= num["peak_torque"] and speed <= num["max_speed"]
+                             and entry.get("rms", 0.0) <= num["rated_torque"])
+        motors[m.name] = entry
+    fitting = sorted((e["rated_torque"], name) for name, e in motors.items() if e["fits"])
+    return {"motors": motors, "smallest_fitting": fitting[0][1] if fitting else None}
+
+
+def require_times(duty) -> dict:
+    """The duty cycle's quantities, or a SceneError saying why there are none."""
+    if "reason" in duty:
+        raise SceneError(duty["reason"])
+    return duty

@@ -1,0 +1,271 @@
+"""A load case's motion along the stroke: the profile as CasADi graphs of the sweep value s,
+the drive's speed and acceleration from it, and the time at each sample.
+
+How a profile maps the stroke to time.  A case runs the sweep from one end of the stroke,
+s_begin ([sweep] from for 'forward', to for 'reverse'), to the other, s_end.  With sigma =
+sign(s_end - s_begin), the distance run is x = sigma (s - s_begin), from 0 to the stroke's
+length L.  The profile gives the sweep speed V(x) >= 0 and the path acceleration A(x) = dV/dt
+along the motion, and the time t(x) at which x is reached, each in closed form:
+
+* constant:    V = v, A = 0, t = x / v;
+* trapezoidal: V = sqrt(2 a x), A = a, t = sqrt(2 x / a) while speeding up (x < v^2/(2a));
+  V = v, A = 0 at the top speed; mirrored with the deceleration d at the end;
+* s-curve:     seven phases with jerk j: x = j t^3/6 while the acceleration builds up
+  (t = cbrt(6 x / j)), a quadratic in t at constant acceleration, and a cubic while it falls
+  back to zero (its root by the trigonometric formula); then the top speed and the mirror
+  image with the deceleration;
+* law:         V(s) as written (an expression of the sweep), A = sigma V dV/ds, and the time
+  t(s) = integral of ds / V by tanh-sinh quadrature (exact to round-off, also where V = 0 at
+  an end of the stroke), since a law has no closed-form time.
+
+The sweep's rate and acceleration are then sd = sigma V and sdd = sigma A, and the drive's
+(q(s), k = dq/ds): qd = k sd, qdd = k sdd + dk/ds sd^2, qd^2 = k^2 V^2 (a polynomial in x, so
+the drive load stays smooth where V is a square root).  A case without a profile runs at the
+constant [drive] speed and acceleration (mirrored for 'reverse'), as a scene without cases;
+its time is t = |q(s) - q(s_begin)| / |speed|, defined only when the acceleration is 0.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from ..errors import SceneError
+from ..scene.cases import Case, case_values
+from ..scene.expressions import evaluate
+from ..scene.profiles import Phase, Profile, Shape, profile_shape
+
+_TINY = 1e-300  # keeps square and cube roots away from 0, where their derivative is infinite
+
+
+@dataclass(frozen=True)
+class Motion:
+    """The drive's motion in a load case, as expressions of (s, p): speed ``qd``, acceleration
+    ``qdd``, ``qd2`` = qd^2 (smooth), and ``flow_speed`` (smooth, with the sign of qd, for the
+    power-flow switch)."""
+
+    qd: object
+    qdd: object
+    qd2: object
+    flow_speed: object
+
+
+def _root(x, power):
+    return ca.power(ca.fmax(x, _TINY), power)
+
+
+def _phase_graph(x, ph: Phase, speed):
+    """(t, V, A) at distance x (0 <= x <= ph.distance) into a phase from rest to ``speed``."""
+    if ph.jerk == 0.0:  # trapezoid: constant acceleration
+        return ca.sqrt(2 * ca.fmax(x, 0.0) / ph.peak), _root(2 * ph.peak * x, 0.5), ph.peak + 0 * x
+    j, a = ph.jerk, ph.peak
+    tj = a / j                                   # building up the acceleration
+    tc = speed / a - a / j                       # at constant acceleration
+    x1, v1 = j * tj**3 / 6, j * tj**2 / 2
+    x2 = x1 + v1 * tc + a * tc**2 / 2
+    t1 = _root(6 * x / j, 1 / 3)
+    tau = (-v1 + ca.sqrt(ca.fmax(v1**2 + 2 * a * (x - x1), 0.0))) / a
+    # falling back to zero acceleration: sigma before the phase's end, j sigma^3/6 - v sigma + (X - x) = 0
+    P, Q = -6 * speed / j, 6 * (ph.distance - x) / j
+    arg = ca.fmin(ca.fmax(3 * Q / (2 * P) * math.sqrt(-3 / P), -1.0), 1.0)
+    sigma = 2 * math.sqrt(-P / 3) * ca.cos(ca.acos(arg) / 3 - 2 * math.pi / 3)
+    t3 = ph.duration - sigma
+    t = ca.if_else(x <= x1, ca.power(6 * ca.fmax(x, 0.0) / j, 1 / 3), ca.if_else(x <= x2, tj + tau, t3))
+    V = ca.if_else(x <= x1, j * t1**2 / 2, ca.if_else(x <= x2, v1 + a * tau, speed - j * sigma**2 / 2))
+    A = ca.if_else(x <= x1, j * t1, ca.if_else(x <= x2, a, j * sigma))
+    return t, V, A
+
+
+def _phase_breaks(ph: Phase, speed):
+    """Distances into a phase where its acceleration changes law (s-curve only)."""
+    if ph.jerk == 0.0 or ph.distance == 0.0:
+        return []
+    j, a = ph.jerk, ph.peak
+    tj, tc = a / j, speed / a - a / j
+    x1, v1 = j * tj**3 / 6, j * tj**2 / 2
+    return [x1, x1 + v1 * tc + a * tc**2 / 2]
+
+
+class MotionProfile:
+    """A profile on the stroke of one case: (sd, sdd, V^2, t) as CasADi graphs of s, and its
+    times and breakpoints as numbers."""
+
+    def __init__(self, profile: Profile, shape: Shape, s_begin: float, s_end: float, values: dict, sweep_name: str):
+        self.profile, self.shape = profile, shape
+        self.s_begin, self.s_end = float(s_begin), float(s_end)
+        self.sigma = 1.0 if s_end > s_begin else -1.0
+        self.length = abs(s_end - s_begin)
+        self._time_function = None
+        self.law_speed = None  # a law's V(s) as a numpy function, at the case's parameter values
+        if shape.kind == "law":
+            s = ca.SX.sym("s")
+            env = dict(values, **{sweep_name: s})
+            f = ca.Function("V", [s], [evaluate(shape.law, env, {}, str(profile.where("speed")))])
+            self.law_speed = lambda x: np.asarray(f(np.asarray(x, float)[None, :])).ravel()
+
+    @property
+    def reference_speed(self) -> float:
+        """A typical sweep speed: the top speed, or a law's largest on 201 points."""
+        if self.shape.kind != "law":
+            return float(self.shape.speed)
+        return float(np.max(self.law_speed(np.linspace(self.s_begin, self.s_end, 201))))
+
+    # --- graphs of s ---
+    def graphs(self, s, law_value=None):
+        """(sd, sdd, V^2, t) at sweep value ``s``; t is None for a law.  ``law_value(expr)``
+        evaluates a law's speed expression in the caller's graph of s."""
+        sh, sigma = self.shape, self.sigma
+        if sh.kind == "law":
+            V = law_value(sh.law)
+            dV = ca.jacobian(V, s)
+            return sigma * V, V * dV, V**2, None
+        x = ca.fmin(ca.fmax(sigma * (s - self.s_begin), 0.0), self.length)
+        y = ca.fmin(ca.fmax(sigma * (self.s_end - s), 0.0), self.length)
+        return self.along(x, y)
+
+    def along(self, x, y):
+        """(sd, sdd, V^2, t) at distance x from the motion's beginning and y = L - x before its
+        end (both given, so that each is exact next to its own end)."""
+        sh, sigma = self.shape, self.sigma
+        if sh.kind == "constant":
+            v = sh.speed
+            return sigma * v + 0 * x, 0 * x, v**2 + 0 * x, x / v
+        up, down, v = sh.accelerate, sh.decelerate, sh.speed
+        t_up, V_up, A_up = _phase_graph(x, up, v)
+        t_dn, V_dn, A_dn = _phase_graph(y, down, v)
+        t_cruise = up.duration + (x - up.distance) / v
+        speeding, slowing = x <= up.distance, x >= self.length - down.distance
+        t = ca.if_else(speeding, t_up, ca.if_else(slowing, sh.time - t_dn, t_cruise))
+        V = ca.if_else(speeding, V_up, ca.if_else(slowing, V_dn, v))
+        A = ca.if_else(speeding, A_up, ca.if_else(slowing, -A_dn, 0.0))
+        if up.jerk == 0.0:  # V^2 as a polynomial: 2 a x, v^2, 2 d (L - x)
+            V2 = ca.if_else(speeding, 2 * up.peak * x, ca.if_else(slowing, 2 * down.peak * y, v**2))
+        else:
+            V2 = V**2
+        return sigma * V, sigma * A, V2, t
+
+    def motion(self, mech, law_value=None) -> Motion:
+        """The drive's motion (:class:`Motion`) along this profile in ``mech``'s graphs."""
+        s = mech.s
+        sd, sdd, V2, _ = self.graphs(s, law_value or (lambda e: mech.value(e, "[profiles] speed")))
+        k = mech.ds(mech.q)
+        dk = mech.ds(k)
+        return Motion(k * sd, k * sdd + dk * V2, k**2 * V2, k * self.sigma * self.reference_speed)
+
+    # --- numbers ---
+    @property
+    def duration(self) -> float:
+        """The time for the stroke [s] (a law: by quadrature)."""
+        if self.shape.kind != "law":
+            return float(self.shape.time)
+        return float(self.times(np.array([self.s_end]))[0])
+
+    def breakpoints(self) -> np.ndarray:
+        """Sweep values inside the stroke where the profile's acceleration law changes."""
+        sh = self.shape
+        if sh.kind in ("law", "constant"):
+            return np.zeros(0)
+        xs = [sh.accelerate.distance, self.length - sh.decelerate.distance]
+        xs += _phase_breaks(sh.accelerate, sh.speed)
+        xs += [self.length - b for b in _phase_breaks(sh.decelerate, sh.speed)]
+        xs = sorted({round(x, 15) for x in xs if 0 < x < self.length})
+        return np.array([self.s_begin + self.sigma * x for x in xs])
+
+    JERK_NODES = 8  # intervals per jerk segment of an s-curve (evenly spaced in time)
+
+    def jerk_segments(self) -> list:
+        """The s-curve's jerk segments as (s_lo, s_hi, interior nodes evenly spaced in time)."""
+        sh = self.shape
+        if sh.kind != "s-curve":
+            return []
+        out = []
+        for ph, sign_end in ((sh.accelerate, False), (sh.decelerate, True)):
+            j, a, v = ph.jerk, ph.peak, sh.speed
+            tj = a / j
+            frac = np.arange(1, self.JERK_NODES) / self.JERK_NODES * tj
+            x1 = j * tj**3 / 6
+            first = [(0.0, x1, j * frac**3 / 6)]                      # from rest: x = j t^3/6
+            last = [(ph.distance - (v * tj - j * tj**3 / 6), ph.distance,
+                     ph.distance - (v * frac - j * frac**3 / 6))]      # to the top speed
+            for lo, hi, inner in first + last:
+                if sign_end:  # the deceleration: distances before the end of the motion
+                    lo, hi, inner = self.length - hi, self.length - lo, self.length - inner
+                s_lo, s_hi = sorted((self.s_begin + self.sigma * lo, self.s_begin + self.sigma * hi))
+                out.append((s_lo, s_hi, self.s_begin + self.sigma * np.asarray(inner)))
+        return out
+
+    def speed_function(self, mech) -> ca.Function:
+        """(s, p) -> (sd, sdd, V^2) in ``mech``'s graphs (p: the case's parameters)."""
+        sd, sdd, V2, _ = self.graphs(mech.s, lambda e: mech.value(e, "[profiles] speed"))
+        return mech.function("profile", {"sd": sd, "sdd": sdd, "V2": V2})
+
+    def times(self, s_values) -> np.ndarray:
+        """The time at each sweep value (at s_begin: 0)."""
+        s_values = np.asarray(s_values, float)
+        if self.shape.kind != "law":
+            if self._time_function is None:
+                s = ca.SX.sym("s")
+                self._time_function = ca.Function("t", [s], [self.graphs(s)[3]])
+            return np.asarray(self._time_function(s_values[None, :])).ravel()
+        x = np.unique(np.r_[0.0, np.clip(self.sigma * (s_values - self.s_begin), 0.0, self.length), self.length])
+        s_nodes = self.s_begin + self.sigma * x
+        pieces = tanh_sinh(lambda s, d_a, d_b: 1.0 / self.law_speed(s.ravel()).reshape(s.shape),
+                           np.minimum(s_nodes[:-1], s_nodes[1:]), np.maximum(s_nodes[:-1], s_nodes[1:]))
+        return np.interp(self.sigma * (s_values - self.s_begin), x, np.r_[0.0, np.cumsum(pieces)])
+
+
+def tanh_sinh(f, a, b, h=1 / 16, levels=48):
+    """Integrals of ``f`` over the intervals [a_i, b_i] by tanh-sinh quadrature (double
+    exponential: exact to round-off for smooth f, and for integrable singularities such as
+    1/sqrt(x) at the ends).  ``f(s, d_a, d_b)`` takes the nodes (intervals x nodes) and their
+    distances from a and from b, each exact next to its own end (where a singular integrand
+    needs it); the nodes themselves may round onto an end."""
+    a, b = np.atleast_1d(np.asarray(a, float)), np.atleast_1d(np.asarray(b, float))
+    k = np.arange(-levels, levels + 1) * h
+    u = 0.5 * math.pi * np.sinh(k)
+    w = 0.5 * math.pi * h * np.cosh(k) / np.cosh(u) ** 2
+    half = 0.5 * (b - a)
+    from_a = half[:, None] * (2.0 / (1.0 + np.exp(-2.0 * u)))[None, :]     # (1 + tanh u) half
+    from_b = half[:, None] * (2.0 / (1.0 + np.exp(2.0 * u)))[None, :]      # (1 - tanh u) half
+    near_a = (u <= 0)[None, :]
+    d_a = np.where(near_a, from_a, 2 * half[:, None] - from_b)
+    d_b = np.where(near_a, 2 * half[:, None] - from_a, from_b)
+    s = np.where(near_a, a[:, None] + d_a, b[:, None] - d_b)
+    with np.errstate(all="ignore"):
+        values = np.asarray(f(s, d_a, d_b), float).reshape(s.shape)
+    values = np.where(np.isfinite(values), values, 0.0)
+    return half * (values @ w)
+
+
+def case_profile(scene, case: Case, start: float, stop: float, values=None) -> MotionProfile | None:
+    """The :class:`MotionProfile` of ``case`` on the stroke [start, stop] (None without a
+    profile), its numbers evaluated with the case's parameters."""
+    if case.profile is None:
+        return None
+    profile = case.profile if isinstance(case.profile, Profile) else next(
+        p for p in scene.profiles if p.name == case.profile)
+    values = case_values(scene, case, values)
+    shape = profile_shape(profile, values, abs(stop - start), f" (with the parameters of case {case.name!r})")
+    begin, end = (start, stop) if case.sign > 0 else (stop, start)
+    return MotionProfile(profile, shape, begin, end, values, scene.sweep.name)
+
+
+def constant_motion(mech, case: Case) -> Motion:
+    """The [drive] speed and acceleration as a case's motion ('reverse' mirrors both)."""
+    drive = mech.scene.drive
+    qd = case.sign * mech.value(drive.speed, "[drive] speed")
+    qdd = case.sign * mech.value(drive.acceleration, "[drive] acceleration")
+    return Motion(qd, qdd, qd**2, qd)
+
+
+def check_law(profile: MotionProfile, s_values, speed_values, case_name):
+    """A law's speed must be finite, >= 0, and > 0 inside the stroke."""
+    v = np.asarray(speed_values, float)
+    inside = (s_values != profile.s_begin) & (s_values != profile.s_end)
+    bad = np.flatnonzero(~np.isfinite(v) | (v < 0) | (inside & (v <= 0)))
+    if bad.size:
+        i = bad[0]
+        raise SceneError(f"{profile.profile.where('speed')}: the law's speed is {v[i]:.6g} at s = {s_values[i]:.6g} "
+                         f"(case {case_name!r}); expected a speed > 0 inside the stroke (0 is allowed only at its ends)")
