@@ -8,7 +8,8 @@ measured in this one run against high-accuracy references that each section name
   (a) derivatives of the reduced model (benchmarks/evr_derivatives.py),
   (b) the peak over the stroke (benchmarks/evr_peak.py),
   (c) motion in time (benchmarks/evr_motion.py),
-  (d) optimisation (benchmarks/evr_optimise.py).
+  (d) optimisation (benchmarks/evr_optimise.py),
+  (e) the integral over time on the sample grid of a load case (benchmarks/evr_time.py).
 
 Each section module has ``section(out_dir) -> markdown``: it draws its figures into ``out_dir``
 (whose name is ``error_vs_runtime``, so a figure is linked as ``error_vs_runtime/NAME.png``) and
@@ -42,7 +43,7 @@ from optdesign.report.output import write_atomic  # noqa: E402
 
 FIGURES = "error_vs_runtime"
 SECTIONS = (("derivatives", "evr_derivatives"), ("peak", "evr_peak"), ("motion", "evr_motion"),
-            ("optimise", "evr_optimise"))
+            ("optimise", "evr_optimise"), ("time", "evr_time"))
 
 
 def header(started, load_start, load_end, git, durations) -> str:
@@ -75,7 +76,7 @@ def run_sections(out_dir: Path):
         except ModuleNotFoundError as exc:
             if exc.name != module:
                 raise
-            parts.append(f"## ({'abcd'[[s for s, _ in SECTIONS].index(name)]}) {name}\n\nNot measured: "
+            parts.append(f"## ({'abcde'[[s for s, _ in SECTIONS].index(name)]}) {name}\n\nNot measured: "
                          f"benchmarks/{module}.py does not exist in this checkout.\n")
             print(f"warning: benchmarks/{module}.py not found; section '{name}' left out", file=sys.stderr)
             continue

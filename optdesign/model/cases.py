@@ -116,6 +116,7 @@ class CaseResult:
     peak_at: dict
     duration: float
     integrals: dict = field(default_factory=dict)
+    on_samples: np.ndarray | None = None   # which of the case's samples are the scene's
 
 
 class CaseAnalysis:
@@ -163,9 +164,8 @@ class CaseAnalysis:
                                                             else f"inline {cm.profile.shape.kind}")
             results[cm.name] = CaseResult(cm.name, cm.case.direction, profile, cm.case.efficiency,
                                           {k: cm.values[k] for k in cm.case.overrides}, columns, peaks, peak_at,
-                                          times.duration, integrals)
+                                          times.duration, integrals, on_sample)
             evaluated[cm.name] = {"hold": ends, "on_sample": on_sample}
-        governing = governing_cases(results)
         duty = self.duty.evaluate(results, evaluated, p_values, self.mech)
         env = self.mech.resolved.environment(np.asarray(p_values, float))
         values = {k: float(v) for k, v in env.items()}
@@ -173,9 +173,13 @@ class CaseAnalysis:
         if self.mech.scene.gearbox is not None:
             ratio = float(evaluate(self.mech.scene.gearbox.ratio, values, {}, "[gearbox] ratio"))
             train = {"ratio": ratio, **motor_report(self.mech.scene, values, results, duty, ratio)}
+            if train.get("motors"):
+                chosen = train["smallest_fitting"] or next(iter(train["motors"]))
+                train["shown"] = chosen
+                add_motor_torque(results, duty, train["motors"][chosen])
         if self.mech.scene.cylinder is not None:
             train = cylinder_report(self.mech.scene, values, results)
-        return CasesResult(results, governing, duty, train)
+        return CasesResult(results, governing_cases(results), duty, train)
 
     def _nodes(self, cm):
         """The case's samples: the scene's, plus each phase boundary of its profile from both
@@ -225,6 +229,20 @@ def cylinder_report(scene, values, results) -> dict:
     extend = max(float(np.max(c["drive_speed"])) for c in cols)
     retract = max(float(np.max(-c["drive_speed"])) for c in cols)
     return cylinder_sizing(number, push, pull, length, max(extend, 0.0), max(retract, 0.0))
+
+
+def add_motor_torque(results, duty, motor):
+    """The torque of ``motor`` (its rotor inertia J_r) as a column of every case, its peak, and
+    its RMS over the cycle: T_m = T_g + J_r eps_m."""
+    J = motor["inertia"]
+    for r in results.values():
+        torque = r.columns["motor_load_torque"] + J * r.columns["motor_acceleration"]
+        r.columns["motor_torque"] = torque
+        i = int(np.argmax(np.abs(torque)))
+        r.peaks["motor_torque"] = float(abs(torque[i]))
+        r.peak_at["motor_torque"] = {"s": float(r.columns["s"][i]), "value": float(torque[i])}
+    if "rms" in motor:
+        duty["rms_time"]["motor_torque"] = motor["rms"]
 
 
 def governing_cases(results: dict) -> dict:

@@ -39,10 +39,11 @@ import numpy as np
 
 from ..errors import SceneError
 from .profiles import tanh_sinh
+from .vectorised import VectorisedSX
 from .train import gear_factor_at_rest, motor_numbers
 
-PEAK_KEYS = ("drive", "static_load", "reduced_inertia", "power", "motor_load_torque", "motor_speed",
-             "rod_buckling")
+PEAK_KEYS = ("drive", "static_load", "reduced_inertia", "power", "motor_torque", "motor_load_torque",
+             "motor_speed", "rod_buckling")
 
 
 @dataclass(frozen=True)
@@ -173,18 +174,27 @@ def _lagrange_integrals(nodes, a, b):
     either way along the samples)."""
     out = np.zeros(3)
     for i in range(3):
-        others = [nodes[j] for j in range(3) if j != i]
-        coeffs = np.poly(others) / np.prod([nodes[i] - o for o in others])
-        anti = np.polyint(coeffs)
-        out[i] = np.polyval(anti, b) - np.polyval(anti, a)
+        tj, tk = (nodes[j] for j in range(3) if j != i)
+
+        def anti(t):
+            return t**3 / 3 - (tj + tk) * t**2 / 2 + tj * tk * t
+        out[i] = (anti(b) - anti(a)) / ((nodes[i] - tj) * (nodes[i] - tk))
     return out if b >= a else -out
 
 
 def _speed_function(profile):
-    """V(x, y) of a closed-form profile, vectorised (x, y: arrays of one shape)."""
-    x, y = ca.SX.sym("x"), ca.SX.sym("y")
-    f = ca.Function("V", [x, y], [ca.fabs(profile.along(x, y)[0])])
-    return lambda a, b: np.asarray(f(np.asarray(a, float).ravel()[None, :], np.asarray(b, float).ravel()[None, :])).reshape(np.shape(a))
+    """V(x, y) of a closed-form profile, vectorised with numpy (x, y: arrays of one shape, the
+    distances from the motion's beginning and to its end; the smaller one is used exactly)."""
+    z, L = ca.SX.sym("z"), profile.length
+    # one input: z = x in the first half of the motion, z = -y in the second
+    x, y = ca.if_else(z >= 0, z, L + z), ca.if_else(z >= 0, L - z, -z)
+    f = VectorisedSX(ca.Function("V", [z, ca.SX.sym("p", 0)], [ca.fabs(profile.along(x, y)[0])], ["z", "p"], ["V"]))
+
+    def speed(a, b):
+        a, b = np.asarray(a, float), np.asarray(b, float)
+        zz = np.where(a <= b, a, -b).ravel()
+        return np.broadcast_to(f(zz, np.zeros(0))["V"], zz.shape).reshape(a.shape)
+    return speed
 
 
 def case_integrals(times: CaseTimes, columns: dict, sigma: float = 1.0) -> dict:

@@ -36,6 +36,7 @@ from ..errors import SceneError
 from ..scene.cases import Case, case_values
 from ..scene.expressions import evaluate
 from ..scene.profiles import Phase, Profile, Shape, profile_shape
+from .vectorised import VectorisedSX
 
 _TINY = 1e-300  # keeps square and cube roots away from 0, where their derivative is infinite
 
@@ -102,8 +103,7 @@ class MotionProfile:
         if shape.kind == "law":
             s = ca.SX.sym("s")
             env = dict(values, **{sweep_name: s})
-            f = ca.Function("V", [s], [evaluate(shape.law, env, {}, str(profile.where("speed")))])
-            self.law_speed = lambda x: np.asarray(f(np.asarray(x, float)[None, :])).ravel()
+            self.law_speed = _numpy_of(s, evaluate(shape.law, env, {}, str(profile.where("speed"))))
 
     @property
     def reference_speed(self) -> float:
@@ -173,7 +173,7 @@ class MotionProfile:
         xs = sorted({round(x, 15) for x in xs if 0 < x < self.length})
         return np.array([self.s_begin + self.sigma * x for x in xs])
 
-    JERK_NODES = 8  # intervals per jerk segment of an s-curve (evenly spaced in time)
+    JERK_NODES = 16  # intervals per jerk segment of an s-curve (evenly spaced in time)
 
     def jerk_segments(self) -> list:
         """The s-curve's jerk segments as (s_lo, s_hi, interior nodes evenly spaced in time)."""
@@ -207,13 +207,23 @@ class MotionProfile:
         if self.shape.kind != "law":
             if self._time_function is None:
                 s = ca.SX.sym("s")
-                self._time_function = ca.Function("t", [s], [self.graphs(s)[3]])
-            return np.asarray(self._time_function(s_values[None, :])).ravel()
+                self._time_function = _numpy_of(s, self.graphs(s)[3])
+            return self._time_function(s_values)
         x = np.unique(np.r_[0.0, np.clip(self.sigma * (s_values - self.s_begin), 0.0, self.length), self.length])
         s_nodes = self.s_begin + self.sigma * x
         pieces = tanh_sinh(lambda s, d_a, d_b: 1.0 / self.law_speed(s.ravel()).reshape(s.shape),
                            np.minimum(s_nodes[:-1], s_nodes[1:]), np.maximum(s_nodes[:-1], s_nodes[1:]))
         return np.interp(self.sigma * (s_values - self.s_begin), x, np.r_[0.0, np.cumsum(pieces)])
+
+
+def _numpy_of(s, expr):
+    """A numpy function of s (any shape) evaluating the SX expression ``expr`` of ``s``."""
+    f = VectorisedSX(ca.Function("f", [s, ca.SX.sym("p", 0)], [expr], ["s", "p"], ["v"]))
+
+    def run(x):
+        x = np.asarray(x, float)
+        return np.broadcast_to(f(x.ravel(), np.zeros(0))["v"], (x.size,)).reshape(x.shape).copy()
+    return run
 
 
 def tanh_sinh(f, a, b, h=1 / 16, levels=48):

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .cases import FIGURES as CASE_FIGURES
+from .cases import cases_figures, cases_json, cases_table
 from .output import SCHEMA, new_figure, save_figure, table
 
 UNITS = {
@@ -77,6 +79,7 @@ def analysis_json(result) -> dict:
         "peaks": result.peaks,
         "constraints": {k: v for k, v in result.constraints.items() if not np.ndim(v)},
         "samples": samples,
+        **cases_json(result),   # with [[cases]]: cases, governing, duty, drive_train (report/cases.py)
     }
 
 
@@ -92,10 +95,10 @@ def analysis_table(result) -> str:
     for k, v in result.constraints.items():
         if not np.ndim(v):
             lines.append(f"{k} = {v:.6g}")
-    return "\n".join(lines)
+    return "\n".join(lines) + cases_table(result)   # with [[cases]] (report/cases.py)
 
 
-FIGURES = ("drive.png", "reduced_inertia.png", "constraints.png")
+FIGURES = ("drive.png", "reduced_inertia.png", "constraints.png") + CASE_FIGURES
 
 
 def analysis_figures(result, folder, label="folder") -> list:
@@ -149,4 +152,4 @@ def _analysis_figures(result, folder) -> list:
         ax.grid(alpha=0.3)
         written.append(folder / "constraints.png")
         save_figure(fig, written[-1])
-    return written
+    return written + cases_figures(result, folder)

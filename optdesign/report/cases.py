@@ -1,0 +1,188 @@
+"""Reports of a scene's load cases (analyse): the JSON keys ``cases``, ``governing``, ``duty`` and
+``drive_train``, the table's section after the nominal one, and the figures ``cases.png`` (each
+case's drive load, and motor torque, over the stroke) and ``duty.png`` (the duty cycle in time).
+Everything here reads :class:`optdesign.model.cases.CasesResult`; a scene without cases adds
+nothing."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .output import new_figure, save_figure, table
+
+FIGURES = ("cases.png", "duty.png")
+CASE_COLUMNS = ("s", "t", "q", "sd", "drive_speed", "drive_acceleration", "static_load", "inertia_term",
+                "velocity_term", "drive", "power", "efficiency_factor", "motor_speed", "motor_acceleration",
+                "motor_load_torque", "motor_torque", "rod_buckling")
+UNITS = {
+    "rotary": {"t": "s", "drive_speed": "rad/s", "drive_acceleration": "rad/s^2", "drive": "N m",
+               "static_load": "N m", "reduced_inertia": "kg m^2", "power": "W", "motor_speed": "rad/s",
+               "motor_acceleration": "rad/s^2", "motor_load_torque": "N m", "motor_torque": "N m",
+               "energy": "J", "cycle_time": "s"},
+    "linear": {"t": "s", "drive_speed": "m/s", "drive_acceleration": "m/s^2", "drive": "N", "static_load": "N",
+               "reduced_inertia": "kg", "power": "W", "rod_buckling": "1", "energy": "J", "cycle_time": "s"},
+}
+
+
+def _cases(result):
+    return getattr(result, "cases", None)
+
+
+# --- JSON ------------------------------------------------------------------------------------
+def cases_json(result) -> dict:
+    """The per-case keys of ``analyse --json`` (empty without [[cases]])."""
+    cr = _cases(result)
+    if cr is None:
+        return {}
+    cases = {}
+    for name, c in cr.cases.items():
+        names = [k for k in CASE_COLUMNS if k in c.columns]
+        n = len(c.columns["s"])
+        cases[name] = {
+            "direction": c.direction, "profile": c.profile, "efficiency": c.efficiency, "set": c.overrides,
+            "duration": c.duration, "peaks": c.peaks, "peak_at": c.peak_at,
+            "integrals": {k: v for k, v in c.integrals.items() if not k.startswith("motor_")},
+            "samples": [{k: c.columns[k][i] for k in names} | {"scene_sample": bool(c.on_samples[i])}
+                        for i in range(n)],
+        }
+    out = {"cases": cases, "governing": cr.governing,
+           "duty": {k: v for k, v in cr.duty.items() if k != "integrals"}}
+    if cr.train:
+        out["drive_train"] = cr.train
+    return out
+
+
+# --- table -----------------------------------------------------------------------------------
+def cases_table(result) -> str:
+    """The table's section on the load cases: the scene's samples with columns per case, then
+    per case its peaks, the governing case of each peak, the duty cycle and the drive train."""
+    cr = _cases(result)
+    if cr is None:
+        return ""
+    kind = result.scene.drive.kind
+    units, sweep = UNITS[kind], result.scene.sweep.name
+    first = next(iter(cr.cases.values()))
+    cols = {sweep: first.columns["s"][first.on_samples]}
+    for name, c in cr.cases.items():
+        tag = name.replace(" ", "_")
+        for key in ("t", "drive", "motor_torque", "rod_buckling"):
+            if key in c.columns:
+                cols[f"{key}[{tag}]"] = c.columns[key][c.on_samples]
+    lines = ["", "", "load cases (each over the scene's samples plus its profile's phase boundaries, taken from "
+             "both sides; the table shows the scene's samples)", table(cols), ""]
+    for name, c in cr.cases.items():
+        settings = ", ".join(f"{k} = {v:.6g}" for k, v in c.overrides.items())
+        lines.append(f"case {name!r}: {c.direction}, {'profile ' + c.profile if c.profile else '[drive] speed'}, "
+                     f"efficiency {c.efficiency}{', set ' + settings if settings else ''}; "
+                     f"stroke time {c.duration:.6g} s")
+        for key, value in c.peaks.items():
+            lines.append(f"  peak |{key}| = {value:.8g} {units.get(key, '')} at {sweep} = {c.peak_at[key]['s']:.8g}")
+        if c.integrals:
+            lines.append(f"  RMS over its time {c.integrals['rms_time']:.8g} {units['drive']}, energy "
+                         f"{c.integrals['energy']:.8g} J (driving {c.integrals['energy_driving']:.8g} J)")
+    lines.append("governing cases:")
+    for key, g in cr.governing.items():
+        lines.append(f"  peak |{key}| = {g['value']:.8g} {units.get(key, '')}: case {g['case']!r} at {sweep} = {g['s']:.8g}")
+    lines += _duty_lines(cr.duty, units) + _train_lines(cr.train, kind)
+    return "\n".join(lines)
+
+
+def _duty_lines(duty, units):
+    if "reason" in duty:
+        return [f"duty cycle: none ({duty['reason']})"]
+    def step(s):
+        if s["kind"] == "case":
+            return f"{s['case']}{' x' + str(s['repeat']) if s['repeat'] > 1 else ''} {s['time']:.4g} s"
+        if s["kind"] == "hold":
+            return f"hold at the {s['at']} of {s['case']} {s['time']:.4g} s"
+        return f"dwell {s['time']:.4g} s"
+    steps = ", ".join(step(s) for s in duty["steps"])
+    rms = "; ".join(f"{k} {v:.8g} {units.get(k, '')}" for k, v in duty["rms_time"].items())
+    return [f"duty cycle: {duty['cycle_time']:.8g} s ({steps})",
+            f"  RMS over the cycle's time: {rms}",
+            f"  energy per cycle {duty['energy']:.8g} J (driving {duty['energy_driving']:.8g} J), mean power "
+            f"{duty['mean_power']:.8g} W"]
+
+
+def _train_lines(train, kind):
+    if not train:
+        return []
+    if kind == "linear":
+        t = train
+        return [f"cylinder at {t['pressure']:.6g} Pa: peak push {t['peak_push']:.8g} N, pull {t['peak_pull']:.8g} N, "
+                f"full extension {t['full_extension']:.6g} m",
+                f"  bore needed {t['bore_needed']:.6g} m, rod needed for buckling {t['rod_needed_buckling']:.6g} m; with "
+                f"bore {t['bore']:.6g} m, rod {t['rod']:.6g} m: Euler load {t['euler_force']:.8g} N, buckling "
+                f"utilisation {t['buckling_utilisation']:.4g}, pressures {t['pressure_push']:.6g} / "
+                f"{t['pressure_pull']:.6g} Pa, pump flow {t['pump_flow'] * 6e4:.6g} l/min"]
+    lines = [f"drive train: gear ratio i = {train['ratio']:.6g}"]
+    for name, m in train.get("motors", {}).items():
+        lines.append(f"  motor {name!r}: peak {m['peak']:.6g} N m (peak torque {m['peak_torque']:.6g}), RMS "
+                     f"{m.get('rms', math.nan):.6g} N m (rated {m['rated_torque']:.6g}), speed {m['peak_speed']:.6g} rad/s "
+                     f"(max {m['max_speed']:.6g}); inertia ratio J_load/(i^2 J_r) = {m['inertia_ratio']:.4g}, "
+                     f"optimal ratio sqrt(J_load/J_r) = {m['optimal_ratio']:.4g}: {'fits' if m['fits'] else 'does not fit'}")
+    if train.get("motors"):
+        lines.append(f"  smallest motor that fits: {train['smallest_fitting'] or 'none'} (J_load = "
+                     f"{next(iter(train['motors'].values()))['load_inertia']:.6g}, the largest reduced inertia over the cases)")
+    return lines
+
+
+# --- figures ---------------------------------------------------------------------------------
+def cases_figures(result, folder) -> list:
+    """cases.png and duty.png into ``folder`` (nothing without cases); the paths written."""
+    cr = _cases(result)
+    if cr is None:
+        return []
+    folder, kind = Path(folder), result.scene.drive.kind
+    units, sweep = UNITS[kind], result.scene.sweep.name
+    keys = [k for k in ("drive", "motor_torque") if any(k in c.columns for c in cr.cases.values())]
+    fig, axes = new_figure(len(keys), 1, figsize=(7, 3.2 * len(keys)))
+    axes = np.atleast_1d(axes)
+    for ax, key in zip(axes, keys):
+        for name, c in cr.cases.items():
+            ax.plot(c.columns["s"], c.columns[key], label=name)
+        g = cr.governing.get(key)
+        if g:
+            ax.plot([g["s"]], [np.sign(cr.cases[g["case"]].peak_at[key]["value"]) * g["value"]], "k*", ms=10,
+                    label=f"governing: {g['case']}")
+        ax.set_ylabel(f"{key} [{units.get(key, '')}]")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    axes[-1].set_xlabel(f"sweep {sweep}")
+    axes[0].set_title("load cases over the stroke")
+    written = [folder / "cases.png"]
+    save_figure(fig, written[-1])
+    if "reason" not in cr.duty:
+        written.append(folder / "duty.png")
+        save_figure(_duty_figure(cr, units), written[-1])
+    return written
+
+
+def _duty_figure(cr, units):
+    """The drive load (and motor torque) through one duty cycle, against time."""
+    fig, ax = new_figure(figsize=(8, 3.6))
+    t0 = 0.0
+    key = "motor_torque" if any("motor_torque" in c.columns for c in cr.cases.values()) else "drive"
+    for step in cr.duty["steps"]:
+        if step["kind"] == "case":
+            c = cr.cases[step["case"]]
+            order = np.argsort(c.columns["t"], kind="stable")
+            for _ in range(step["repeat"]):
+                ax.plot(t0 + c.columns["t"][order], c.columns[key][order], color="C0")
+                t0 += c.duration
+        else:
+            level = step.get("motor_load_torque" if key == "motor_torque" else "load", 0.0)
+            ax.plot([t0, t0 + step["time"]], [level, level], color="C1" if step["kind"] == "hold" else "C2")
+            t0 += step["time"]
+    rms = cr.duty["rms_time"].get(key)
+    if rms is not None:
+        ax.axhline(rms, color="k", ls="--", lw=1, label=f"RMS over the cycle {rms:.4g}")
+        ax.axhline(-rms, color="k", ls="--", lw=1)
+        ax.legend(fontsize=8)
+    ax.set_xlabel("time in the cycle [s]")
+    ax.set_ylabel(f"{key} [{units.get(key, '')}]")
+    ax.set_title("duty cycle (cases blue, holds orange, dwells green)")
+    ax.grid(alpha=0.3)
+    return fig
