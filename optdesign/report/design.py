@@ -57,7 +57,7 @@ def _fmt(v):
     return "-" if v is None else f"{v:.6g}"
 
 
-FILES = ("result.json", "summary.txt", "drive_and_constraints.png", "mechanism.png")
+FILES = ("result.json", "summary.txt", "drive_and_constraints.png", "mechanism.png", "mechanism.svg")
 
 
 def write_results(result, folder, workers=1, label="results folder") -> list:
@@ -85,6 +85,7 @@ def _write_results(result, folder, workers) -> list:
         written.append(mechanism_figure(result, folder) if child.exitcode != 0 else folder / "mechanism.png")
     else:
         written += [load_figure(result, folder), mechanism_figure(result, folder)]
+    written.append(folder / "mechanism.svg")
     return written
 
 
@@ -121,21 +122,12 @@ def load_figure(result, folder) -> Path:
 
 
 def mechanism_figure(result, folder) -> Path:
-    """The mechanism drawn at a few positions of the stroke, before and after."""
-    from .drawing import draw_positions
-    from ..kinematics.mechanism import kinematics
-    from ..scene import ResolvedScene
+    """The engineering drawing of the start and the optimum side by side at one scale
+    (mechanism.png and mechanism.svg); returns the PNG's path."""
+    from .mechanism import mechanism_figure as draw
 
     scene = result.scene
-    after = scene.with_parameters(**result.design)
-    fig, axes = new_figure(1, 2, figsize=(11, 5))
-    for ax, (label, sc) in zip(axes, (("start", scene), ("optimum", after))):
-        resolved = ResolvedScene(sc)
-        draw_positions(ax, sc, kinematics(resolved), positions=5)
-        ax.set_title(f"{label}: " + ", ".join(f"{k}={v:.3g}" for k, v in
-                                               (result.design if label == "optimum" else
-                                                {n: resolved.values[n] for n in resolved.design_names}).items()),
-                     fontsize=9)
-    path = Path(folder) / "mechanism.png"
-    save_figure(fig, path)
-    return path
+    folder = Path(folder)
+    draw([("start", scene), ("optimum", scene.with_parameters(**result.design))],
+         [folder / "mechanism.png", folder / "mechanism.svg"], suptitle=scene.title)
+    return folder / "mechanism.png"

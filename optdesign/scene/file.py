@@ -14,13 +14,14 @@ from pathlib import Path
 from ..errors import OptdesignError, SceneError
 from .elements import (DRIVE_PINS, Body, Constraint, Drive, Gravity, Objective, Parameter, Simulation,
                        Sweep)
+from .drawing import DRAWING_KEYS, Drawing
 from .file_sizing import SIZING_KEYS, read_sizing
 from .points import Attach, Closure, Dyad, Fixed, Loop, Polar, Slider
 from .scene import Scene
 from .where import ARRAY_TABLES, Where, located_error, near_miss
 
 TOP_KEYS = ("title", "source", "parameters", "sweep", "points", "bodies", "gravity", "drive",
-            "constraints", "objective", "reference", "simulation") + SIZING_KEYS
+            "constraints", "objective", "reference", "simulation", "drawing") + SIZING_KEYS
 REQUIRED_TOP = {"title": "a string naming the scene", "sweep": "the table [sweep] (the stroke)",
                 "points": "the table [points] (the constructions)"}
 CLOSED_FORM = {cls.KIND: cls for cls in (Fixed, Polar, Dyad, Slider, Attach)}
@@ -181,6 +182,7 @@ class _Reader:
             reference=data.get("reference", {}),
             path=path,
             simulation=self.simulation(data["simulation"]) if "simulation" in data else None,
+            drawing=self.drawing(data["drawing"]) if "drawing" in data else None,
             **read_sizing(self, data),
         )
 
@@ -287,6 +289,10 @@ class _Reader:
         return Simulation(data.get("start"), data.get("speed"), data.get("t_end"),
                           data.get("samples", defaults["samples"]), data.get("integrator", defaults["integrator"]),
                           data.get("tolerance"))
+
+    def drawing(self, data):
+        self.check_keys(Where("drawing"), data, DRAWING_KEYS)
+        return Drawing(data.get("helpers", ()))
 
     def objective(self, data):
         self.check_keys(Where("objective"), data, ("minimise",))

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 from ..errors import SceneError
 from .cases import Duty
+from .drawing import Drawing
 from .elements import Drive, Gravity, Objective, Parameter, Simulation, Sweep
 from .expressions import constant_value
 from .train import Cylinder, Gearbox
@@ -45,6 +46,7 @@ class Scene:
     gearbox: Gearbox | None = None
     motors: tuple = ()
     cylinder: Cylinder | None = None
+    drawing: Drawing | None = None   # the optional [drawing] table (drawings only)
 
     def __post_init__(self):
         for name in ("parameters", "points", "bodies", "constraints", "profiles", "cases", "motors"):
@@ -99,3 +101,5 @@ class Scene:
         """Check every cross reference, in the order of the file; raise SceneError on the first
         problem, naming its place."""
         Validator(self).run()
+        if self.drawing is not None:
+            self.drawing.check(self.point_names(), self.path)

@@ -1,0 +1,87 @@
+"""Units as the scene wrote them: degrees where the scene wrote ``deg``, kN (kN m, kW) where
+values are large.  Files (JSON, CSV) stay in SI; only what a person reads is converted."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+DEG = math.pi / 180.0
+
+
+def written_in_deg(*exprs) -> bool:
+    """True when any of the expressions (or their source texts) was written with ``deg``."""
+    for e in exprs:
+        text = getattr(e, "source", e)
+        if isinstance(text, str) and "deg" in text:
+            return True
+    return False
+
+
+def sweep_unit(scene) -> str:
+    """The sweep's unit for a person: 'deg' when [sweep] from/to were written in deg, 'rad'
+    when with pi, else '' (a length or a time: the scene does not say)."""
+    sw = scene.sweep
+    if written_in_deg(sw.start, sw.stop):
+        return "deg"
+    if any("pi" in getattr(e, "source", "") for e in (sw.start, sw.stop)):
+        return "rad"
+    return ""
+
+
+def sweep_scale(scene) -> tuple:
+    """(factor, unit): sweep values times factor are in the unit the scene wrote."""
+    unit = sweep_unit(scene)
+    return (1 / DEG, "deg") if unit == "deg" else (1.0, unit)
+
+
+def sweep_label(scene) -> str:
+    unit = sweep_unit(scene)
+    return f"{scene.sweep.name} [{unit}]" if unit else scene.sweep.name
+
+
+def constraint_scale(constraint) -> tuple:
+    """(factor, unit) of a constraint for a person: deg when its bounds were written in deg."""
+    if written_in_deg(constraint.lower, constraint.upper):
+        return 1 / DEG, "deg"
+    return 1.0, ""
+
+
+def parameter_unit(parameter, kind="length") -> tuple:
+    """(factor, unit) of a design variable: deg when its value was written in deg (an angle),
+    else rad for an angle and m for a length."""
+    if written_in_deg(parameter.value):
+        return 1 / DEG, "deg"
+    return (1.0, "rad") if kind == "angle" else (1.0, "m")
+
+
+LARGE = {"N": ("kN", "MN"), "N m": ("kN m", "MN m"), "W": ("kW", "MW"), "kg": ("t", "kt")}
+
+
+def scaled(values, unit) -> tuple:
+    """(factor, unit) that keeps the largest |value| readable: N -> kN from 10 kN, MN from
+    10 MN (likewise N m, W; kg -> t)."""
+    peak = float(np.nanmax(np.abs(np.asarray(values, float)), initial=0.0)) if np.size(values) else 0.0
+    if unit in LARGE:
+        if peak >= 1e7:
+            return 1e-6, LARGE[unit][1]
+        if peak >= 1e4:
+            return 1e-3, LARGE[unit][0]
+    return 1.0, unit
+
+
+def number(value, digits=4) -> str:
+    """``value`` to ``digits`` significant digits without an exponent where it is readable
+    (6380, 0.0254), with one where it is not (1.2e-07, 3.4e+09)."""
+    v = float(value)
+    if not np.isfinite(v):
+        return str(v)
+    if v != 0 and not 1e-4 <= abs(v) < 1e7:
+        return f"{v:.{digits}g}"
+    return np.format_float_positional(v, precision=digits, unique=False, fractional=False, trim="-")
+
+
+def quantity(value, unit, digits=4) -> str:
+    """A value with its unit, large ones scaled: ``quantity(171492.2, 'N')`` -> '171.5 kN'."""
+    factor, shown = scaled([value], unit)
+    return f"{number(value * factor, digits)} {shown}".rstrip()
