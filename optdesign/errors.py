@@ -26,5 +26,15 @@ class DeadCentreError(OptdesignError, ValueError):
     """The drive coordinate stops moving inside the stroke (dk = dq/ds passes through zero)."""
 
 
+class ArgumentError(OptdesignError, ValueError):
+    """A value handed to a front door (a function argument, a command-line option) that is out
+    of range, not finite, or too large for this machine; the message names the argument."""
+
+
+class ResultError(OptdesignError, ValueError):
+    """A result that holds NaN or inf: the message names the quantity (and body, point or
+    constraint) and the first stroke position where it appears."""
+
+
 class SolverError(OptdesignError, RuntimeError):
     """A numerical solver that failed (IPOPT, an integrator)."""

@@ -15,7 +15,6 @@ def add_arguments(p):
 
 def run(args):
     from ..report import analysis as report
-    from ..report.output import to_json
     from ..model.analysis import analyse
 
     if args.plot:
@@ -24,4 +23,4 @@ def run(args):
     if args.plot:
         for path in report.analysis_figures(result, args.plot, label="--plot"):
             print(f"wrote {path}", file=sys.stderr)
-    emit(args, to_json(report.analysis_json(result)) if args.json else "", report.analysis_table(result))
+    emit(args, lambda: report.analysis_json(result), lambda: report.analysis_table_chunks(result))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..errors import SceneError
+from ..errors import OptdesignError, SceneError
 
 
 def overrides(pairs):
@@ -63,8 +63,49 @@ def results_folder(path, flag, produces):
     return path
 
 
-def emit(args, json_text, table_text):
-    sys.stdout.write((json_text if args.json else table_text) + "\n")
+def emit(args, json_part, table_part):
+    """Print the --json document or the table.  Each part is a string, a dict (a JSON document,
+    its :class:`~optdesign.report.output.Rows` streamed), an iterable of text pieces, or a
+    function returning one (only the part printed is made); printed piece by piece."""
+    part = json_part if args.json else table_part
+    if callable(part):
+        part = part()
+    if isinstance(part, dict):
+        from ..report.output import json_chunks
+
+        part = json_chunks(part)
+    elif isinstance(part, str):
+        part = (part,)
+    write_out(part)
+
+
+def write_out(pieces):
+    """Write text pieces and a final newline to standard output.  A reader that stops reading
+    (``| head``) ends the command quietly (status 141, as SIGPIPE would); a full disk or another
+    write error is an error saying the output is incomplete."""
+    import os
+
+    try:
+        for piece in pieces:
+            sys.stdout.write(piece)
+        sys.stdout.write("\n")
+        sys.stdout.flush()
+    except BrokenPipeError:
+        _discard_stdout(os)
+        raise SystemExit(141) from None
+    except OSError as exc:
+        _discard_stdout(os)
+        raise OptdesignError(f"standard output: {exc.strerror or exc}: the output is incomplete") from None
+
+
+def _discard_stdout(os):
+    """What is still buffered for standard output goes nowhere (no second error at exit)."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError):
+        pass
 
 
 class deferred_interrupt:

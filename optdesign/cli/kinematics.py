@@ -12,8 +12,7 @@ def add_arguments(p):
 
 def run(args):
     from ..report import analysis as report
-    from ..report.output import to_json
     from ..kinematics.mechanism import kinematics
 
     result = kinematics(load_scene(args), args.samples)
-    emit(args, to_json(report.kinematics_json(result)) if args.json else "", report.kinematics_table(result))
+    emit(args, lambda: report.kinematics_json(result), lambda: report.kinematics_table_chunks(result))

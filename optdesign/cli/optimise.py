@@ -24,7 +24,6 @@ def run(args):
     from pathlib import Path
 
     from ..report import design as design_report
-    from ..report.output import to_json
     from ..design import optimise
 
     folder = Path(args.out or Path("results") / Path(args.scene).stem)
@@ -42,8 +41,7 @@ def run(args):
     if result.success:
         for path in design_report.write_results(result, folder, workers=args.workers, label="--out"):
             print(f"wrote {path}", file=sys.stderr)
-    emit(args, to_json(design_report.optimisation_json(result)) if args.json else "",
-          design_report.summary(result))
+    emit(args, lambda: design_report.optimisation_json(result), lambda: design_report.summary(result))
     if not result.success:
         raise SolverError(f"{scene.path}: no optimum: {result.status}. {result.message} "
                           "(nothing was written to the results folder)")

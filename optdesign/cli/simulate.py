@@ -25,8 +25,7 @@ def add_arguments(p):
 
 def run(args):
     from .common import emit as _emit, load_scene as _load, results_folder
-    from ..report.output import to_json
-    from ..report.simulation import FIGURES, figures, simulation_json, summary
+    from ..report.simulation import FIGURES, figures, simulation_json, summary_chunks
     from ..dynamics.simulator import simulate
 
     if args.plot:
@@ -36,4 +35,4 @@ def run(args):
     if args.plot:
         for path in figures(result, args.plot, label="--plot"):
             print(f"wrote {path}", file=sys.stderr)
-    _emit(args, to_json(simulation_json(result)) if args.json else "", summary(result))
+    _emit(args, lambda: simulation_json(result), lambda: summary_chunks(result))

@@ -65,6 +65,7 @@ def add_arguments(p):
 def parse_axis(kind, text):
     """An Axis from the text of --grid, --values or --pareto."""
     from ..errors import SceneError
+    from ..scene.arguments import study_cases
     from ..study.study import grid, pareto, values
 
     name, sep, spec = text.rpartition("=")
@@ -81,6 +82,7 @@ def parse_axis(kind, text):
             raise SceneError(f"--{kind} {text!r}: N must be a whole number, found {parts[2]!r}") from None
         if n < 1:
             raise SceneError(f"--{kind} {text!r}: N must be at least 1")
+        study_cases(f"--{kind} {text!r}: N", n)
         lo, hi = (_constant(v, f"--{kind} {text!r}") for v in parts[:2])
         items = [lo + (hi - lo) * i / (n - 1) for i in range(n)] if n > 1 else [lo]
         if kind == "grid":

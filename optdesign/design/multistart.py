@@ -9,6 +9,7 @@ import time
 import numpy as np
 
 from ..scene import Scene
+from ..scene.arguments import optimise_arguments, scene_argument
 from .problem import DesignProblem, SolverSettings
 from .repair import Repair
 from .results import OptimisationResult, StartReport
@@ -24,6 +25,7 @@ def optimise(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSett
     drawn with ``seed``) or explicit ``x_starts``; ``progress(done, total)`` is called after
     each start; ``workers`` > 1 solves the starts in that many forked processes (where the
     platform can fork; the result for a given number of workers does not depend on timing)."""
+    starts, seed, workers = optimise_arguments(scene_argument("optimise", scene), starts, seed, workers)
     t0 = time.perf_counter()
     problem = DesignProblem(scene, settings)
     solver, repair = Solver(problem), Repair(problem)

@@ -18,6 +18,7 @@ from ..errors import SceneError
 from ..kinematics.mechanism import Mechanism
 from ..model.reduction import ReducedModel
 from ..scene import Scene
+from ..scene.arguments import simulation_arguments
 from ..scene.elements import INTEGRATORS
 from .equations import Equations, check_inertia, initial_state
 from .events import held_rest, stop
@@ -79,6 +80,7 @@ class Simulator:
         if method == "rk4" and steps < 2:
             raise SceneError(f"rk4 needs at least 2 steps per output sample (found {steps}): the error "
                              "estimate compares the run with one at half the steps")
+        tol, n, t_end, steps = simulation_arguments(tol, n, t_end, steps)
         p = self.mech.parameter_values
         run = Integration(self.equations, p, self.x0, self.lo, self.hi, self.scale, method, tol, steps)
         t0 = time.perf_counter()

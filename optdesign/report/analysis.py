@@ -9,7 +9,7 @@ import numpy as np
 
 from .cases import FIGURES as CASE_FIGURES
 from .cases import cases_figures, cases_json, cases_table
-from .output import SCHEMA, new_figure, save_figure, table
+from .output import SCHEMA, Rows, new_figure, save_figure, table_chunks
 
 UNITS = {
     "rotary": {"q": "rad", "reduced_inertia": "kg m^2", "reduced_inertia_dq": "kg m^2/rad",
@@ -34,19 +34,25 @@ def ordered(columns: dict) -> list:
 
 # --- kinematics ------------------------------------------------------------------------------
 def kinematics_json(result) -> dict:
-    n = len(result.s)
-    samples = []
-    for i in range(n):
-        samples.append({
+    """The --json document; its samples are made one by one as they are written (:class:`Rows`)."""
+    def sample(i):
+        return {
             "s": result.s[i], "q": result.q[i], "sd": result.sd[i], "sdd": result.sdd[i],
             "points": {p: {k: v[i] for k, v in d.items()} for p, d in result.points.items()},
             "bodies": {b: {k: v[i] for k, v in d.items()} for b, d in result.bodies.items()},
-        })
+        }
+
+    samples = Rows(len(result.s), sample)
     return {"schema": SCHEMA, "kind": "kinematics", "title": result.scene.title,
             "file": result.scene.path, "sweep": result.scene.sweep.name, "samples": samples}
 
 
 def kinematics_table(result) -> str:
+    return "".join(kinematics_table_chunks(result))
+
+
+def kinematics_table_chunks(result):
+    """:func:`kinematics_table` in pieces of rows (for standard output)."""
     cols = {"s": result.s, "q": result.q}
     for p, d in result.points.items():
         for k in ("x", "y", "vx", "vy", "ax", "ay"):
@@ -54,22 +60,26 @@ def kinematics_table(result) -> str:
     for b, d in result.bodies.items():
         for k in ("angle", "omega", "epsilon"):
             cols[f"{b}.{k}"] = d[k]
-    return table(cols)
+    return table_chunks(cols)
 
 
 # --- the reduced model -------------------------------------------------------------------------
 def analysis_json(result) -> dict:
+    """The --json document; its samples are made one by one as they are written (:class:`Rows`)."""
     cols = result.columns
     n = len(cols["s"])
     per_sample = {k: v for k, v in result.constraints.items() if np.ndim(v)}
-    samples = []
-    for i in range(n):
-        row = {k: cols[k][i] for k in ordered(cols)}
+    names = ordered(cols)
+
+    def sample(i):
+        row = {k: cols[k][i] for k in names}
         if result.bodies:
             row["bodies"] = {b: {k: v[i] for k, v in d.items()} for b, d in result.bodies.items()}
         if per_sample:
             row["constraints"] = {k: v[i] for k, v in per_sample.items()}
-        samples.append(row)
+        return row
+
+    samples = Rows(n, sample)
     kind = result.drive_kind
     return {
         "schema": SCHEMA, "kind": "analysis", "title": result.scene.title, "file": result.scene.path,
@@ -84,18 +94,24 @@ def analysis_json(result) -> dict:
 
 
 def analysis_table(result) -> str:
+    return "".join(analysis_table_chunks(result))
+
+
+def analysis_table_chunks(result):
+    """:func:`analysis_table` in pieces: the rows a few thousand at a time, then the peaks."""
     cols = dict(result.columns)
     for name, v in result.constraints.items():
         if np.ndim(v):
             cols[name.replace(" ", "_")] = v
-    text = table(cols, ordered(result.columns) + [c for c in cols if c not in result.columns])
-    lines = [text, ""]
+    yield from table_chunks(cols, ordered(result.columns) + [c for c in cols if c not in result.columns])
+    lines = [""]
     for k, v in result.peaks.items():
         lines.append(f"peak |{k}| = {v:.6g} {UNITS[result.drive_kind].get(k, '')}")
     for k, v in result.constraints.items():
         if not np.ndim(v):
             lines.append(f"{k} = {v:.6g}")
-    return "\n".join(lines) + cases_table(result)   # with [[cases]] (report/cases.py)
+    yield "\n" + "\n".join(lines)
+    yield cases_table(result)   # with [[cases]] (report/cases.py)
 
 
 FIGURES = ("drive.png", "reduced_inertia.png", "constraints.png") + CASE_FIGURES

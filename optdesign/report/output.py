@@ -6,6 +6,7 @@ import json
 import math
 import os
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -71,16 +72,76 @@ def _clean(value):
     return value
 
 
+class Rows(Sequence):
+    """A lazy list of ``n`` rows, ``row(i)`` each: the per-sample part of a large report, made
+    one row at a time while it is written (:func:`json_chunks`), never held whole."""
+
+    def __init__(self, n: int, row):
+        self.n, self.row = int(n), row
+
+    def __len__(self):
+        return self.n
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return [self.row(j) for j in range(*i.indices(self.n))]
+        if i < 0:
+            i += self.n
+        if not 0 <= i < self.n:
+            raise IndexError(i)
+        return self.row(i)
+
+    def __iter__(self):
+        return (self.row(i) for i in range(self.n))
+
+
 def to_json(data: dict) -> str:
-    return json.dumps(_clean(data), indent=1, allow_nan=False)
+    """The JSON text of ``data`` (indent 1, inf/nan as null); :class:`Rows` values included."""
+    return "".join(json_chunks(data))
+
+
+def json_chunks(data: dict, batch: int = 500):
+    """The text of :func:`to_json` in pieces: a :class:`Rows` value row by row (``batch`` rows
+    per piece), so that a report of millions of samples is never one string."""
+    if not data:
+        yield "{}"
+        return
+    yield "{"
+    for k, (key, value) in enumerate(data.items()):
+        yield ("," if k else "") + "\n " + json.dumps(key) + ": "
+        if isinstance(value, Rows):
+            if not len(value):
+                yield "[]"
+                continue
+            yield "["
+            buf = []
+            for i, row in enumerate(value):
+                buf.append(("," if i else "") + "\n  " + _dumps(row).replace("\n", "\n  "))
+                if len(buf) >= batch:
+                    yield "".join(buf)
+                    buf.clear()
+            yield "".join(buf) + "\n ]"
+        else:
+            yield _dumps(value).replace("\n", "\n ")
+    yield "\n}"
+
+
+def _dumps(value) -> str:
+    return json.dumps(_clean(value), indent=1, allow_nan=False)
 
 
 def table(columns: dict, names=None) -> str:
     """A plain fixed-width table of equal-length arrays."""
+    return "".join(table_chunks(columns, names))
+
+
+def table_chunks(columns: dict, names=None, batch: int = 2000):
+    """The text of :func:`table` in pieces of ``batch`` rows (no newline after the last row)."""
     names = list(names or columns)
     width = max(12, *(len(n) + 2 for n in names))
-    lines = ["".join(f"{n:>{width}}" for n in names)]
+    yield "".join(f"{n:>{width}}" for n in names)
     n = len(columns[names[0]])
-    for i in range(n):
-        lines.append("".join(f"{columns[c][i]:>{width}.6g}" for c in names))
-    return "\n".join(lines)
+    cols = [columns[c] for c in names]
+    for start in range(0, n, batch):
+        yield "".join("\n" + "".join(f"{col[i]:>{width}.6g}" for col in cols)
+                      for i in range(start, min(n, start + batch)))

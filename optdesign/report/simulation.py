@@ -5,7 +5,7 @@ from __future__ import annotations
 import textwrap
 from pathlib import Path
 
-from .output import SCHEMA, save_figure, table
+from .output import SCHEMA, Rows, save_figure, table_chunks
 
 
 UNITS = {
@@ -36,18 +36,24 @@ def simulation_json(result) -> dict:
         "stop": {"reason": result.stop, "end": result.stop_end, "t": result.t_stop},
         "stats": result.stats, "timings": result.timings,
         "units": {k: UNITS[result.drive_kind][k] for k in cols},
-        "samples": [{k: float(v[i]) for k, v in cols.items()} for i in range(n)],
+        "samples": Rows(n, lambda i: {k: float(v[i]) for k, v in cols.items()}),
     }
 
 
 def summary(result) -> str:
+    return "".join(summary_chunks(result))
+
+
+def summary_chunks(result):
+    """:func:`summary` in pieces: the table's rows a few thousand at a time, then the summary."""
+    yield from table_chunks(_columns(result))
     units = UNITS[result.drive_kind]
     where = {"stroke end": f"stroke end ({result.stop_end}: {result.scene.sweep.name} = {result.s[-1]:.6g})",
              "stalled": f"stalled: the mechanism came to rest at {result.scene.sweep.name} = {result.s[-1]:.6g} and "
                         "the self-locking drive holds it there (under eta < 1 its load cannot move it either way)",
              "t_end": "t_end"}[result.stop]
     st = result.stats
-    lines = [table(_columns(result)), "",
+    lines = ["",
              f"{result.scene.title}",
              f"integrator {result.integrator}" + (f", {result.steps_per_sample} steps per sample, estimated error "
                                                   f"{result.error_estimate:.3g}" if result.integrator == "rk4" else "")
@@ -58,7 +64,7 @@ def summary(result) -> str:
              f"q from {result.q[0]:.6g} to {result.q[-1]:.6g} {units['q']}; rate {result.qd.min():.6g} .. "
              f"{result.qd.max():.6g} {units['qd']}; drive {result.drive.min():.6g} .. {result.drive.max():.6g} "
              f"{units['drive']}; kinetic energy {result.kinetic_energy[0]:.6g} -> {result.kinetic_energy[-1]:.6g} J"]
-    return "\n".join(lines)
+    yield "\n" + "\n".join(lines)
 
 
 FIGURES = ("q.png", "q_rate.png", "drive_load.png")

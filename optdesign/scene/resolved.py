@@ -74,8 +74,12 @@ class ResolvedScene:
         return False
 
     def stroke(self, samples: int | None = None) -> np.ndarray:
-        """The sweep values from ``start`` to ``stop``: the scene's samples, or ``samples``."""
-        return np.linspace(self.start, self.stop, self.samples if samples is None else samples)
+        """The sweep values from ``start`` to ``stop``: the scene's samples, or ``samples`` (a
+        whole number >= 2 that fits in memory: :func:`~optdesign.scene.arguments.stroke_samples`)."""
+        from .arguments import stroke_samples
+
+        n = stroke_samples(self.scene, self.samples if samples is None else samples)
+        return np.linspace(self.start, self.stop, n)
 
     # --- symbols ---
     def environment(self, p) -> dict:

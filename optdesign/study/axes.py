@@ -6,6 +6,7 @@ import dataclasses
 import math
 
 from ..errors import SceneError
+from ..scene.arguments import study_cases
 
 
 @dataclasses.dataclass(frozen=True)
@@ -49,6 +50,7 @@ def grid(name: str, start: float, stop: float, n: int) -> Axis:
     """``n`` evenly spaced values of parameter ``name`` from ``start`` to ``stop`` (ends included)."""
     if int(n) < 1:
         raise SceneError(f"axis {name!r}: expected at least one value, found n = {n}")
+    study_cases(f"axis {name!r}: n", int(n))
     n = int(n)
     return values(name, [start + (stop - start) * i / (n - 1) if n > 1 else start for i in range(n)])
 

@@ -1,0 +1,211 @@
+"""Checks of the values handed to the front doors (``analyse(scene, samples)``,
+``optimise(starts=..., seed=...)``, ``simulate(t_end=...)``, ``Study(...)``) and of what they
+would cost, one way each: the command line's options go through the same functions
+(:mod:`optdesign.cli.common`).
+
+A wrong type is a ``TypeError`` naming the argument; a wrong value (not finite, out of range,
+too large to fit in this machine's memory) is an :class:`~optdesign.errors.ArgumentError`
+(an ``OptdesignError`` and a ``ValueError``), whose message names the argument, what was found
+and what is allowed; for sizes, the estimate of what they would need.  Here, in the lowest layer
+that holds code, so that every front door can use them.
+"""
+from __future__ import annotations
+
+import math
+import numbers
+import os
+
+from ..errors import ArgumentError
+
+
+def _type_name(value) -> str:
+    return type(value).__name__
+
+
+def whole(name: str, value, minimum: int = 1, maximum: int | None = None) -> int:
+    """``value`` as an int >= ``minimum`` (and <= ``maximum``): an int, a numpy integer, or a
+    float with a whole value (``1e4``); anything else (a bool, a string, None) is a TypeError."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name}: expected a whole number, found {_type_name(value)} {value!r}")
+    if not isinstance(value, numbers.Integral):
+        v = float(value)
+        if not (math.isfinite(v) and v.is_integer()):
+            raise ArgumentError(f"{name}: expected a whole number, found {value!r}")
+        value = v
+    value = int(value)
+    if value < minimum:
+        raise ArgumentError(f"{name}: expected a whole number >= {minimum}, found {value}")
+    if maximum is not None and value > maximum:
+        raise ArgumentError(f"{name}: expected a whole number <= {maximum:,}, found {value:,}")
+    return value
+
+
+def real(name: str, value, *, above: float | None = None, below: float | None = None,
+         at_least: float | None = None) -> float:
+    """``value`` as a finite float, > ``above``, < ``below`` and >= ``at_least`` where given."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name}: expected a number, found {_type_name(value)} {value!r}")
+    try:
+        v = float(value)
+    except OverflowError:
+        raise ArgumentError(f"{name}: expected a finite number, found {value} (too large for a float)") from None
+    if not math.isfinite(v):
+        raise ArgumentError(f"{name}: expected a finite number, found {v}")
+    if above is not None and not v > above:
+        raise ArgumentError(f"{name}: expected a number > {above:g}, found {v:g}")
+    if at_least is not None and not v >= at_least:
+        raise ArgumentError(f"{name}: expected a number >= {at_least:g}, found {v:g}")
+    if below is not None and not v < below:
+        raise ArgumentError(f"{name}: expected a number < {below:g}, found {v:g}")
+    return v
+
+
+# --- sizes ---------------------------------------------------------------------------------------
+def available_memory() -> int:
+    """Bytes this process may still allocate: the kernel's MemAvailable, capped by a cgroup
+    (container) limit when there is one."""
+    avail = None
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    avail = int(line.split()[1]) * 1024
+                    break
+    except (OSError, ValueError, IndexError):
+        pass
+    if avail is None:
+        try:
+            avail = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+        except (ValueError, OSError, AttributeError):
+            avail = 1 << 62                       # unknown: no limit from here
+    for limit_file, usage_file in (("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current"),
+                                   ("/sys/fs/cgroup/memory/memory.limit_in_bytes",
+                                    "/sys/fs/cgroup/memory/memory.usage_in_bytes")):
+        try:
+            with open(limit_file) as fh:
+                limit = fh.read().strip()
+            with open(usage_file) as fh:
+                usage = int(fh.read().strip())
+        except (OSError, ValueError):
+            continue
+        if limit.isdigit() and int(limit) < 1 << 60:
+            avail = min(avail, max(int(limit) - usage, 0))
+        break
+    return avail
+
+
+def size_text(n_bytes: float) -> str:
+    for unit, scale in (("PB", 1e15), ("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if n_bytes >= scale:
+            return f"{n_bytes / scale:.3g} {unit}"
+    return f"{n_bytes:.0f} bytes"
+
+
+def fits_in_memory(name: str, count: int, bytes_each: float, unit: str, advice: str = "") -> None:
+    """An :class:`ArgumentError` when ``count`` items of about ``bytes_each`` bytes would not fit
+    in the memory available; the message gives the estimate."""
+    need = float(count) * float(bytes_each)
+    have = available_memory()
+    if need > have:
+        raise ArgumentError(f"{name} = {count:,}: would need about {size_text(need)} of memory "
+                            f"({size_text(bytes_each)} per {unit}), more than the {size_text(have)} "
+                            f"available here" + (f"; {advice}" if advice else ""))
+
+
+def within_time(name: str, count: float, seconds_each: float, limit_s: float, unit: str, advice: str = "") -> None:
+    """An :class:`ArgumentError` when ``count`` units of about ``seconds_each`` would take more
+    than ``limit_s``; the message gives the estimate."""
+    need = float(count) * float(seconds_each)
+    if need > limit_s:
+        raise ArgumentError(f"{name}: {count:,.0f} {unit} would take about {_duration(need)} "
+                            f"(~{seconds_each * 1e6:.3g} us per {unit.rstrip('s')}); at most "
+                            f"{limit_s / seconds_each:,.0f} {unit} (about {_duration(limit_s)})"
+                            + (f"; {advice}" if advice else ""))
+
+
+def _duration(seconds: float) -> str:
+    for unit, scale in (("years", 365.25 * 86400), ("days", 86400), ("hours", 3600), ("minutes", 60)):
+        if seconds >= scale:
+            return f"{seconds / scale:.3g} {unit}"
+    return f"{seconds:.3g} s"
+
+
+
+
+# --- the sizes of the front doors ----------------------------------------------------------------------
+def sample_bytes(scene) -> int:
+    """Memory per sample of the stroke (analyse, kinematics): measured 1.3-2.9 kB on the shipped
+    scenes (numpy work arrays of the vectorised model, columns, ratios), estimated from above."""
+    return 1000 + 300 * len(scene.bodies) + 50 * len(scene.points) + 100 * len(scene.constraints)
+
+
+def stroke_samples(scene, samples) -> int:
+    """The number of samples of a stroke: a whole number >= 2 that fits in memory."""
+    n = whole("samples", samples, 2)
+    fits_in_memory("samples", n, sample_bytes(scene), "sample", "use fewer samples (--samples)")
+    return n
+
+
+def scene_argument(function: str, scene, *kinds):
+    """``scene`` when it is a :class:`~optdesign.scene.scene.Scene` (or one of ``kinds``, e.g. a
+    ``ResolvedScene``); else a TypeError that says how to get one."""
+    from .scene import Scene
+
+    if isinstance(scene, (Scene, *kinds)):
+        return scene
+    hint = ""
+    if isinstance(scene, (str, os.PathLike)):
+        hint = f"; load the file first: {function}(optdesign.load({str(scene)!r}))"
+    raise TypeError(f"{function}: scene: expected a Scene (from optdesign.load(path) or optdesign.loads(text)), "
+                    f"found {_type_name(scene)} {_short(scene)}{hint}")
+
+
+def _short(value) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+START_BYTES = 4000        # one start of optimise: its point, screening candidates and report (~1-2 kB)
+
+
+def optimise_arguments(scene, starts, seed, workers):
+    """(starts, seed, workers) of :func:`optdesign.design.optimise`, checked."""
+    starts = whole("starts", starts, 1)
+    seed = whole("seed", seed, 0)
+    workers = whole("workers", workers, 1)
+    n = sum(1 for p in scene.parameters if p.is_design)
+    fits_in_memory("starts", starts, START_BYTES + 64 * n, "start", "use fewer starts (--starts)")
+    return starts, seed, workers
+
+
+RK4_STEP_S = 12.6e-6      # one RK4 step of a small scene (sim_bar: 1.5 million steps in 18.9 s)
+RK4_LIMIT_S = 1800.0      # at most half an hour of RK4 steps in one run
+OUTPUT_SAMPLE_BYTES = 400  # one output sample of simulate: states, columns, their copies
+
+
+def simulation_arguments(tolerance, samples, t_end, steps):
+    """(tolerance, samples, t_end, steps) of a simulation run, checked: a tolerance in (0, 1), a
+    finite end time > 0, samples >= 2 that fit in memory, RK4 steps >= 2 that end in time."""
+    tolerance = real("tolerance", tolerance, above=0.0, below=1.0)
+    samples = whole("samples", samples, 2)
+    fits_in_memory("samples", samples, OUTPUT_SAMPLE_BYTES, "output sample", "use fewer samples (--samples)")
+    t_end = real("t_end", t_end, above=0.0)
+    if steps is not None:
+        steps = whole("steps", steps, 2)
+        total = 1.5 * steps * (samples - 1)      # the run and its half-step error estimate
+        within_time(f"steps = {steps:,} per output sample x {samples - 1:,} intervals", total, RK4_STEP_S,
+                    RK4_LIMIT_S, "RK4 steps", "use fewer steps per sample (--steps) or the implicit integrator (bdf)")
+    return tolerance, samples, t_end, steps
+
+
+CASE_BYTES = 3000         # one study case: its Case, journal record, row and CSV line (~1.5 kB)
+
+
+def study_cases(name: str, count: int) -> int:
+    """A number of study cases (or values on one axis) that fits in memory."""
+    fits_in_memory(name, count, CASE_BYTES, "case", "use fewer values or split the study")
+    return count
+
+
+__all__ = ["whole", "real", "available_memory", "fits_in_memory", "within_time", "size_text", "stroke_samples",
+           "scene_argument", "optimise_arguments", "simulation_arguments", "study_cases"]
