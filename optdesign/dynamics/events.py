@@ -1,177 +1,272 @@
-"""Where a run stops: the stroke end, located in time, or the rest where a self-locking drive
-holds the mechanism (stall); else an integrator failure, reported with its time and state.
+"""The non-smooth instants of a motion: watched on the dense output of each branch, located to
+the integration tolerance, and decided (which branch follows, or a stop).
 
-**Stroke ends.**  The run goes over the output grid (:mod:`.integrate`), and where the sweep
-leaves the stroke the crossing time is located by re-integrating the last interval over a
-variable length h (the time-scaled ODE) and solving s(h) = end (Illinois regula falsi, to 1e-12
-of the interval: :func:`locate`).
+A run integrates one *branch* of the equation of motion at a time (:mod:`.equations`): a
+direction of motion d and an efficiency factor c (c = 1/eta while power flows into the
+mechanism, eta while it flows back; 1 without efficiency), on which the equation is smooth.  The
+branch holds while its *indicators* keep their sign (each ``g >= 0`` as written here):
 
-**Self-locking (stall).**  Where a drive with eta < 1 brings the mechanism to rest at a position
-whose drive load lies between eta and 1/eta times the static load, the switch holds it there
-(moving on, the drive divided by eta is too small; moving back, the load times eta pushes it
-forward again): the acceleration flips sign with ds/dt, and the integrators either give up or,
-at looser tolerances, step on through the chatter (tiny steps: the run's cost, not its stop;
-so a drive with eta < 1 is integrated in chunks of output intervals, each checked for a held
-rest before the next).  Neither is used to find the stop: the approach to rest is smooth, so the
-instant of rest is the root of ds/dt on the *one-sided* equation (:mod:`.equations`), which
-continues smoothly through ds/dt = 0.  An output interval is examined where its end sample has
-failed, reversed, or could have lost its speed in the interval (|ds/dt| <= |s''| dt); the root
-is located like a stroke end, and the run stops 'stalled' there if the drive holds the mechanism
-(either way out of rest decelerates back).
+- ``from``, ``to``: the sweep inside the stroke (s - lo, hi - s);
+- ``speed`` (eta < 1): d ds/dt, the motion keeps its direction;
+- ``power`` (eta < 1): the power flow keeps its direction, +-d B with B the bracket of
+  :mod:`.equations` (T_S qd has the sign of sd B); B within a round-off band of zero does not
+  count (a drive without torque or inertia has B = 0 throughout).
 
-Every function takes the run (:class:`~.integrate.Integration`): its equations, parameter
-values, integrator settings and counts.
+:func:`first_exit` finds the first sub-interval of the dense output in which an indicator
+leaves its sign (or, by the Hermite cubic through its values and rates at both ends, may have
+dipped below zero and come back: then the dip's lowest point is integrated to and checked);
+:func:`locate` finds the instant by Newton steps on the indicator's rate (its derivative along
+the motion, by AD), each step integrated from the latest point still on the branch, safeguarded
+by the bracket (Illinois regula falsi; bisection where the integration failed), to 1e-14 of
+the indicator's scale or a time step at rounding level.
+
+**Decisions.**  A stroke end stops the run.  At a power-flow switch c flips.  At a rest (speed
+through zero) the one-sided accelerations decide (:func:`at_rest`): the mechanism moves off in a
+direction whose acceleration, on the branch of that direction's own power flow, agrees with it
+('reversal' if that is back the way it came, 'rest' if it goes on), or, when neither does, the
+self-locking drive holds it ('stall': the run stops; the law depends on q and qd only, so it is
+held for good).  The start is decided the same way when it is at rest with eta < 1.
 """
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import SolverError
-from ..kinematics.mechanism import _fmt_s
 from .integrate import IntegratorFailed
 
-
-def stop(run, grid, X, scene, ends):
-    """Cut the run at the first rest where a self-locking drive holds the mechanism (up to
-    the first failed or out-of-stroke sample), or where the sweep leaves the stroke
-    (locating the crossing time), or report an integrator failure with its time and state.
-    ``ends``: the sweep values of the stroke's ends {'from': ..., 'to': ...}.
-    Returns (t, X, stop, stop_end) cut at the stop."""
-    method, p = run.method, run.p
-    bad = np.flatnonzero(~run.inside(X))
-    if run.eq.uses_efficiency:
-        stall = held_rest(run, grid, X, int(bad[0]) if bad.size else len(grid) - 1)
-        if stall is not None:
-            j, h, x = stall
-            return np.append(grid[:j], grid[j - 1] + h), np.column_stack([X[:, :j], x]), "stalled", None
-    if not bad.size:
-        return grid, X, "t_end", None
-    i = int(bad[0])
-    x_prev, dt = X[:, i - 1], grid[i] - grid[i - 1]
-    if np.isfinite(X[:, i]).all():
-        target = run.hi if X[0, i] > run.hi else run.lo
-    else:
-        target = run.hi if x_prev[1] >= 0 else run.lo
-    h, x_end = None, None
-    sdd = run.eq.output("sdd", x_prev, p)
-    reach = abs(x_prev[1]) * dt + 0.5 * abs(sdd) * dt**2  # how far s can plausibly get in dt
-    if np.isfinite(X[:, i]).all() or abs(target - x_prev[0]) <= 4 * reach:
-        h, x_end = locate(run, x_prev, dt, target, X[:, i])
-    if x_end is None:
-        name = scene.sweep.name
-        qd = run.eq.output("qd", x_prev, p)
-        what = ("its solution blew up (NaN or inf): the fixed step is beyond RK4's stability limit, the "
-                "motion is stiff here" if method == "rk4" else
-                "CVODES gave up (too many steps, or repeated error-test or convergence failures)")
-        if run.eq.uses_efficiency and abs(x_prev[1]) < 1e-2 * np.nanmax(np.abs(X[1, :i])):
-            raise SolverError(
-                f"{scene.path}: the drive stalls near t = {grid[i - 1]:.6g} s, {name} = {_fmt_s(x_prev[0])}, "
-                f"speed {qd:.3g}, but the instant the mechanism comes to rest could not be located: "
-                "tighten the tolerance or use more samples.")
-        hint = {"bdf": "tighten or loosen the tolerance, or check the law and the loads for a blow-up",
-                "adams": "use the implicit integrator (integrator = \"bdf\"), which handles stiff cases",
-                "rk4": "use more steps per sample or the implicit integrator (integrator = \"bdf\")"}[method]
-        raise SolverError(
-            f"{scene.path}: the {method} integrator failed between t = {grid[i - 1]:.6g} s and "
-            f"{grid[i]:.6g} s, from {name} = {_fmt_s(x_prev[0])}, drive speed {qd:.6g}, "
-            f"d{name}/dt = {x_prev[1]:.6g}: {what}; {hint}.")
-    end = "to" if target == ends["to"] else "from"
-    x_end[0] = target
-    t = np.append(grid[:i], grid[i - 1] + h)
-    return t, np.column_stack([X[:, :i], x_end]), "stroke end", end
+EPS = np.finfo(float).eps
 
 
-def held_rest(run, grid, X, last, first=1):
-    """The first output interval (up to sample ``last``) in which a self-locking drive brings
-    the mechanism to rest and holds it: (j, h, state), the rest at t = grid[j-1] + h with
-    ds/dt = 0 exactly, or None.  Past that instant the switch chatters: the integrator gives
-    up, or (looser tolerances) steps on through it with |ds/dt| tiny; so examined are the
-    intervals whose end sample has failed, reversed, or could have lost its speed within
-    the interval (d sd_j <= |s''_j| dt, d the direction of motion at the interval's start);
-    those from sample ``first`` on."""
-    sdd = run.eq.output_row("sdd", X, run.p)
-    for j in range(first, last + 1):
-        x_prev, dt = X[:, j - 1], grid[j] - grid[j - 1]
-        d = float(np.sign(x_prev[1]))
-        if d == 0 or d * X[1, j] > abs(sdd[j]) * dt:  # (False for a failed sample: NaN)
-            continue
-        at_rest = rest(run, x_prev, dt, d)
-        if at_rest is not None and held(run, at_rest[1], d, np.max(np.abs(X[1, :j]))):
-            return (j, *at_rest)
+@dataclass(frozen=True)
+class Branch:
+    """A branch of the equation of motion: direction d (+1, -1; 0 when it does not matter),
+    efficiency factor c, and ``held`` (a rest the drive holds: no motion)."""
+    d: float
+    c: float
+    held: bool = False
+
+
+@dataclass
+class Event:
+    """A located non-smooth instant: time ``t``, ``kind`` ('reversal', 'rest', 'stall', 'power
+    flow', 'stroke end'), the state ``x`` there, the branches before and after (None at the
+    start or at a stop), and the stroke ``end`` ('from'/'to') of a stroke end."""
+    t: float
+    kind: str
+    x: np.ndarray
+    before: Branch | None
+    after: Branch | None
+    end: str | None = None
+    extra: dict = field(default_factory=dict)
+
+
+def watch(run, branch, X):
+    """The indicators of ``branch`` at the states X (columns): names, values g (rows; the branch
+    holds while g >= 0), their rates along the motion, and their round-off bands."""
+    ind = np.asarray(run.eq.mapped("indicators", X.shape[1])(X, run.p, branch.c))
+    s, sd, sdd, B, B_rate, B_size = ind
+    names, g, rate, band = ["from", "to"], [s - run.lo, run.hi - s], [sd, -sd], [0 * s, 0 * s]
+    if run.uses_efficiency and branch.d != 0:
+        d = branch.d
+        e = d if branch.c > 1 else -d  # c = 1/eta: power into the mechanism, d B >= 0
+        names += ["speed", "power"]
+        g += [d * sd, e * B]
+        rate += [d * sdd, e * B_rate]
+        band += [0 * s, 1e-11 * B_size]
+    if run.ends["from"] > run.ends["to"]:  # 'from' is the upper end of the stroke
+        g[0], g[1], rate[0], rate[1] = g[1], g[0], rate[1], rate[0]
+    return names, np.array(g), np.array(rate), np.array(band)
+
+
+def first_exit(run, branch, t, X, blowup=None):
+    """The first sub-interval (columns i-1, i of the dense output X at times t; column 0 is the
+    start) in which an indicator of ``branch`` leaves its sign: ('exit', i, [names], t_b, x_b)
+    with the end (t_b, x_b) past the exit (column i, or the lowest point of a confirmed dip), or
+    ('failed', i) where column i is not finite (or blows up: |ds/dt| above ``blowup``) before
+    any exit, or None."""
+    finite = np.isfinite(X).all(axis=0)
+    if blowup is not None:
+        finite &= np.abs(X[1]) <= blowup
+    bad = np.flatnonzero(~finite)
+    stop = int(bad[0]) if bad.size else X.shape[1]
+    if stop <= 1:
+        return ("failed", 1) if stop == 1 else None
+    names, g, rate, band = watch(run, branch, X[:, :stop])
+    g[:, 0] = np.maximum(g[:, 0], 0.0)  # the start: an instant just located lies on the branch
+    out = g < -band
+    out[:, 0] = False
+    first = np.flatnonzero(out.any(axis=0))
+    last = int(first[0]) if first.size else stop  # dips are looked for before the first exit
+    # a dip: the indicator falls at the start of a sub-interval and rises at its end
+    dips = (rate[:, :last - 1] < 0) & (rate[:, 1:last] > 0) & (g[:, :last - 1] >= 0) & (g[:, 1:last] >= 0)
+    for i in np.flatnonzero(dips.any(axis=0)) + 1:
+        for k in np.flatnonzero(dips[:, i - 1]):
+            dt = t[i] - t[i - 1]
+            tau = _cubic_minimum(g[k, i - 1], g[k, i], dt * rate[k, i - 1], dt * rate[k, i])
+            if tau is None:
+                continue
+            try:
+                x_m = run.advance(X[:, i - 1], tau * dt, branch.c)[:, 0]
+            except IntegratorFailed:
+                continue
+            _, g_m, _, band_m = watch(run, branch, x_m[:, None])
+            dipped = [names[j] for j in range(len(names)) if g_m[j, 0] < -band_m[j, 0]]
+            if dipped:
+                return ("exit", int(i), dipped, t[i - 1] + tau * dt, x_m)
+    if first.size:
+        i = int(first[0])
+        return ("exit", i, [names[k] for k in range(len(names)) if out[k, i]], t[i], X[:, i])
+    if stop < X.shape[1]:
+        return ("failed", stop)
     return None
 
 
-def rest(run, x_prev, dt, d):
-    """(h, state): the instant in (0, dt] where ds/dt reaches 0 on the one-sided equation from
-    x_prev moving in direction d (smooth up to and through the rest), or None."""
-    F = run.integrator([1.0], run.steps, one_sided=True)
-    try:
-        x_dt = run.call(F, x_prev, dt, d)[:, 0]
-    except IntegratorFailed:
-        x_dt = np.full_like(x_prev, np.nan)
-    if np.isfinite(x_dt).all() and d * x_dt[1] > 0:
+def _cubic_minimum(g0, g1, m0, m1):
+    """Where the Hermite cubic with values g0, g1 and slopes m0, m1 at tau = 0, 1 dips below
+    zero: its lowest point in (0, 1) if negative, else None."""
+    a, b, c = 6 * g0 + 3 * m0 - 6 * g1 + 3 * m1, -6 * g0 - 4 * m0 + 6 * g1 - 2 * m1, m0
+    roots = []
+    if abs(a) > 1e-300:
+        disc = b * b - 4 * a * c
+        if disc >= 0:
+            r = math.sqrt(disc)
+            roots = [(-b - r) / (2 * a), (-b + r) / (2 * a)]
+    elif abs(b) > 1e-300:
+        roots = [-c / b]
+    best = None
+    for tau in roots:
+        if 0 < tau < 1:
+            h00, h10 = 2 * tau**3 - 3 * tau**2 + 1, tau**3 - 2 * tau**2 + tau
+            h01, h11 = -2 * tau**3 + 3 * tau**2, tau**3 - tau**2
+            v = h00 * g0 + h10 * m0 + h01 * g1 + h11 * m1
+            if v < 0 and (best is None or v < best[1]):
+                best = (tau, v)
+    return None if best is None else best[0]
+
+
+def _cubic_root(g0, g1, m0, m1):
+    """The root in (0, 1) of the Hermite cubic with values g0 >= 0 > g1 and slopes m0, m1 at
+    tau = 0, 1 (bisection and Newton on the cubic)."""
+    def p(t):
+        return ((2 * t**3 - 3 * t**2 + 1) * g0 + (t**3 - 2 * t**2 + t) * m0 + (-2 * t**3 + 3 * t**2) * g1
+                + (t**3 - t**2) * m1)
+
+    def dp(t):
+        return (6 * t**2 - 6 * t) * (g0 - g1) + (3 * t**2 - 4 * t + 1) * m0 + (3 * t**2 - 2 * t) * m1
+
+    lo, hi, t = 0.0, 1.0, g0 / (g0 - g1)
+    for _ in range(60):
+        v = p(t)
+        if v >= 0:
+            lo = t
+        else:
+            hi = t
+        d = dp(t)
+        t_new = t - v / d if d != 0 else 0.5 * (lo + hi)
+        if not lo < t_new < hi:
+            t_new = 0.5 * (lo + hi)
+        if abs(t_new - t) <= 1e-15:
+            break
+        t = t_new
+    return t
+
+
+def locate(run, branch, name, t_a, x_a, t_b, x_b):
+    """The instant in (t_a, t_b] at which indicator ``name`` of ``branch`` reaches zero, from
+    x_a (on the branch) towards x_b (past it; None where the integration failed): (t, state),
+    or None if it cannot be bracketed."""
+    def value(x):
+        if x is None or not np.isfinite(x).all():
+            return None, None, None
+        names, g, rate, band = watch(run, branch, x[:, None])
+        if name not in names:
+            return None, None, None
+        k = names.index(name)
+        return float(g[k, 0]), float(rate[k, 0]), float(band[k, 0])
+
+    ga, ra, band = value(x_a)
+    if ga is None:
         return None
-    h, x = locate(run, x_prev, dt, 0.0, x_dt, component=1, direction=d)
-    if x is None:
-        return None
+    # to 1e-2 of the tolerance of its scale (the stroke, the reference rate, the bracket's terms)
+    gtol = 1e-2 * run.tol * {"from": run.scale[0], "to": run.scale[0], "speed": run.scale[1],
+                             "power": band / 1e-11}[name]
+    a, xa, ga = 0.0, x_a, max(ga, 0.0)
+    b, xb = t_b - t_a, x_b
+    gb, rb, _ = value(x_b)
+    htol = max(1e-13 * b, 8 * EPS * abs(t_b))
+    wa = wb = 1.0  # Illinois weights of the regula falsi
+    # first guess: the root of the Hermite cubic through both ends (values and rates)
+    guess = _cubic_root(ga, gb, b * ra, b * rb) * b if gb is not None and gb < 0 and ra is not None else None
+    for _ in range(100):
+        # Newton from the end nearer the root, else the regula falsi; integrated from the latest
+        # point on the branch (never back from past the root: that side may be no motion at all)
+        c = None
+        if guess is not None:
+            c, guess = guess, None
+        elif gb is not None and rb is not None and rb < 0 and -gb < ga:
+            c = b + gb / -rb
+        elif ra is not None and ra < 0:
+            c = a + ga / -ra
+        if c is None or not a < c < b:
+            c = a + wa * ga * (b - a) / (wa * ga - wb * gb) if gb is not None else None
+            if c is None or not a < c < b:
+                c = 0.5 * (a + b)
+        try:
+            xc = run.advance(xa, c - a, branch.c)[:, 0]
+        except IntegratorFailed:
+            xc = None
+        gc, rc, _ = value(xc)
+        if gc is not None and gc >= 0:
+            a, xa, ga, ra = c, xc, gc, rc
+            wa, wb = 1.0, wb * 0.5
+        else:
+            b, xb, gb, rb = c, (xc if gc is not None else None), gc, rc
+            wa, wb = wa * 0.5, 1.0
+        if (gc is not None and abs(gc) <= gtol) or b - a <= htol:
+            break
+    if gb is not None and abs(gb) < ga:
+        return t_a + b, np.array(xb, float)
+    if b - a <= 1e3 * htol or ga <= 1e3 * gtol:
+        return t_a + a, np.array(xa, float)
+    return None
+
+
+def start(run, x):
+    """The branch at the start x, and the event there (None, or a rest decided at t = 0)."""
+    d = float(np.sign(x[1]))
+    if not run.uses_efficiency:
+        return Branch(d, 1.0), None
+    if d == 0:
+        ev = at_rest(run, 0.0, x, None)
+        return (ev.after if ev.after is not None else ev.before), ev
+    return flow_branch(run, x, d), None
+
+
+def flow_branch(run, x, d):
+    """The branch of direction d at the moving state x: c from the sign of d B (from the sign of
+    B's rate where B is within round-off of zero)."""
+    ind = np.asarray(run.eq.indicators(x, run.p, 1.0)).ravel()
+    B, B_rate, size = ind[3], ind[4], ind[5]
+    flow = B if abs(B) > 1e-11 * size else B_rate
+    return Branch(d, 1 / run.eta if d * flow >= 0 else run.eta)
+
+
+def at_rest(run, t, x, before):
+    """The decision at a rest (x with ds/dt = 0) reached on branch ``before`` (None at the
+    start): an :class:`Event` 'reversal' or 'rest' with the branch it moves off on, or 'stall'
+    (``after`` None, ``before`` the branch held)."""
     x = np.array(x, float)
     x[1] = 0.0
-    return h, x
-
-
-def held(run, x, d, speed_scale):
-    """The drive holds the mechanism at rest in state x (ds/dt = 0), reached moving in
-    direction d: either way out of rest decelerates back to it."""
-    nudge = 1e-9 * speed_scale
-    ahead, back = (run.eq.output("sdd", np.r_[x[0], e * nudge, x[2:]], run.p) for e in (d, -d))
-    return d * ahead < 0 and d * back > 0
-
-
-def locate(run, x_prev, dt, target, x_next, component=0, direction=None):
-    """The time h in (0, dt] after which the state's ``component`` (0: s, 1: ds/dt) reaches
-    ``target``, by re-integrating from x_prev (Illinois regula falsi where both ends are
-    finite, bisection past a failure); with a ``direction`` on the one-sided equation.
-    Returns (h, state), or (None, None)."""
-    F = run.integrator([1.0], run.steps, one_sided=direction is not None)
-    length = run.scale[component]  # the stroke length, or the reference rate
-
-    def g(h):
-        try:
-            x = run.call(F, x_prev, h, direction)[:, 0]
-        except IntegratorFailed:
-            return None, None
-        return (x[component] - target if np.isfinite(x).all() else None), x
-
-    a, ga, xa = 0.0, x_prev[component] - target, x_prev
-    b, gb = dt, (x_next[component] - target if np.isfinite(x_next).all() else None)
-    xb = x_next
-    side = 0
-    for _ in range(200):
-        if gb is not None and ga != gb:
-            c = b - gb * (b - a) / (gb - ga)
-            if not a < c < b:
-                c = 0.5 * (a + b)
-        else:
-            c = 0.5 * (a + b)
-        gc, xc = g(c)
-        if gc is not None and abs(gc) <= 1e-13 * length:
-            return c, xc
-        if gc is not None and math.copysign(1, gc) == math.copysign(1, ga):
-            a, ga, xa = c, gc, xc
-            if side == -1 and gb is not None:
-                gb *= 0.5
-            side = -1
-        else:
-            b, gb, xb = c, gc, xc
-            if side == 1:
-                ga *= 0.5
-            side = 1
-        if b - a <= 1e-12 * dt:
-            break
-    if gb is not None and abs(gb) <= 1e-9 * length:
-        return b, xb
-    if abs(ga) <= 1e-9 * length:
-        return a, xa
-    return None, None
+    sdd_p, c_p, sdd_m, c_m, size = np.asarray(run.eq.rest(x, run.p)).ravel()
+    small = 1e-10 * size
+    moves = [(abs(sdd_p), 1.0, c_p)] if sdd_p > small else []
+    moves += [(abs(sdd_m), -1.0, c_m)] if sdd_m < -small else []
+    accel = {"forward": float(sdd_p), "backward": float(sdd_m)}
+    if not moves:
+        held = Branch(before.d if before is not None else 0.0, before.c if before is not None else 1.0, True)
+        return Event(t, "stall", x, held, None, extra={"one_sided_accelerations": accel})
+    _, d, c = max(moves)
+    kind = "rest" if before is None or before.d == d else "reversal"
+    return Event(t, kind, x, before, Branch(d, float(c)), extra={"one_sided_accelerations": accel})

@@ -1,5 +1,6 @@
 """Reports of a motion in time (simulate): JSON, the summary table and figures of q, its rate and
-the drive load over time."""
+the drive load over time, with the run's events (reversals, power-flow switches, rests, the
+stall, the stroke end) listed and marked."""
 from __future__ import annotations
 
 import textwrap
@@ -34,7 +35,7 @@ def simulation_json(result) -> dict:
         "integrator": result.integrator, "tolerance": result.tolerance,
         "steps_per_sample": result.steps_per_sample, "error_estimate": result.error_estimate,
         "stop": {"reason": result.stop, "end": result.stop_end, "t": result.t_stop},
-        "stats": result.stats, "timings": result.timings,
+        "stats": result.stats, "timings": result.timings, "events": result.events,
         "units": {k: UNITS[result.drive_kind][k] for k in cols},
         "samples": Rows(n, lambda i: {k: float(v[i]) for k, v in cols.items()}),
     }
@@ -60,11 +61,43 @@ def summary_chunks(result):
              + f", tolerance {result.tolerance:g}",
              f"stopped at t = {result.t_stop:.9g} s: {where}",
              f"steps {st['steps']}, right-hand sides {st['rhs_evaluations']}, error-test failures "
-             f"{st['error_test_failures']}, integrate {result.timings['integrate_s'] * 1e3:.1f} ms",
+             f"{st['error_test_failures']}, integrator calls {st['integrator_calls']} "
+             f"({st.get('failed_calls', 0)} failed), integrate {result.timings['integrate_s'] * 1e3:.1f} ms",
+             events_line(result),
              f"q from {result.q[0]:.6g} to {result.q[-1]:.6g} {units['q']}; rate {result.qd.min():.6g} .. "
              f"{result.qd.max():.6g} {units['qd']}; drive {result.drive.min():.6g} .. {result.drive.max():.6g} "
              f"{units['drive']}; kinetic energy {result.kinetic_energy[0]:.6g} -> {result.kinetic_energy[-1]:.6g} J"]
     yield "\n" + "\n".join(lines)
+
+
+def events_line(result) -> str:
+    """The events in one line: how many of each kind, and the first few with their times."""
+    if not result.events:
+        return "events: none"
+    counts = {}
+    for e in result.events:
+        counts[e["kind"]] = counts.get(e["kind"], 0) + 1
+    listed = ", ".join(f"{e['kind']} {e['t']:.6g} s" for e in result.events[:6])
+    more = f", ... ({len(result.events) - 6} more)" if len(result.events) > 6 else ""
+    return ("events: " + ", ".join(f"{n} {kind}" for kind, n in counts.items()) + f" ({listed}{more})")
+
+
+EVENT_STYLE = {"reversal": ("v", "tab:red"), "rest": ("o", "tab:purple"), "power flow": ("D", "tab:green"),
+               "stall": ("s", "black"), "stroke end": ("|", "tab:blue")}
+
+
+def _mark_events(ax, result, values):
+    """The events on a curve over time (their samples), one legend entry per kind."""
+    import numpy as np
+
+    seen = set()
+    for e in result.events:
+        i = min(int(np.searchsorted(result.t, e["t"])), len(result.t) - 1)
+        marker, colour = EVENT_STYLE.get(e["kind"], ("x", "gray"))
+        label = e["kind"] if e["kind"] not in seen else None
+        seen.add(e["kind"])
+        ax.plot([result.t[i]], [values[i]], marker, color=colour, ms=6 if marker != "|" else 14, mfc="none",
+                label=label, zorder=5)
 
 
 FIGURES = ("q.png", "q_rate.png", "drive_load.png")
@@ -91,18 +124,22 @@ def _figures(result, folder) -> list:
     load = "T_S" if rotary else "F_S"
     folder = Path(folder)
     written = []
-    stop = f"stop: {result.stop}" + (f" ({result.stop_end})" if result.stop_end else "")
+    stop = f"stop: {result.stop}" + (f" ({result.stop_end})" if result.stop_end else "") + (
+        f", {len(result.events)} events" if result.events else "")
     for key, file in (("q", "q.png"), ("qd", "q_rate.png"), ("drive", "drive_load.png")):
         fig, ax = plt.subplots(figsize=(7, 3.5))
         if key == "drive":
             ax.plot(result.t, result.drive, lw=1.8, label=f"law {load} (motor)")
             if "transmitted" in result.columns and not (result.transmitted == result.drive).all():
                 ax.plot(result.t, result.transmitted, lw=1.0, label=f"{load} - J_d qdd (into the mechanism)")
-            ax.legend(fontsize=8)
+            _mark_events(ax, result, result.drive)
             ax.set_ylabel(f"drive load [{units['drive']}]")
         else:
             ax.plot(result.t, getattr(result, key), lw=1.5)
+            _mark_events(ax, result, getattr(result, key))
             ax.set_ylabel(f"{names[key]} [{units[key]}]")
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=8)
         ax.set_xlabel("time t [s]")
         title = textwrap.shorten(result.scene.title, 90, placeholder=" ...")
         ax.set_title(f"{title}\n{result.integrator}, tolerance {result.tolerance:g}, {stop}", fontsize=9)
