@@ -500,7 +500,7 @@ def res_sdd_is_zero(res):
 
 def test_failed_calls_are_counted_and_the_run_recovers():
     """A law that is not defined past the stroke (T sqrt(3.5 - q), stroke ends at q = 2.5): a stretch
-    integrated on past the end gives out there (CVODES: too much work, 5,000 steps at the
+    integrated on past the end gives out there (CVODES: too much work, 20,000 steps at the
     singularity), is counted (a failed call and its steps), and the run goes back to locate the
     stroke end; its time agrees between bdf, adams and rk4 to 1e-7 s."""
     text = (PROBLEMS / "sim_bar.toml").read_text()
@@ -513,4 +513,4 @@ def test_failed_calls_are_counted_and_the_run_recovers():
         assert res.stop == "stroke end" and res.s[-1] == 2.5
         assert abs(res.t_stop - runs["rk4"].t_stop) < 1e-7
     bdf = runs["bdf"].stats
-    assert bdf["failed_calls"] >= 1 and bdf["steps"] >= 5000 and bdf["integrator_calls"] > bdf["failed_calls"]
+    assert bdf["failed_calls"] >= 1 and bdf["steps"] >= 20000 and bdf["integrator_calls"] > bdf["failed_calls"]
