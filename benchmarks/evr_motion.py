@@ -13,7 +13,9 @@ here by hand from the slider-crank's geometry.  The error is the largest crank-s
 output samples relative to the peak speed; the run time is the integration's wall time (build
 excluded).  Then the free motion (no motor torque) of the same crank and of the linear jib
 (problems/sim_jib.toml with g = 0, F = 0): the kinetic-energy drift (energies from hand-written
-positions) against run time.
+positions) against run time.  Then the runs through events (reversals, power-flow switches, a
+stall, stroke ends) against the references of tests/test_motion_events.py, and what a stall
+costs: benchmarks/evr_events.py.
 """
 from __future__ import annotations
 
@@ -203,6 +205,9 @@ def section(out_dir: Path) -> str:
     save_figure(fig, out_dir / "motion_energy_drift.png")
     plt.close(fig)
     lines += ["", f"![energy drift]({out_dir.name}/motion_energy_drift.png)", ""]
+    import evr_events  # the events part: its own module (benchmarks/ is on the path)
+
+    lines += [evr_events.section(out_dir)]
     return "\n".join(lines)
 
 
