@@ -1,0 +1,44 @@
+"""What the drawing commands share: ``--design result.json`` (draw an optimised design) and the
+default output folder, ``optdesign-results/`` under the current directory (never the
+project's tracked ``results/`` unless asked with ``--out``).  Imports cheaply."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..errors import OptdesignError
+from .common import load_scene
+
+DEFAULT_ROOT = Path("optdesign-results")
+
+
+def add_design_argument(p):
+    p.add_argument("--design", metavar="RESULT_JSON",
+                   help="draw the design of an optimisation: its result.json (the scene's design variables set "
+                        "to the optimum's values)")
+
+
+def scene_with_design(args):
+    """The scene with --set applied and, with --design, the design of the result file."""
+    import json
+
+    scene = load_scene(args)
+    if not getattr(args, "design", None):
+        return scene
+    path = Path(args.design)
+    try:
+        data = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise OptdesignError(f"--design {path}: no such file (expected the result.json of `optdesign optimise`)") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise OptdesignError(f"--design {path}: not a result file ({exc})") from None
+    design = data.get("design") if isinstance(data, dict) else None
+    if not isinstance(design, dict) or not all(isinstance(v, (int, float)) for v in design.values()):
+        raise OptdesignError(f"--design {path}: no 'design' table of numbers in it (expected the result.json of "
+                             "`optdesign optimise`)")
+    return scene.with_parameters(**design)
+
+
+def default_file(args, suffix) -> Path:
+    """optdesign-results/<scene name><suffix>, e.g. optdesign-results/truck_crane-draw.png."""
+    stem = Path(args.scene).stem + ("-optimum" if getattr(args, "design", None) else "")
+    return DEFAULT_ROOT / f"{stem}{suffix}"
