@@ -84,11 +84,12 @@ def first_exit(run, branch, t, X, blowup=None):
     """The first sub-interval (columns i-1, i of the dense output X at times t; column 0 is the
     start) in which an indicator of ``branch`` leaves its sign: ('exit', i, [names], t_b, x_b)
     with the end (t_b, x_b) past the exit (column i, or the lowest point of a confirmed dip), or
-    ('failed', i) where column i is not finite (or blows up: |ds/dt| above ``blowup``) before
-    any exit, or None."""
+    ('failed', i) where column i is not finite (or blows up: ds/dt changes by more than
+    ``blowup`` from one point to the next, RK4's instability) before any exit, or None."""
     finite = np.isfinite(X).all(axis=0)
     if blowup is not None:
-        finite &= np.abs(X[1]) <= blowup
+        with np.errstate(invalid="ignore", over="ignore"):
+            finite &= np.r_[0.0, np.abs(np.diff(X[1]))] <= blowup
     bad = np.flatnonzero(~finite)
     stop = int(bad[0]) if bad.size else X.shape[1]
     if stop <= 1:

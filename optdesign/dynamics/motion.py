@@ -92,7 +92,9 @@ def run_motion(run, grid, where):
         on_grid = np.arange(per - 1, npts, per)
         ts[on_grid] = grid[j:j + k]
         T, X = np.r_[t, ts], np.column_stack([x, Xs])
-        blowup = 1e3 * peak if run.method == "rk4" else None
+        # RK4 (no error control): a step that changes the speed by more than its largest value
+        # so far is its instability (each step multiplies the error), not the motion
+        blowup = peak if run.method == "rk4" else None
         hit = first_exit(run, branch, T, X, blowup)
         if hit is None:
             for i in on_grid + 1:
