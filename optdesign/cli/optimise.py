@@ -36,12 +36,27 @@ def run(args):
             bar(done, total)
         interrupted.check()
 
+    catalogue = None
     with deferred_interrupt() as interrupted:
-        result = optimise(scene, starts=args.starts, seed=args.seed, progress=progress, workers=args.workers)
+        if len(scene.motors) > 1:  # a motor catalogue: each motor in turn, the smallest that fits
+            from ..design.catalogue import optimise_catalogue
+
+            catalogue = optimise_catalogue(scene, starts=args.starts, seed=args.seed, workers=args.workers,
+                                           progress=lambda name, done, total: progress(done, total))
+            result = catalogue.best
+        else:
+            result = optimise(scene, starts=args.starts, seed=args.seed, progress=progress, workers=args.workers)
     if result.success:
         for path in design_report.write_results(result, folder, workers=args.workers, label="--out"):
             print(f"wrote {path}", file=sys.stderr)
-    emit(args, lambda: design_report.optimisation_json(result), lambda: design_report.summary(result))
+    if catalogue is not None:
+        from ..report.design_cases import catalogue_json, catalogue_summary
+
+        emit(args, lambda: {**design_report.optimisation_json(result),
+                            **catalogue_json(catalogue, design_report.optimisation_json)},
+             lambda: catalogue_summary(catalogue) + "\n\n" + design_report.summary(result))
+    else:
+        emit(args, lambda: design_report.optimisation_json(result), lambda: design_report.summary(result))
     if not result.success:
         raise SolverError(f"{scene.path}: no optimum: {result.status}. {result.message} "
                           "(nothing was written to the results folder)")

@@ -20,6 +20,7 @@ import numpy as np
 
 from .aggregates import aggregate_start, check_monotone, outer_start, outer_value, quadrature, rms_panels
 from .bounds import numeric_bounds
+from .cases import case_nlp, needs_mx
 
 
 def build_nlp(pb):
@@ -33,7 +34,7 @@ def build_nlp(pb):
         pb.rms_panels = rms_panels(pb)
     # an rms objective needs the whole stroke: MX with mapped calls keeps its graph small
     # (inlining hundreds of quadrature nodes into SX takes seconds to build)
-    sym = ca.MX if pb.objective_kind == "rms" else pb.mech.sym
+    sym = ca.MX if pb.objective_kind == "rms" or needs_mx(pb) else pb.mech.sym
     nd = len(pb.design_names)
     z = sym.sym("z", nd)
     fixed = sym.sym("fixed", len(pb.fixed_names))
@@ -45,7 +46,7 @@ def build_nlp(pb):
     G = sym.sym("tracking", pb.n_points, nd)
     x = ca.DM(pb.z_offset) + ca.DM(pb.z_scale) * z
     p = pb.full_parameters(x, fixed)
-    t = sym.sym("t", 1 if pb.objective_kind == "peak" else 0)
+    t = sym.sym("t", 1 if pb.objective_kind in ("peak", "mix") else 0)
     # each stroke aggregate's variable is scaled by its size at the start design (a length
     # of 1e-4 m must not become a column 1e4 times larger than the others)
     pb.a_scale = np.array([ag.scale for ag in pb.aggregates])
@@ -80,7 +81,7 @@ def build_nlp(pb):
         ubg.extend([hi] * n)
         pb.g_blocks.append((name, kind, start, n))
 
-    if pb.objective_kind == "peak":
+    if pb.objective_kind in ("peak", "mix"):
         if pb.objective_fraction is not None:  # |N| <= t K: no division by k = dq/ds
             num, den = (Q[i, :].T for i in pb.objective_fraction)
             v, bound = num / pb.f_ref, t * den
@@ -93,12 +94,14 @@ def build_nlp(pb):
         nodes, weights = quadrature(pb.s_grid[0], pb.s_grid[-1], pb.rms_panels)
         vals = pb.quantity.map(len(nodes))(ca.DM(nodes).T, p)[pb.objective_quantity, :]
         f = ca.dot(ca.DM(weights), (vals.T / pb.f_ref) ** 2)
-    else:
+    elif pb.objective_kind == "expression":
         pb.objective_scale = max(abs(float(outer_start(pb, pb.objective_expr))), 1e-12)
         check_monotone(pb, pb.objective_expr, "[objective] minimise", pb.objective_text, -math.inf, 0.0)
         f = outer_value(pb, pb.objective_expr, a, p) / pb.objective_scale
+    if pb.scene.cases:  # the other cases' epigraphs, cycle constraints, an objective over time (design/cases.py)
+        f = case_nlp(pb, Q, p, t, None if pb.objective_kind in ("rms_time",) else f, add, every)
     for b in pb.blocks:
-        if b.kind in ("peak", "rms"):
+        if b.kind in ("peak", "rms", "rms_time"):
             continue
         one = b.kind == "design constraint" or b.index in pb.constant_margins
         if one:
@@ -168,7 +171,7 @@ def ipopt_options(st, objective_kind) -> dict:
             # normal event of the line search, not a warning for the user
             "show_eval_warnings": False,
             "error_on_fail": False}
-    if objective_kind == "rms":
+    if objective_kind in ("rms", "rms_time", "mix"):
         # the exact Hessian of hundreds of mapped quadrature nodes costs more than the
         # iterations it saves (crank press: 2.6 times faster per start, same iterations)
         opts["ipopt.hessian_approximation"] = "limited-memory"

@@ -45,6 +45,7 @@ from ..model.reduction import ReducedModel
 from ..scene import Scene
 from . import aggregates, nlp, rows
 from . import bounds as bounds_  # (with_bounds' argument is named bounds)
+from .cases import case_grid
 from .rows import Block
 
 
@@ -89,7 +90,8 @@ class DesignProblem:
         finite = np.isfinite(self.lower) & np.isfinite(self.upper)
         self.z_offset = np.where(finite, self.lower, 0.0)
         self.z_scale = np.where(finite, self.upper - self.lower, np.maximum(np.abs(self.start), 1.0))
-        self.s_grid = mech.stroke()
+        # with load cases, their profiles' phase boundaries too (design/cases.py)
+        self.s_grid = case_grid(mech) if scene.cases else mech.stroke()
         # what is built on first use (warm solver, tracking function), shared with every
         # problem derived by with_bounds (a shallow copy keeps this dict)
         self._built = {}
@@ -191,7 +193,7 @@ class DesignProblem:
         k = v[self.k_row]
         self.k_sign = 1.0 if np.median(k) >= 0 else -1.0
         self.k_ref = max(float(np.median(np.abs(k))), 1e-12)
-        self.f_ref = self.blocks[0].scale if self.objective_kind in ("peak", "rms") else 1.0
+        self.f_ref = self.blocks[0].scale if self.objective_kind in ("peak", "rms", "rms_time", "mix") else 1.0
         self.start_quantities = v
 
     # The methods below are the problem's interface (the solver, studies and tests call them);

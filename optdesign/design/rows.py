@@ -24,6 +24,7 @@ from ..errors import SceneError
 from ..model.mapped import MappedFunction
 from ..scene.expressions import Call, Expression, Name, parse
 from .bounds import numeric_bounds
+from .cases import case_constraint_rows, case_objective_rows
 
 
 @dataclass(frozen=True)
@@ -64,7 +65,9 @@ def build_quantities(pb):
     pb.objective_text = scene.objective.minimise
     m = _OBJECTIVE.match(pb.objective_text)
     pb.objective_quantity = pb.objective_fraction = None
-    if m:
+    if scene.cases and case_objective_rows(pb, rows, Block, lambda: _k_ref_start(pb)):  # load cases (design/cases.py)
+        pass
+    elif m:
         pb.objective_kind, what = m.group(1).replace("rms_sweep", "rms"), m.group(2)
         expr = outputs.get(what)
         if expr is None:
@@ -101,6 +104,7 @@ def build_quantities(pb):
             kind = "constraint" if ca.depends_on(expr, mech.s) else "design constraint"
             pb.blocks.append(Block(c.name, kind, len(rows), lo, hi, 1.0))
             rows.append(expr)
+    case_constraint_rows(pb, rows, Block)  # the drive train's, per load case (design/cases.py)
     for a in pb.aggregates:
         a.index = len(rows)
         rows.append(mech.value(a.inner, a.name))

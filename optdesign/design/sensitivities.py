@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 
+from .cases import time_rms
 from .problem import DesignProblem
 from .results import Solution
 
@@ -14,10 +15,12 @@ from .results import Solution
 def objective_value(pb: DesignProblem, sol: Solution, certified=True) -> float:
     """The objective in physical units: certified (continuous) or on the scene's samples."""
     values = sol.certified if certified else sol.sampled
-    if pb.objective_kind == "peak":
-        return abs(values[(pb.objective_text, "abs")])
+    if pb.objective_kind == "peak":  # with load cases: the largest of their peaks
+        return max(abs(values[(b.name, "abs")]) for b in pb.blocks if b.kind == "peak")
     if pb.objective_kind == "rms":
         return values[(pb.objective_text, "rms")]
+    if pb.objective_kind in ("rms_time", "mix"):
+        return time_rms(pb, sol)
     return pb.stroke_value(pb.objective_expr, values)
 
 
@@ -25,8 +28,10 @@ def objective_gradient_factor(pb: DesignProblem, sol: Solution) -> float:
     """dJ/df: the physical objective J per unit of the NLP's objective f."""
     if pb.objective_kind == "peak":
         return pb.f_ref
-    if pb.objective_kind == "rms":
+    if pb.objective_kind in ("rms", "rms_time"):
         return pb.f_ref / (2 * math.sqrt(max(sol.f, 1e-300)))
+    if pb.objective_kind == "mix":
+        return pb.f_ref
     return pb.objective_scale
 
 
@@ -51,6 +56,8 @@ def constraint_report(pb: DesignProblem, sol: Solution, factor: float) -> dict:
                  "active": _side(lam)}
         if kind == "stroke constraint":
             entry["value"] = pb.stroke_value(pb.stroke_outer[name], sol.certified)
+        elif kind == "cycle constraint":  # its row, in physical units (design/cases.py)
+            entry["value"] = float(sol.g[start] * scale)
         else:
             lo, hi = sol.certified.get((name, "min")), sol.certified.get((name, "max"))
             if kind == "dead centre":  # reported as sigma * k / k_ref, the guarded quantity

@@ -182,22 +182,27 @@ class CaseAnalysis:
         return CasesResult(results, governing_cases(results), duty, train)
 
     def _nodes(self, cm):
-        """The case's samples: the scene's, plus each phase boundary of its profile from both
-        sides (0.5e-9 of the stroke apart); and which of them are the scene's samples."""
-        s = self.s_values
-        breaks = cm.profile.breakpoints() if cm.profile is not None else np.zeros(0)
-        if not breaks.size:
-            return s.copy(), np.ones(len(s), bool)
-        delta = 0.5e-9 * abs(s[-1] - s[0])
-        extra = np.r_[breaks - delta, breaks + delta]
-        for lo, hi, inner in cm.profile.jerk_segments():  # an s-curve's jerk segments, evenly in time
-            extra = np.r_[extra, inner]
-        nodes = np.r_[s, extra]
-        order = np.argsort(nodes, kind="stable")
-        if s[-1] < s[0]:
-            order = order[::-1]
-        on_sample = np.r_[np.ones(len(s), bool), np.zeros(len(extra), bool)][order]
-        return nodes[order], on_sample
+        return case_nodes(self.s_values, cm.profile)
+
+
+def case_nodes(s, profile):
+    """A case's samples: the scene's ``s``, plus each phase boundary of its ``profile`` from both
+    sides (0.5e-9 of the stroke apart) and an s-curve's jerk nodes; and which of them are the
+    scene's samples."""
+    s = np.asarray(s, float)
+    breaks = profile.breakpoints() if profile is not None else np.zeros(0)
+    if not breaks.size:
+        return s.copy(), np.ones(len(s), bool)
+    delta = 0.5e-9 * abs(s[-1] - s[0])
+    extra = np.r_[breaks - delta, breaks + delta]
+    for lo, hi, inner in profile.jerk_segments():  # an s-curve's jerk segments, evenly in time
+        extra = np.r_[extra, inner]
+    nodes = np.r_[s, extra]
+    order = np.argsort(nodes, kind="stable")
+    if s[-1] < s[0]:
+        order = order[::-1]
+    on_sample = np.r_[np.ones(len(s), bool), np.zeros(len(extra), bool)][order]
+    return nodes[order], on_sample
 
 
 @dataclass(frozen=True)

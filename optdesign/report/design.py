@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .design_cases import cases_json, cases_summary
 from .output import SCHEMA, new_figure, save_figure, to_json, write_atomic
 
 
@@ -23,6 +24,7 @@ def optimisation_json(result) -> dict:
         "constraints": result.constraints, "sensitivities": result.sensitivities,
         "starts": [dataclasses.asdict(s) for s in result.starts],
         "timings": result.timings, "settings": dataclasses.asdict(result.settings),
+        **cases_json(result),   # with [[cases]]: governing case, duty cycle, drive train (report/design_cases.py)
     }
 
 
@@ -43,6 +45,7 @@ def summary(result) -> str:
         if result.sensitivities:
             lines.append("sensitivities d objective / d parameter:")
             lines += [f"  {k}: {v:.6g}" for k, v in result.sensitivities.items()]
+        lines += [cases_summary(result)] if result.scene.cases else []   # report/design_cases.py
     lines.append(f"starts: {result.starts_at_best} of {result.starts_total} reached the best value within 0.1 %")
     for s in result.starts:
         obj = "-" if s.objective is None else f"{s.objective:.9g}"

@@ -1,0 +1,342 @@
+"""Load cases in the design problem (issue 16): the objective over every case, the drive
+train's constraints, and the RMS over the duty cycle's time.
+
+The objective (``[objective] minimise``) of a scene with [[cases]] is a sum of terms with
+non-negative coefficients, each
+
+* ``peak(NAME)``: the peak |NAME| over every case and the continuous stroke (min-max over the
+  cases: one epigraph variable t with -t <= NAME_c(s_j) <= t for every case c; each case's
+  peak is certified as a scene's peak is), or ``peak(NAME, CASE)`` over one case;
+* ``rms_time(NAME)``: the RMS of NAME over the duty cycle's time (holds and dwells included),
+  with the integral on each case's sample grid by the rule of :mod:`optdesign.model.duty`
+  (its weights are numbers for a profile, which is the same motion for every design; at a
+  constant drive speed they follow the design's drive coordinate).
+
+e.g. ``"peak(drive)"``, ``"rms_time(motor_torque)"``, ``"peak(motor_torque) + 2*rms_time(motor_torque)"``.
+NAME is a column of a case: drive, power, static_load, motor_torque (with one motor),
+motor_load_torque, motor_speed, rod_buckling.
+
+Constraints added by the drive train, for every case at every sample (certified over the
+continuous stroke like the scene's own): with one motor, ``motor peak torque`` |T_m| <=
+peak_torque and ``motor speed`` |omega_m| <= max_speed, and ``motor rated torque``, the RMS of
+T_m over the cycle <= rated_torque (one row: a cycle constraint); with a [cylinder] rod,
+``rod buckling`` (push force times the safety factor over Euler's load at full extension <= 1).
+
+Each case's rows are the case model's (:class:`optdesign.model.cases.CaseModel`) with the
+scene's parameter vector p replaced by the case's (its overrides put in), so that every row is
+a function of (s, p) as the problem's rows are.  The functions take the problem (``pb``) and
+read or set its attributes, as :mod:`.rows` and :mod:`.nlp` do.
+"""
+from __future__ import annotations
+
+import math
+import re
+
+import casadi as ca
+import numpy as np
+
+from ..errors import SceneError
+from ..model.cases import CaseModel, case_nodes
+from ..model.duty import time_weights
+from ..model.profiles import case_profile
+from ..model.train import gear_factor_at_rest, motor_numbers
+from ..scene.expressions import evaluate
+
+_TERM = re.compile(r"^\s*(?:(\d+\.?\d*(?:[eE][+-]?\d+)?|\.\d+)\s*\*\s*)?(peak|rms_time)\s*\(\s*([A-Za-z_]\w*)"
+                   r"\s*(?:,\s*(?:\"([^\"]+)\"|'([^']+)'|([^)]+?)))?\s*\)\s*$")
+NAMES = ("drive", "power", "static_load", "motor_torque", "motor_load_torque", "motor_speed", "rod_buckling")
+
+
+def parse_objective(text, case_names):
+    """The terms of a cases objective: [(coefficient, 'peak'|'rms_time', NAME, case or None)],
+    or None when ``text`` is not of that form (a stroke expression then)."""
+    terms = []
+    for part in _split(text):
+        m = _TERM.match(part)
+        if not m:
+            return None
+        coef = float(m.group(1)) if m.group(1) else 1.0
+        case = m.group(4) or m.group(5) or (m.group(6).strip() if m.group(6) else None)
+        if m.group(3) not in NAMES:
+            raise SceneError(f"[objective] minimise = {text!r}: {m.group(3)!r} is not a column of a load case; "
+                             f"expected one of {', '.join(NAMES)}")
+        if case is not None and case not in case_names:
+            raise SceneError(f"[objective] minimise = {text!r}: no case {case!r}; cases: {', '.join(case_names)}")
+        if case is not None and m.group(2) == "rms_time":
+            raise SceneError(f"[objective] minimise = {text!r}: rms_time is over the whole duty cycle, not one case")
+        terms.append((coef, m.group(2), m.group(3), case))
+    return terms or None
+
+
+def _split(text):
+    """The '+'-separated terms of ``text`` (not splitting inside parentheses or numbers' exponents)."""
+    parts, depth, last = [], 0, 0
+    for i, ch in enumerate(text):
+        depth += ch == "("
+        depth -= ch == ")"
+        if ch == "+" and depth == 0 and not (i > 0 and text[i - 1] in "eE" and text[i - 2:i - 1].isdigit()):
+            parts.append(text[last:i])
+            last = i + 1
+    return parts + [text[last:]]
+
+
+# --- rows -----------------------------------------------------------------------------------
+def case_models(pb) -> list:
+    """The cases' models, built once, with the power-flow switch smoothed like the problem's."""
+    if getattr(pb, "case_models", None) is None:
+        models = []
+        for case in pb.scene.cases:
+            cm = CaseModel(pb.mech, case)
+            if cm.model.uses_efficiency and cm.model.flow == "auto":
+                f = pb.mech.function("power", {"power": cm.model.u * cm.model.flow_speed})
+                p_case = cm.case_parameters(pb.mech.parameter_values)
+                power = np.abs(np.asarray(f.map(len(pb.s_grid))(pb.s_grid[None, :], p_case)))
+                width = pb.settings.efficiency_smoothing * max(float(np.nanmax(power)), 1e-12)
+                cm = CaseModel(pb.mech, case, efficiency_smoothing=width)
+            models.append(cm)
+        pb.case_models = models
+    return pb.case_models
+
+
+def _motor(pb):
+    """The one motor's numbers (rotor inertia J_r ...), or None."""
+    if len(pb.scene.motors) != 1:
+        return None
+    return motor_numbers(pb.scene.motors[0], pb.mech.resolved.values)
+
+
+def case_outputs(pb, cm) -> dict:
+    """A case's named per-sample expressions of (s, p), p the scene's vector."""
+    out = cm.outputs()
+    motor = _motor(pb)
+    if motor is not None:
+        out["motor_torque"] = out["motor_load_torque"] + motor["inertia"] * out["motor_acceleration"]
+    out["hold_load"] = cm.static_load() + 0 * pb.mech.s
+    names = list(out)
+    p = pb.mech.p
+    exprs = ca.substitute([out[k] for k in names], [p], [cm.case_parameters(p)]) if cm.case.overrides else \
+        [out[k] for k in names]
+    return dict(zip(names, exprs))
+
+
+def case_objective_rows(pb, rows, Block, k_ref) -> bool:
+    """The objective's rows for a scene with [[cases]] (False when the objective is a stroke
+    expression, which the plain problem handles).  Sets objective_kind ('peak', 'rms_time' or
+    'mix'), objective_quantity and objective_fraction (the first peak case's), the peak blocks
+    (one per case), case_peaks (the other cases' epigraph rows), time_terms.  ``Block`` is
+    :class:`.rows.Block`, ``k_ref()`` the scale of k = dq/ds (:mod:`.rows` passes both)."""
+    names = [c.name for c in pb.scene.cases]
+    terms = parse_objective(pb.objective_text, names)
+    if terms is None:
+        return False
+    models = case_models(pb)
+    pb.case_rows = {}           # case name -> {column: row}
+    for cm in models:
+        pb.case_rows[cm.name] = {}
+    pb.case_terms = terms
+    peaks = [t for t in terms if t[1] == "peak"]
+    if len(terms) == 1 and peaks and peaks[0][0] == 1.0:
+        pb.objective_kind = "peak"
+    elif len(terms) == 1 and not peaks and terms[0][0] == 1.0:
+        pb.objective_kind = "rms_time"
+    else:
+        pb.objective_kind = "mix"
+    if len(peaks) > 1:
+        raise SceneError(f"[objective] minimise = {pb.objective_text!r}: at most one peak(...) term (one epigraph)")
+    pb.case_peaks = []
+    pb.time_terms = [t for t in terms if t[1] == "rms_time"]
+    first = True
+    if peaks:
+        _, _, what, only = peaks[0]
+        for cm in models:
+            if only is not None and cm.name != only:
+                continue
+            out = case_outputs(pb, cm)
+            _need(pb, out, what)
+            value = len(rows)
+            rows.append(out[what])
+            fraction = None
+            if what in ("drive", "power"):
+                n, d = cm.model.drive_numerator(k_ref())
+                if what == "power":
+                    n = n * cm.model.qd
+                if cm.case.overrides:
+                    n, d = ca.substitute([n, d], [pb.mech.p], [cm.case_parameters(pb.mech.p)])
+                fraction = (len(rows), len(rows) + 1)
+                rows += [n, d]
+            name = f"{pb.objective_text} in case {cm.name!r}"
+            block = Block(name, "peak", value, -math.inf, math.inf, 1.0)
+            if first:
+                pb.objective_quantity, pb.objective_fraction = value, fraction
+                pb.blocks.insert(0, block)
+                first = False
+            else:
+                pb.blocks.append(block)
+                pb.case_peaks.append((name, value, fraction))
+    for _, _, what, _ in pb.time_terms:
+        for cm in models:
+            out = case_outputs(pb, cm)
+            _need(pb, out, what)
+            if what not in pb.case_rows[cm.name]:
+                pb.case_rows[cm.name][what] = len(rows)
+                rows.append(out[what])
+        if first:  # the objective's scale: its quantity in the first case
+            pb.objective_quantity = pb.case_rows[models[0].name][what]
+            pb.blocks.insert(0, Block(pb.objective_text, "rms_time", pb.objective_quantity, -math.inf, math.inf, 1.0))
+            first = False
+    return True
+
+
+def _need(pb, out, what):
+    if what not in out:
+        why = {"motor_torque": "one [[motors]] entry (with a catalogue, optimise one motor at a time)",
+               "motor_load_torque": "a [gearbox]", "motor_speed": "a [gearbox]",
+               "rod_buckling": "a [cylinder] with its rod"}.get(what, "")
+        raise SceneError(f"{pb.scene.path}: [objective] minimise = {pb.objective_text!r}: {what!r} needs {why}")
+
+
+def case_constraint_rows(pb, rows, Block):
+    """The drive train's constraints for every case (see the module's doc): per-sample blocks,
+    and the rows the cycle constraint integrates.  Sets cycle_constraints."""
+    pb.cycle_constraints = []
+    if not pb.scene.cases:
+        return
+    models = case_models(pb)
+    if getattr(pb, "case_rows", None) is None:
+        pb.case_rows = {}
+    motor = _motor(pb)
+    for cm in models:
+        out = case_outputs(pb, cm)
+        if motor is not None:
+            for name, key, limit in (("motor peak torque", "motor_torque", motor["peak_torque"]),
+                                     ("motor speed", "motor_speed", motor["max_speed"])):
+                pb.blocks.append(Block(f"{name} in case {cm.name!r}", "constraint", len(rows), -limit, limit, 1.0))
+                rows.append(out[key])
+            if "motor_torque" not in pb.case_rows.setdefault(cm.name, {}):  # for the cycle constraint
+                pb.case_rows[cm.name]["motor_torque"] = len(rows)
+                rows.append(out["motor_torque"])
+        if "rod_buckling" in out:
+            pb.blocks.append(Block(f"rod buckling in case {cm.name!r}", "constraint", len(rows), -math.inf, 1.0, 1.0))
+            rows.append(out["rod_buckling"])
+        pb.case_rows.setdefault(cm.name, {})["hold_load"] = len(rows)
+        rows.append(out["hold_load"])
+        if "q" not in pb.case_rows[cm.name]:
+            pb.case_rows[cm.name]["q"] = len(rows)
+            rows.append(pb.mech.q)
+    if motor is not None:
+        pb.cycle_constraints.append(("motor rated torque", "motor_torque", motor["rated_torque"]))
+
+
+# --- the cycle in time ----------------------------------------------------------------------
+def case_grid(mech) -> np.ndarray:
+    """The scene's samples plus every case profile's phase boundaries (from both sides) and
+    s-curve jerk nodes: where the cases' loads jump or bend, for the continuous check."""
+    r, stroke = mech.resolved, mech.stroke()
+    nodes = [case_nodes(stroke, case_profile(mech.scene, c, r.start, r.stop, r.values))[0] for c in mech.scene.cases]
+    grid = np.unique(np.concatenate(nodes + [stroke]))
+    return grid if stroke[-1] > stroke[0] else grid[::-1]
+
+
+def needs_mx(pb) -> bool:
+    """True when the NLP holds the cycle's integrals (mapped over many samples: MX)."""
+    return pb.objective_kind in ("rms_time", "mix") or bool(getattr(pb, "cycle_constraints", ()))
+
+
+def _time_plan(pb):
+    """Per case: its sample nodes, and the weights of the time integral when they are numbers
+    (a profile); built once."""
+    if getattr(pb, "_time_plan", None) is None:
+        plan = {}
+        for cm in case_models(pb):
+            nodes, _ = case_nodes(pb.mech.stroke(), cm.profile)
+            if cm.profile is not None:
+                t = cm.profile.times(nodes)
+                plan[cm.name] = (nodes, time_weights(nodes, t, cm.profile), cm.profile.duration)
+            elif cm.acceleration != 0.0:
+                raise SceneError(f"{pb.scene.path}: [[cases]] {cm.name!r} runs at the constant [drive] speed with an "
+                                 "acceleration: no motion in time, so no RMS over time; give it a profile")
+            else:
+                plan[cm.name] = (nodes, None, abs(cm.speed))
+        pb._time_plan = plan
+    return pb._time_plan
+
+
+def _steps(pb):
+    from ..model.duty import DutyCycle
+
+    return DutyCycle(pb.scene, case_models(pb)).steps
+
+
+def cycle_integrals(pb, p, quantities):
+    """(T, {name: int name^2 dt over the cycle}) as expressions of p (MX): each case's samples'
+    quantities weighted by the rule, holds' static loads, dwells' time."""
+    plan = _time_plan(pb)
+    values, durations = {}, {}
+    for name, (nodes, weights, speed_or_T) in plan.items():
+        Q = pb.quantity.map(len(nodes))(ca.DM(nodes).T, p)
+        rows = pb.case_rows[name]
+        if weights is None:    # constant drive speed: the trapezoid rule in time, t = |q - q0| / v
+            dt = ca.fabs(Q[rows["q"], 1:] - Q[rows["q"], :-1]) / speed_or_T
+            w = ca.horzcat(dt, 0) / 2 + ca.horzcat(0, dt) / 2
+            durations[name] = ca.sum2(dt)
+        else:
+            w, durations[name] = ca.DM(weights).T, speed_or_T
+        values[name] = {k: ca.sum2(w * Q[rows[k], :] ** 2) for k in quantities}
+        values[name]["hold"] = Q[rows["hold_load"], 0], Q[rows["hold_load"], -1]
+    T, sums = 0, {k: 0 for k in quantities}
+    models = {cm.name: cm for cm in case_models(pb)}
+    for st in _steps(pb):
+        if st.kind == "case":
+            T = T + st.repeat * durations[st.case]
+            for k in quantities:
+                sums[k] = sums[k] + st.repeat * values[st.case][k]
+            continue
+        duration = pb.mech.resolved.constant(st.duration, f"[duty] cycle[{st.index}]")
+        T = T + duration
+        if st.kind == "hold":
+            cm = models[st.case]
+            begin_first = cm.begins_at(pb.k_sign) == pb.mech.resolved.start   # the nodes run from [sweep] from
+            first, last = values[st.case]["hold"]
+            load = (last if begin_first else first) if st.at == "end" else (first if begin_first else last)
+            eta = cm.model.eta if cm.model.uses_efficiency else 1.0
+            load = load * (1 / eta if st.efficiency == "driving" else eta)
+            for k in quantities:
+                if k == "drive":
+                    sums[k] = sums[k] + load**2 * duration
+                elif k in ("motor_torque", "motor_load_torque"):
+                    ratio = evaluate(pb.scene.gearbox.ratio, pb.mech.resolved.environment(p), {}, "[gearbox] ratio")
+                    sums[k] = sums[k] + (gear_factor_at_rest(pb.mech, st.efficiency) * load / ratio) ** 2 * duration
+    return T, sums
+
+
+def case_nlp(pb, Q, p, t, f, add, every):
+    """The cases' part of the NLP (called by :func:`.nlp.build_nlp`): the other cases' epigraph
+    rows, the cycle constraints, and the objective for 'rms_time' and 'mix'.  Returns f."""
+    for name, value, fraction in getattr(pb, "case_peaks", ()):
+        if fraction is not None:
+            num, den = (Q[i, :].T for i in fraction)
+            v, bound = num / pb.f_ref, t * den
+        else:
+            v, bound = Q[value, :].T / pb.f_ref, t
+        add(name, "peak", ca.vertcat(v - bound, -v - bound), -math.inf, 0.0, points=np.r_[every, every])
+    quantities = sorted({w for _, _, w, _ in getattr(pb, "time_terms", ())} |
+                        {k for _, k, _ in getattr(pb, "cycle_constraints", ())})
+    if not quantities:
+        return f
+    T, sums = cycle_integrals(pb, p, quantities)
+    for name, key, limit in pb.cycle_constraints:
+        rms = ca.sqrt(sums[key] / T)
+        add(name, "cycle constraint", rms / limit, -math.inf, 1.0, limit)
+    if pb.objective_kind == "rms_time":
+        return sums[pb.time_terms[0][2]] / T / pb.f_ref**2
+    total = 0
+    for coef, kind, what, _ in pb.case_terms:
+        total = total + coef * (t * pb.f_ref if kind == "peak" else ca.sqrt(sums[what] / T))
+    return total / pb.f_ref
+
+
+def time_rms(pb, sol) -> float:
+    """The objective of 'rms_time' or 'mix' at a solution, in physical units."""
+    if pb.objective_kind == "rms_time":
+        return pb.f_ref * math.sqrt(max(sol.f, 0.0))
+    return pb.f_ref * sol.f

@@ -1,0 +1,102 @@
+"""The load cases in the report of an optimisation (issue 16): the governing case and stroke
+position of the peak and of each active constraint, the duty cycle and the drive train at the
+optimum (the scene analysed again at the optimal design), and a motor catalogue's outcome.
+Adds nothing for a scene without [[cases]]."""
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+
+_IN_CASE = re.compile(r"^(?P<what>.*) in case '(?P<case>.*)'$")
+_COLUMN = {"motor peak torque": "motor_torque", "motor speed": "motor_speed", "rod buckling": "rod_buckling"}
+
+
+def cases_at_optimum(result):
+    """The scene's cases analysed at the optimal design (a CasesResult), or None."""
+    if not result.success or not result.scene.cases:
+        return None
+    from ..model.analysis import analyse
+
+    return analyse(result.scene.with_parameters(**result.design)).cases
+
+
+def governing(result, cases) -> dict:
+    """{'peak': {case, s, value} of the objective's quantity, 'constraints': {name: {case, s}}
+    for each active constraint of a case}."""
+    out = {"constraints": {}}
+    m = re.match(r"^\s*(?:[\d.eE+-]+\s*\*\s*)?peak\s*\(\s*(\w+)", result.scene.objective.minimise)
+    if m and m.group(1) in cases.governing:
+        out["peak"] = dict(cases.governing[m.group(1)], quantity=m.group(1))
+    for name, c in result.constraints.items():
+        hit = _IN_CASE.match(name)
+        if not hit or not c.get("active"):
+            continue
+        column = _COLUMN.get(hit["what"])
+        case = cases.cases.get(hit["case"])
+        if column is None or case is None or column not in case.columns:
+            continue
+        i = int(np.argmax(np.abs(case.columns[column])))
+        out["constraints"][name] = {"case": hit["case"], "s": float(case.columns["s"][i]),
+                                    "value": float(case.columns[column][i])}
+    return out
+
+
+def cases_json(result) -> dict:
+    """The keys an optimisation's JSON gains with [[cases]]: ``cases`` {governing, duty,
+    drive_train} at the optimum."""
+    cases = cases_at_optimum(result)
+    if cases is None:
+        return {}
+    return {"cases": {"governing": governing(result, cases),
+                      "duty": {k: v for k, v in cases.duty.items() if k != "integrals"},
+                      "drive_train": cases.train}}
+
+
+def cases_summary(result) -> str:
+    """Lines for the summary: where the peak and each active constraint lie, the cycle, the
+    drive train at the optimum."""
+    cases = cases_at_optimum(result)
+    if cases is None:
+        return ""
+    sweep = result.scene.sweep.name
+    g = governing(result, cases)
+    lines = ["load cases at the optimum:"]
+    if result.objective_kind in ("rms_time", "mix"):
+        lines.append("  (the RMS over time is the time integral on each case's sample grid, optdesign.model.duty's "
+                     "rule: not certified over the continuous stroke; a peak term is)")
+    if "peak" in g:
+        p = g["peak"]
+        lines.append(f"  peak |{p['quantity']}| = {p['value']:.9g}: case {p['case']!r} at {sweep} = {p['s']:.9g}")
+    for name, c in g["constraints"].items():
+        lines.append(f"  active {name}: case {c['case']!r} at {sweep} = {c['s']:.9g} (value {c['value']:.6g})")
+    duty = cases.duty
+    if "reason" not in duty:
+        rms = ", ".join(f"{k} {v:.6g}" for k, v in duty["rms_time"].items())
+        lines.append(f"  duty cycle {duty['cycle_time']:.6g} s: RMS over time {rms}; energy {duty['energy']:.6g} J, "
+                     f"mean power {duty['mean_power']:.6g} W")
+    train = cases.train
+    for name, m in train.get("motors", {}).items():
+        lines.append(f"  motor {name!r} at i = {train['ratio']:.6g}: peak {m['peak']:.6g} N m, RMS {m.get('rms', math.nan):.6g} "
+                     f"N m, speed {m['peak_speed']:.6g} rad/s; inertia ratio {m['inertia_ratio']:.4g}, classical optimal "
+                     f"ratio sqrt(J_load/J_r) = {m['optimal_ratio']:.4g}")
+    if "bore" in train:
+        lines.append(f"  cylinder: bore {train['bore']:.6g} m, rod {train['rod']:.6g} m, buckling utilisation "
+                     f"{train['buckling_utilisation']:.4g}, pump flow {train['pump_flow'] * 6e4:.6g} l/min")
+    return "\n".join(lines)
+
+
+def catalogue_json(catalogue, result_json) -> dict:
+    """The JSON of a catalogue's optimisations: each motor's result, the chosen motor."""
+    return {"chosen_motor": catalogue.chosen,
+            "catalogue": {name: result_json(r) for name, r in catalogue.results.items()}}
+
+
+def catalogue_summary(catalogue) -> str:
+    lines = ["motor catalogue (each motor optimised with its limits, smallest rated torque first):"]
+    for name, r in catalogue.results.items():
+        what = f"objective {r.objective:.9g}" if r.success else f"no feasible optimum ({r.status})"
+        lines.append(f"  {name}: {what}")
+    lines.append(f"smallest motor that fits: {catalogue.chosen or 'none'}")
+    return "\n".join(lines)

@@ -1,0 +1,271 @@
+"""Optimising over load cases (issue 16, piece 5): min-max of a peak over the cases, the RMS over
+the duty cycle's time, a weighted mix, the gear ratio as a design variable, and a motor
+catalogue.  Each optimum is checked against a dense scan of its one design variable with an
+independent numpy model of the mechanism (closed-form kinematics, d'Alembert's virtual work),
+not against optdesign's own evaluation.
+
+The mechanism: a crank of radius r (angle theta, the sweep) carrying a payload m on a Scotch
+yoke (y = r sin theta) and a counterweight mc at radius rc opposite the crank pin.  Reduced
+inertia M = m r^2 cos^2 theta + mc rc^2, static load Q = (m r - mc rc) g cos theta, drive torque
+T_S = c (M theta'' + 1/2 M' theta'^2 + Q).
+"""
+import math
+
+import numpy as np
+import pytest
+
+from optdesign.design import optimise
+from optdesign.design.catalogue import optimise_catalogue
+from optdesign.scene.file import loads
+
+R, RC, G, T0, T1 = 0.2, 0.2, 9.81, 0.2, 2.6
+V, A, D = 0.8, 0.5, 0.3
+
+CRANK = f'''title = "crank lifting a payload, with a counterweight"
+[parameters]
+r = {R}
+rc = {RC}
+m = 30.0
+mc = {{ value = 10.0, min = 0.0, max = 60.0 }}
+i = 20.0
+g = GRAVITY
+[sweep]
+name = "theta"
+from = {T0}
+to = {T1}
+samples = 61
+[points]
+O = {{ fixed = [0, 0] }}
+P = {{ polar = ["O", "r", "theta"] }}
+B = {{ polar = ["O", "rc", "theta + pi"] }}
+C = {{ fixed = [0, "r*sin(theta)"] }}
+D = {{ fixed = [1, "r*sin(theta)"] }}
+[[bodies]]
+name = "payload"
+frame = ["C", "D"]
+mass = "m"
+com = [0, 0]
+[[bodies]]
+name = "counterweight"
+frame = ["O", "B"]
+mass = "mc"
+com = ["rc", 0]
+[gravity]
+g = "g"
+[drive]
+type = "rotary"
+crank = ["O", "P"]
+speed = 1.0
+acceleration = 0.0
+EFFICIENCY
+[profiles.trap]
+kind = "trapezoidal"
+speed = {V}
+acceleration = {A}
+deceleration = {D}
+[[cases]]
+name = "loaded up"
+direction = "forward"
+profile = "trap"
+[[cases]]
+name = "empty down"
+direction = "reverse"
+set = {{ m = 0 }}
+profile = "trap"
+'''
+
+
+def scene(objective, gravity=G, efficiency=None, extra=""):
+    text = CRANK.replace("GRAVITY", str(gravity)).replace("EFFICIENCY", f"efficiency = {efficiency}" if efficiency else "")
+    return loads(text + extra + f'\n[objective]\nminimise = "{objective}"\n', "crank.toml")
+
+
+# --- the independent model -------------------------------------------------------------------
+def motion(n=8_001):
+    """Per case: theta, theta', theta'' on a fine grid (the phase boundaries from both sides)."""
+    L = T1 - T0
+    xa, xd = V**2 / (2 * A), V**2 / (2 * D)
+    x = np.unique(np.r_[np.linspace(0, L, n), xa, L - xd])
+    x = np.sort(np.r_[x, xa, L - xd])            # each boundary twice: once per side
+    side = np.zeros(len(x))
+    for b in (xa, L - xd):
+        k = np.flatnonzero(x == b)
+        side[k[0]], side[k[1]] = -1, 1
+    speed = np.where(x < xa, np.sqrt(2 * A * x), np.where(x > L - xd, np.sqrt(2 * D * np.maximum(L - x, 0)), V))
+    acc = np.where((x < xa) | ((x == xa) & (side < 0)), A,
+                   np.where((x > L - xd) | ((x == L - xd) & (side > 0)), -D, 0.0))
+    return {"loaded up": (T0 + x, speed, acc, 1), "empty down": (T1 - x, -speed, -acc, -1)}
+
+
+def drive_torque(th, thd, thdd, m, mc, gravity=G, eta=1.0, direction=1):
+    M = m * R**2 * np.cos(th) ** 2 + mc * RC**2
+    dM = -2 * m * R**2 * np.cos(th) * np.sin(th)
+    ideal = M * thdd + 0.5 * dM * thd**2 + (m * R - mc * RC) * gravity * np.cos(th)
+    moving = np.where(thd != 0, np.sign(thd), direction)
+    return np.where(ideal * moving >= 0, 1 / eta, eta) * ideal
+
+
+CASE_MASS = {"loaded up": 30.0, "empty down": 0.0}
+
+
+# --- tests -----------------------------------------------------------------------------------
+def scan(f, lo, hi, n=61, geometric=False, rounds=4):
+    """The minimum of f over [lo, hi] by a dense scan, refined around its best point (each round
+    a dense scan of the two neighbouring intervals).  (argmin, min, spacing of the last scan)"""
+    space = np.geomspace if geometric else np.linspace
+    for _ in range(rounds):
+        xs = space(lo, hi, n)
+        values = np.array([f(x) for x in xs])
+        k = int(np.argmin(values))
+        lo, hi = xs[max(k - 1, 0)], xs[min(k + 1, n - 1)]
+    return xs[k], values[k], xs[1] - xs[0]
+
+
+def test_min_max_over_cases_against_a_dense_scan():
+    """peak(drive) over both cases: the counterweight balances the loaded raise against the
+    empty lowering.  The optimum is a kink of the max over cases: both peaks equal there."""
+    result = optimise(scene("peak(drive)", efficiency=0.9), starts=4)
+    assert result.success
+    paths = motion()
+
+    def worst(mc):
+        return max(np.max(np.abs(drive_torque(th, thd, thdd, CASE_MASS[c], mc, eta=0.9, direction=d)))
+                   for c, (th, thd, thdd, d) in paths.items())
+    best, value, step = scan(worst, 0.0, 60.0)
+    assert result.design["mc"] == pytest.approx(best, abs=2 * step)
+    assert result.objective == pytest.approx(value, rel=1e-6)
+    # the min-max's kink: both cases' peaks are the optimum's value there (each certified)
+    for c, (th, thd, thdd, d) in paths.items():
+        peak = np.max(np.abs(drive_torque(th, thd, thdd, CASE_MASS[c], result.design["mc"], eta=0.9, direction=d)))
+        assert peak == pytest.approx(result.objective, rel=1e-6)
+
+
+def motor_model(paths, mc=10.0, gravity=0.0):
+    """A function (i, J_r) -> (RMS over the cycle, peak) of the motor torque T_S/i + J_r i theta''
+    (the two cases, no holds; the drive torque computed once)."""
+    parts = []
+    for c, (th, thd, thdd, d) in paths.items():
+        T_S = drive_torque(th, thd, thdd, CASE_MASS[c], mc, gravity)
+        # time between grid points: dx / V, V linear in time within a phase (trapezoid in V^2)
+        dx = np.abs(np.diff(th))
+        v = np.abs(thd)
+        dt = np.where(v[1:] + v[:-1] > 0, 2 * dx / np.maximum(v[1:] + v[:-1], 1e-300), 0.0)
+        parts.append((T_S, thdd, dt))
+    time = sum(np.sum(dt) for _, _, dt in parts)
+
+    def evaluate(i, J_r):
+        squares, peak = 0.0, 0.0
+        for T_S, thdd, dt in parts:
+            T_m = T_S / i + J_r * i * thdd
+            peak = max(peak, float(np.max(np.abs(T_m))))
+            squares += float(np.dot(0.5 * (T_m[1:] ** 2 + T_m[:-1] ** 2), dt))
+        return math.sqrt(squares / time), peak
+    return evaluate
+
+
+MOTOR = '''
+[gearbox]
+ratio = "i"
+[[motors]]
+name = "servo"
+inertia = 4e-4
+rated_torque = 10
+peak_torque = 30
+max_speed = 500
+'''
+
+
+@pytest.mark.parametrize("objective", ["rms_time(motor_torque)", "peak(motor_torque)"])
+def test_best_gear_ratio_against_a_dense_scan_with_the_geometry_held(objective):
+    """Without gravity the load is inertia: the ratio trades the load's torque (1/i) against the
+    rotor's (J_r i).  Only i varies (the counterweight fixed)."""
+    extra = MOTOR
+    text_objective = objective
+    sc = scene(text_objective, gravity=0.0, extra=extra)
+    sc = sc.with_parameters(mc=10.0)
+    sc = _only_ratio(sc, 2.0, 200.0)
+    result = optimise(sc, starts=3)
+    assert result.success
+    model = motor_model(motion())
+    which = 0 if objective.startswith("rms") else 1
+    best, value, step = scan(lambda i: model(i, 4e-4)[which], 2.0, 200.0, geometric=True)
+    assert result.design["i"] == pytest.approx(best, rel=2e-3)
+    assert result.objective == pytest.approx(value, rel=2e-4)
+
+
+def _only_ratio(sc, lo, hi):
+    """The scene with i the one design variable and mc a plain parameter."""
+    import dataclasses
+
+    from optdesign.scene import Parameter
+
+    params = []
+    for p in sc.parameters:
+        if p.name == "mc":
+            params.append(Parameter("mc", 10.0))
+        elif p.name == "i":
+            params.append(Parameter("i", 20.0, lo, hi))
+        else:
+            params.append(p)
+    return dataclasses.replace(sc, parameters=tuple(params))
+
+
+def test_a_weighted_mix_lies_between_its_terms():
+    sc = _only_ratio(scene("peak(motor_torque) + 3*rms_time(motor_torque)", gravity=0.0, extra=MOTOR), 2.0, 200.0)
+    result = optimise(sc, starts=3)
+    assert result.success
+    model = motor_model(motion())
+
+    def mix(i):
+        rms, peak = model(i, 4e-4)
+        return peak + 3 * rms
+    best, value, step = scan(mix, 2.0, 200.0, geometric=True)
+    assert result.objective == pytest.approx(value, rel=2e-4)
+    assert result.design["i"] == pytest.approx(best, rel=2e-3)
+
+
+CATALOGUE = '''
+[gearbox]
+ratio = "i"
+[[motors]]
+name = "tiny"
+inertia = 1e-4
+rated_torque = 0.05
+peak_torque = 0.15
+max_speed = 500
+[[motors]]
+name = "small"
+inertia = 4e-4
+rated_torque = 0.6
+peak_torque = 2.0
+max_speed = 500
+[[motors]]
+name = "large"
+inertia = 2e-3
+rated_torque = 3.0
+peak_torque = 9.0
+max_speed = 500
+'''
+
+
+def test_the_smallest_motor_of_a_catalogue_that_fits():
+    """Each motor is optimised with its limits; the smallest feasible one is chosen.  The loop
+    here: a motor fits when some ratio on a dense scan meets its peak, RMS and speed limits."""
+    sc = _only_ratio(scene("rms_time(motor_torque)", extra=CATALOGUE), 2.0, 200.0)
+    cat = optimise_catalogue(sc, starts=3)
+    paths = motion()
+    model = motor_model(paths, gravity=G)
+    top_speed = max(np.max(np.abs(thd)) for _, thd, _, _ in paths.values())
+    fits = {}
+    for name, J_r, rated, peak_limit in (("tiny", 1e-4, 0.05, 0.15), ("small", 4e-4, 0.6, 2.0),
+                                         ("large", 2e-3, 3.0, 9.0)):
+        def penalised(i):
+            rms, peak = model(i, J_r)
+            ok = rms <= rated and peak <= peak_limit and i * top_speed <= 500
+            return rms if ok else math.inf
+        _, value, _ = scan(penalised, 2.0, 200.0, n=201, geometric=True)
+        fits[name] = None if math.isinf(value) else value
+    assert fits["tiny"] is None and fits["small"] is not None, fits
+    assert cat.chosen == "small"
+    assert not cat.results["tiny"].success and cat.results["small"].success
+    assert cat.best.objective == pytest.approx(fits["small"], rel=2e-4)
