@@ -12,13 +12,28 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
+def wait_until_solving(proc, timeout=60):
+    """Until IPOPT's library is loaded in ``proc`` (its first start is being solved): a fixed
+    sleep is too short on a loaded machine, where the imports alone can take seconds."""
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout and proc.poll() is None:
+        try:
+            if "ipopt" in Path(f"/proc/{proc.pid}/maps").read_text():
+                return
+        except OSError:
+            time.sleep(3.0)   # no /proc: the old fixed wait
+            return
+        time.sleep(0.05)
+
+
 def test_ctrl_c_stops_optimise_and_writes_nothing(tmp_path):
     out = tmp_path / "out"
     proc = subprocess.Popen(
         [sys.executable, "-m", "optdesign", "optimise", str(ROOT / "problems" / "truck_crane.toml"),
          "--starts", "2000", "--out", str(out)],
         cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(3.0)  # imports and the NLP build take ~1 s; 2000 starts take over a minute
+    wait_until_solving(proc)  # past the imports and the NLP build; 2000 starts take over a minute
+    time.sleep(0.5)
     assert proc.poll() is None, "the run ended before it could be interrupted"
     t0 = time.monotonic()
     proc.send_signal(signal.SIGINT)

@@ -21,23 +21,53 @@ def overrides(pairs):
     return out
 
 
-def whole_number(minimum):
-    """An argparse type: a whole number >= ``minimum``, or an error naming the bound."""
+def whole_number(minimum, maximum=None):
+    """An argparse type: a whole number >= ``minimum`` (optdesign.scene.arguments.whole)."""
 
     def parse(text):
+        from ..scene.arguments import whole
+
         try:
-            n = int(text)
+            value = int(text)
         except ValueError:
-            n = minimum - 1
-        if n < minimum:
-            raise argparse.ArgumentTypeError(f"expected a whole number >= {minimum}, found {text!r}")
-        return n
+            try:
+                value = float(text)          # 1e4
+            except ValueError:
+                value = None
+        try:
+            if value is None:
+                raise TypeError
+            return whole("", value, minimum, maximum, shown=repr(text))
+        except (TypeError, ValueError):
+            expected = f"a whole number >= {minimum}" + (f" and <= {maximum:,}" if maximum is not None else "")
+            raise argparse.ArgumentTypeError(f"expected {expected}, found {text!r}") from None
+
+    return parse
+
+
+def real_number(above=None, below=None):
+    """An argparse type: a finite number in the range given (optdesign.scene.arguments.real)."""
+
+    def parse(text):
+        from ..scene.arguments import real
+
+        try:
+            value = float(text)
+        except ValueError:
+            value = text
+        try:
+            return real("", value, above=above, below=below, shown=repr(text))
+        except TypeError:
+            raise argparse.ArgumentTypeError(f"expected a number, found {text!r}") from None
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
 
     return parse
 
 
 samples = whole_number(2)
 workers = whole_number(1)
+seed = whole_number(0)
 
 
 def add_scene_arguments(p, scene_help="scene file (TOML), e.g. problems/seed1_jib.toml"):

@@ -8,6 +8,7 @@ import sys
 HELP = "motion in time under the drive law of [drive] from the start in [simulation] (CVODES BDF/Adams, RK4)"
 
 def add_arguments(p):
+    from .common import real_number, whole_number
     from .common import samples as _samples
 
     p.add_argument("scene", help="scene file (TOML) with [drive] law and [simulation], e.g. problems/sim_slider_crank.toml")
@@ -16,10 +17,12 @@ def add_arguments(p):
     p.add_argument("--integrator", choices=("bdf", "adams", "rk4"), default=None,
                    help="bdf: CVODES BDF, Newton (implicit, stiff cases); adams: CVODES Adams, functional "
                         "iteration (non-stiff); rk4: fixed-step explicit RK4 (default: the scene's, else bdf)")
-    p.add_argument("--tolerance", type=float, default=None, help="relative tolerance (default: the scene's, else 1e-8)")
-    p.add_argument("--steps", type=int, default=None, help="rk4 only: steps per output sample (default 20)")
+    p.add_argument("--tolerance", type=real_number(above=0.0, below=1.0), default=None,
+                   help="relative tolerance, 0 < TOL < 1 (default: the scene's, else 1e-8)")
+    p.add_argument("--steps", type=whole_number(2), default=None, help="rk4 only: steps per output sample, >= 2 (default 20)")
     p.add_argument("--samples", type=_samples, default=None, help="output samples over 0 .. t_end (default: the scene's)")
-    p.add_argument("--t-end", type=float, default=None, dest="t_end", help="end time [s] (default: the scene's)")
+    p.add_argument("--t-end", type=real_number(above=0.0), default=None, dest="t_end",
+                   help="end time [s], > 0 (default: the scene's)")
     p.add_argument("--plot", metavar="DIR", help="write figures (PNG) of q, its rate and the drive load over time into DIR")
 
 

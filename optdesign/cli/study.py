@@ -49,7 +49,7 @@ def add_arguments(p):
         p.add_argument(flag, action=_AxisAction, dest="axes", metavar=meta, default=[], help=text + " (repeatable; see below)")
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter for every case (repeatable)")
     p.add_argument("--starts", type=_whole_number(1), default=8, help="starts of a cold optimisation case (default 8)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the random starts (default 0)")
+    p.add_argument("--seed", type=_whole_number(0), default=0, help="seed of the random starts, >= 0 (default 0)")
     p.add_argument("--warm-starts", type=_whole_number(1), default=1,
                    help="starts of a warm case: the previous optimum, then the first cold ones (default 1)")
     p.add_argument("--no-warm", action="store_true", help="no warm starts: every case starts cold (all run in parallel)")

@@ -16,6 +16,7 @@ import numpy as np
 from . import constructions as geo
 from ..errors import AssemblyError
 from ..scene import Attach, Dyad, Fixed, Loop, Polar, ResolvedScene, Scene, Slider
+from ..scene.arguments import scene_argument
 from ..scene.expressions import evaluate
 from .loops import LoopGraph
 
@@ -237,7 +238,7 @@ class KinematicsResult:
 
 def kinematics(scene: Scene | ResolvedScene, samples: int | None = None) -> KinematicsResult:
     """Points and body angles with their rates over the stroke, at the scene's motion."""
-    mech = Mechanism(scene)
+    mech = Mechanism(scene_argument("kinematics", scene, ResolvedScene))
     scene = mech.scene
     s_values = mech.stroke(samples)
     mech.check_assembly(s_values)

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..kinematics.mechanism import Mechanism
 from ..scene import ResolvedScene, Scene
+from ..scene.arguments import scene_argument
 from ..scene.expressions import evaluate
 from .cases import CaseAnalysis
 from .reduction import ReducedModel
@@ -45,7 +46,7 @@ class Analysis:
 
     def __init__(self, scene: Scene | ResolvedScene, samples: int | None = None, efficiency_smoothing: float = 0.0):
         t0 = time.perf_counter()
-        self.mech = Mechanism(scene)
+        self.mech = Mechanism(scene_argument("analyse", scene, ResolvedScene))
         self.resolved = self.mech.resolved
         self.scene = scene = self.mech.scene
         self.model = ReducedModel(self.mech, efficiency_smoothing)

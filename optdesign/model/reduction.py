@@ -59,7 +59,7 @@ class ReducedModel:
             self.uses_acceleration = not self.is_zero(drive.acceleration)
             self.qd = m.value(drive.speed, "[drive] speed")
             self.qdd = m.value(drive.acceleration, "[drive] acceleration")
-            self.qd2, self.flow_speed = self.qd**2, self.qd
+            self.qd2, self.flow_speed = _square(self.qd, f"{scene.path}: [drive] speed"), self.qd
         else:
             self.uses_speed = self.uses_acceleration = True
             self.qd, self.qdd, self.qd2, self.flow_speed = motion.qd, motion.qdd, motion.qd2, motion.flow_speed
@@ -309,3 +309,12 @@ def _bisect(f, a, b, iterations=60):
         else:
             b = mid
     return 0.5 * (a + b)
+
+
+def _square(x, where):
+    """x**2 of a constant (or a CasADi expression); a number whose square overflows is an error."""
+    try:
+        return x**2
+    except OverflowError:
+        raise SceneError(f"{where} = {x:g}: too large, its square overflows a float (> 1.8e308); give it in SI "
+                         "units (rad/s, m/s)") from None

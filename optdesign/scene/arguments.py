@@ -22,41 +22,43 @@ def _type_name(value) -> str:
     return type(value).__name__
 
 
-def whole(name: str, value, minimum: int = 1, maximum: int | None = None) -> int:
+def _found(name: str, expected: str, found) -> ArgumentError:
+    return ArgumentError(f"{name + ': ' if name else ''}expected {expected}, found {found}")
+
+
+def whole(name: str, value, minimum: int = 1, maximum: int | None = None, shown: str | None = None) -> int:
     """``value`` as an int >= ``minimum`` (and <= ``maximum``): an int, a numpy integer, or a
-    float with a whole value (``1e4``); anything else (a bool, a string, None) is a TypeError."""
+    float with a whole value (``1e4``); anything else (a bool, a string, None) is a TypeError.
+    ``shown``: how to show the value in the message (the command line's text)."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name}: expected a whole number, found {_type_name(value)} {value!r}")
+        raise TypeError(f"{name}: expected a whole number, found {_type_name(value)} {_short(value)}")
+    expected = f"a whole number >= {minimum}" + (f" and <= {maximum:,}" if maximum is not None else "")
     if not isinstance(value, numbers.Integral):
         v = float(value)
         if not (math.isfinite(v) and v.is_integer()):
-            raise ArgumentError(f"{name}: expected a whole number, found {value!r}")
+            raise _found(name, expected, shown or repr(value))
         value = v
     value = int(value)
-    if value < minimum:
-        raise ArgumentError(f"{name}: expected a whole number >= {minimum}, found {value}")
-    if maximum is not None and value > maximum:
-        raise ArgumentError(f"{name}: expected a whole number <= {maximum:,}, found {value:,}")
+    if value < minimum or (maximum is not None and value > maximum):
+        raise _found(name, expected, shown or f"{value:,}")
     return value
 
 
 def real(name: str, value, *, above: float | None = None, below: float | None = None,
-         at_least: float | None = None) -> float:
-    """``value`` as a finite float, > ``above``, < ``below`` and >= ``at_least`` where given."""
+         at_least: float | None = None, shown: str | None = None) -> float:
+    """``value`` as a finite float, > ``above``, >= ``at_least`` and < ``below`` where given."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name}: expected a number, found {_type_name(value)} {value!r}")
+        raise TypeError(f"{name}: expected a number, found {_type_name(value)} {_short(value)}")
+    parts = [f"> {above:g}" if above is not None else "", f">= {at_least:g}" if at_least is not None else "",
+             f"< {below:g}" if below is not None else ""]
+    expected = "a finite number" + (" " + " and ".join(p for p in parts if p) if any(parts) else "")
     try:
         v = float(value)
     except OverflowError:
-        raise ArgumentError(f"{name}: expected a finite number, found {value} (too large for a float)") from None
-    if not math.isfinite(v):
-        raise ArgumentError(f"{name}: expected a finite number, found {v}")
-    if above is not None and not v > above:
-        raise ArgumentError(f"{name}: expected a number > {above:g}, found {v:g}")
-    if at_least is not None and not v >= at_least:
-        raise ArgumentError(f"{name}: expected a number >= {at_least:g}, found {v:g}")
-    if below is not None and not v < below:
-        raise ArgumentError(f"{name}: expected a number < {below:g}, found {v:g}")
+        raise _found(name, expected, shown or f"{value} (too large for a float)") from None
+    if (not math.isfinite(v) or (above is not None and not v > above)
+            or (at_least is not None and not v >= at_least) or (below is not None and not v < below)):
+        raise _found(name, expected, shown or f"{v:g}")
     return v
 
 

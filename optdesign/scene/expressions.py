@@ -183,7 +183,47 @@ def parse(text, where: str = "expression") -> Expression:
         if not math.isfinite(text):
             raise located_error(ExpressionError, where, f"expected a finite number, found {text!r}")
         return Expression(repr(text), Num(float(text)))
-    return Expression(text, _Parser(text, where).parse())
+    nesting = max(_nesting(text), 0)
+    if nesting > MAX_NESTING:
+        raise located_error(ExpressionError, where, f"{show(text[:60] + ('...' if len(text) > 60 else ''))}: "
+                            f"parentheses nested {nesting} deep; at most {MAX_NESTING}")
+    try:
+        tree = _Parser(text, where).parse()
+    except RecursionError:
+        tree = None
+    depth = _depth(tree) if tree is not None else None
+    if depth is None or depth > MAX_DEPTH:
+        raise located_error(ExpressionError, where, f"{show(text[:60] + ('...' if len(text) > 60 else ''))}: "
+                            f"nested too deeply ({'' if depth is None else f'{depth} '}operations inside one "
+                            f"another; at most {MAX_DEPTH}): split it into named parameters")
+    return Expression(text, tree)
+
+
+MAX_DEPTH = 200      # operations inside one another (a sum of n terms is n deep); every walker recurses
+MAX_NESTING = 100    # parentheses inside one another (the parser recurses about 5 frames per level)
+
+
+def _nesting(text: str) -> int:
+    deepest = level = 0
+    for ch in text:
+        level += (ch == "(") - (ch == ")")
+        deepest = max(deepest, level)
+    return deepest
+
+
+def _depth(tree) -> int:
+    """The depth of a syntax tree, without recursion (it guards the recursive walkers)."""
+    stack, deepest = [(tree, 1)], 0
+    while stack:
+        node, d = stack.pop()
+        deepest = max(deepest, d)
+        if isinstance(node, BinOp):
+            stack += [(node.left, d + 1), (node.right, d + 1)]
+        elif isinstance(node, Neg):
+            stack.append((node.operand, d + 1))
+        elif isinstance(node, Call):
+            stack += [(a, d + 1) for a in node.args]
+    return deepest
 
 
 class _Parser:

@@ -7,11 +7,12 @@ lists); the scene objects check values and cross references, and this module add
 """
 from __future__ import annotations
 
+import os
 import re
 import tomllib
 from pathlib import Path
 
-from ..errors import OptdesignError, SceneError
+from ..errors import ArgumentError, OptdesignError, SceneError
 from .elements import (DRIVE_PINS, Body, Constraint, Drive, Gravity, Objective, Parameter, Simulation,
                        Sweep)
 from .drawing import DRAWING_KEYS, Drawing
@@ -43,19 +44,36 @@ SIMULATION_KEYS = ("start", "speed", "t_end", "samples", "integrator", "toleranc
 def load(path, overrides: dict | None = None) -> Scene:
     """Load a scene file; ``overrides`` (name -> number or expression) replace parameters, as
     ``--set NAME=VALUE`` does on the command line."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"load: path: expected a file path (str or pathlib.Path), found {type(path).__name__} "
+                        f"{path!r:.60}" + ("; for a scene's text use optdesign.loads(text)" if isinstance(path, bytes) else ""))
+    if isinstance(path, str) and ("\n" in path or re.match(r"\s*(title\s*=|\[)", path)):
+        raise ArgumentError(f"load: path: {path[:40]!r}... is the text of a scene, not a file path; use "
+                            "optdesign.loads(text) for text")
+    if overrides is not None and not isinstance(overrides, dict):
+        raise TypeError(f"load: overrides: expected a dict {{name: value}}, found {type(overrides).__name__} "
+                        f"{overrides!r:.60}")
     path = Path(path)
+    if path.exists() and not (path.is_file() or path.is_dir()):
+        raise SceneError(f"{path}: not a regular file (a pipe or a device); give the path of a scene file")
     try:
         text = path.read_text()
     except FileNotFoundError:
         raise SceneError(f"{path}: no such scene file; check the path (scenes ship in problems/)") from None
     except (IsADirectoryError, UnicodeDecodeError) as exc:
         raise SceneError(f"{path}: cannot read it as a scene file ({exc})") from None
+    except OSError as exc:
+        raise SceneError(f"{path}: cannot read the scene file ({exc.strerror or exc})") from None
     scene = loads(text, str(path))
     return scene.with_parameters(**overrides) if overrides else scene
 
 
 def loads(text: str, path: str = "<string>") -> Scene:
     """Parse a scene from TOML text; ``path`` names it in errors."""
+    if not isinstance(text, str):
+        hint = {bytes: "; decode it first (data.decode())", bytearray: "; decode it first (data.decode())"}.get(
+            type(text), "; for a file use optdesign.load(path)" if isinstance(text, os.PathLike) else "")
+        raise TypeError(f"loads: text: expected the scene's TOML text as a str, found {type(text).__name__}{hint}")
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -306,10 +306,9 @@ class _Dask(_Futures):
             try:
                 # connect timeout: dask's config distributed.comm.timeouts.connect (30 s by default)
                 self.client, self.own = distributed.Client(scheduler), True
-            except OSError as exc:
-                from ..errors import OptdesignError
-
-                raise OptdesignError(f"--scheduler {scheduler}: cannot reach the Dask scheduler ({exc})") from None
+            except (OSError, ValueError, TypeError) as exc:
+                raise OptdesignError(f"--scheduler {scheduler!r}: cannot reach the Dask scheduler ({exc}); expected "
+                                     "an address such as tcp://10.0.0.5:8786") from None
         self.address = self.client.scheduler.address
 
     def submit(self, case, task):

@@ -33,6 +33,7 @@ import pickle
 from pathlib import Path
 
 from ..errors import SceneError
+from ..scene.arguments import scene_argument, study_cases, whole
 from .axes import Axis, _constant, _number, grid, pareto, together, values  # noqa: F401  (re-exported)
 from .results import StudyInterrupted, StudyResult  # noqa: F401  (re-exported)
 from .tasks import Task, scene_digest
@@ -78,7 +79,12 @@ class Study:
     settings: object = None
 
     def __post_init__(self):
+        scene_argument("Study", self.scene)
         axes = self.axes
+        if not isinstance(axes, (dict, Axis, list, tuple)) or any(
+                not isinstance(a, Axis) for a in (axes if isinstance(axes, (list, tuple)) else ())):
+            raise TypeError("Study: axes: expected a list of axes (grid(...), values(...), together(...), "
+                            f"pareto(...)) or a dict {{parameter: values}}, found {type(axes).__name__} {axes!r:.80}")
         if isinstance(axes, dict):
             axes = [values(k, v) for k, v in axes.items()]
         elif isinstance(axes, Axis):
@@ -124,6 +130,8 @@ class Study:
         for what in ("starts", "warm_starts", "chain"):
             if int(getattr(self, what)) < 1:
                 raise SceneError(f"study: {what} must be at least 1, found {getattr(self, what)!r}")
+        object.__setattr__(self, "seed", whole("Study: seed", self.seed, 0))
+        study_cases("Study: cases", math.prod(len(a) for a in self.axes))
         if self.mode == "optimise":
             if sc.objective is None:
                 raise SceneError(f"{sc.path}: an optimise study needs an [objective] table (or use mode 'analyse')")
