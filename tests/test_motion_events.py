@@ -524,3 +524,30 @@ def test_rk4_locates_the_same_events():
     res = simulator("jib").run(integrator="rk4", steps=20, tolerance=1e-8)
     assert kinds(res.events) == kinds(ref.events)
     assert error(res, ref) < 1e-8 and res.error_estimate < 1e-8
+
+
+@pytest.mark.parametrize("integrator", ["bdf", "adams", "rk4"])
+def test_a_start_at_rest_is_decided_like_any_rest(integrator):
+    """The self-locking bar of tests/test_energy.py (T = 12 N m through eta = 0.8, weight torque
+    m g L/2 cos phi) started at rest: at phi = 0.7 the weight's torque, 13.5 N m, lies between the
+    drive's eta T = 9.6 and T/eta = 15 N m: held (a 'stall' at t = 0, one sample, no step); at
+    phi = 0.3 (16.9 N m > T/eta) it falls back ('rest' at t = 0, moving backwards) to the
+    stroke's 'from' end."""
+    import dataclasses
+
+    from optdesign.scene import parse
+    from test_energy import self_locking_bar
+
+    base = self_locking_bar()
+    runs = {}
+    for phi in ("0.7", "0.3"):
+        scene = dataclasses.replace(base, simulation=dataclasses.replace(base.simulation, start=parse(phi),
+                                                                         speed=parse("0")))
+        runs[phi] = Simulator(scene).run(integrator=integrator)
+    held, falls = runs["0.7"], runs["0.3"]
+    assert held.stop == "stalled" and held.t_stop == 0.0 and len(held.t) == 1 and held.stats["steps"] == 0
+    assert kinds(held.events) == ["stall"]
+    acc = held.events[0]["one_sided_accelerations"]
+    assert acc["forward"] < 0 < acc["backward"]
+    assert falls.stop == "stroke end" and falls.stop_end == "from" and kinds(falls.events) == ["rest", "stroke end"]
+    assert falls.events[0]["after"]["direction"] == -1 and np.all(falls.sd[1:] < 0)

@@ -118,7 +118,8 @@ def rk4_error(run, motion, half, where):
     diff = [np.abs(a - b) / scale[:, None]]
     if motion.stop == half.stop and motion.stop_end == half.stop_end and len(motion.events) == len(half.events):
         diff.append(np.abs(motion.X[:, -1:] - half.X[:, -1:]) / scale[:, None])
-        diff.append(np.array([[abs(motion.t[-1] - half.t[-1]) * abs(motion.X[1, -2]) / scale[0]]]))
+        # the stop's time, as a distance: at the largest speed of the run
+        diff.append(np.array([[abs(motion.t[-1] - half.t[-1]) * np.max(np.abs(motion.X[1])) / scale[0]]]))
     else:
         diff.append(np.array([[math.inf]]))
     diff = np.concatenate([d.ravel() for d in diff])
