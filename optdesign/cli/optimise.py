@@ -14,7 +14,7 @@ HELP = "minimise the scene's objective over its design variables (IPOPT, multist
 def add_arguments(p):
     add_scene_arguments(p)
     p.add_argument("--starts", type=whole_number(1), default=20, help="number of starts, >= 1 (default 20)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the random starts (default 0)")
+    p.add_argument("--seed", type=whole_number(0), default=0, help="seed of the random starts, >= 0 (default 0)")
     p.add_argument("--workers", type=workers, default=os.cpu_count() or 1,
                    help="processes that share the starts (default: the machine's cores; 1 = in this process)")
     p.add_argument("--out", metavar="DIR", help="results folder (default results/<scene name>)")
