@@ -12,6 +12,7 @@ from ..scene import ResolvedScene, Scene
 from ..scene.arguments import scene_argument
 from ..scene.expressions import evaluate
 from .cases import CaseAnalysis
+from .finite import check_columns, check_values
 from .reduction import ReducedModel
 from .vectorised import VectorisedSX
 
@@ -94,10 +95,13 @@ class Analysis:
                 columns[key] = arr
         if self.scene.drive.kind == "rotary":
             columns["q"] = np.unwrap(columns["q"])
+        check_columns(self, self.s_values, columns, constraints, p_values)   # no NaN/inf: an error naming it
         constraints.update(self._per_stroke(p_values))
         peaks = {k: float(np.max(np.abs(columns[k]))) for k in
                  ("drive", "static_load", "reduced_inertia", "power") if k in columns}
         timings = {"build_s": self.build_time, "evaluate_s": time.perf_counter() - t0}
+        check_values(self, {**{f"constraint {k!r}": v for k, v in constraints.items() if not np.ndim(v)},
+                            **{f"peak |{k}|": v for k, v in peaks.items()}})
         return AnalysisResult(self.scene, columns, bodies, constraints, peaks, timings,
                               cases=self.case_analysis.run(p_values) if self.case_analysis else None)
 

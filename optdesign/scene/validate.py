@@ -180,6 +180,26 @@ class Validator:
             for key in ("com", "force"):
                 for i, e in enumerate(getattr(b, key) or ()):
                     self._check_expression(where.at(f"{key}[{i}]"), e, names, built)
+            self._check_physical(b, where)
+
+    def _check_physical(self, b, where):
+        """A frame of two distinct points (one point twice gives no angle: the body would stand
+        still whatever the mechanism does), and a mass and an inertia that are not negative (a
+        massless body is 0) where they are numbers of the parameters; one that varies along the
+        stroke is checked where it is evaluated (a negative reduced inertia is an error there)."""
+        if b.frame[0] == b.frame[1]:
+            self._fail(where.at("frame"), f"[{b.frame[0]!r}, {b.frame[1]!r}] names one point twice: expected two "
+                                          "distinct points (the origin and the point its x axis points to)")
+        values = None
+        for key, what in (("mass", "a mass >= 0 [kg]"), ("inertia", "a moment of inertia >= 0 [kg m^2]")):
+            expr = getattr(b, key)
+            if expr is None or expr.points() or self.scene.sweep.name in expr.names():
+                continue
+            values = self.scene.parameter_values() if values is None else values
+            value = constant_value(expr, values, where.at(key))
+            if not value >= 0:
+                self._fail(where.at(key), f"expected {what}, found {value:g}"
+                                          + (f" ({expr.source} at the parameters' values)" if expr.names() else ""))
 
     def _check_drive(self, values, built):
         d = self.scene.drive
