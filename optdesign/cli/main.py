@@ -10,7 +10,7 @@ import sys
 
 from ..errors import OptdesignError
 
-COMMANDS = ("kinematics", "analyse", "optimise", "simulate", "study", "draw")
+COMMANDS = ("kinematics", "analyse", "optimise", "simulate", "study", "draw", "animate")
 
 
 def parser():

@@ -1,0 +1,48 @@
+"""`optdesign animate SCENE`: the mechanism moving over its stroke (GIF, and MP4 where ffmpeg is
+on PATH) with the drive force or torque traced beside it and the transmission angle."""
+from __future__ import annotations
+
+import sys
+
+from .common import add_scene_arguments, whole_number
+from .design_option import add_design_argument, default_file, scene_with_design
+
+HELP = ("animate the mechanism over its stroke with its drive force/torque and transmission angle "
+        "(GIF; MP4 too where ffmpeg is on PATH)")
+
+
+def add_arguments(p):
+    add_scene_arguments(p)
+    add_design_argument(p)
+    p.add_argument("--out", metavar="FILE.gif", help="the GIF (default optdesign-results/<scene>-animation.gif); "
+                   "the MP4 goes beside it with the suffix .mp4")
+    p.add_argument("--frames", type=whole_number(2), default=36, help="frames over the stroke, >= 2 (default 36)")
+    p.add_argument("--fps", type=whole_number(1), default=12, help="frames per second (default 12)")
+    p.add_argument("--no-mp4", action="store_true", help="write the GIF only, even where ffmpeg is available")
+
+
+def run(args):
+    from pathlib import Path
+
+    from ..errors import OptdesignError
+    from ..model.analysis import analyse
+    from ..report.animate import animate, ffmpeg_available
+
+    gif = Path(args.out or default_file(args, "-animation.gif"))
+    if gif.suffix.lower() != ".gif":
+        raise OptdesignError(f"--out {gif}: expected a file name ending in .gif (the MP4 is written beside it)")
+    scene = scene_with_design(args)
+    analysis = analyse(scene, args.samples) if scene.drive is not None else None
+    paths = [gif] + ([] if args.no_mp4 else [gif.with_suffix(".mp4")])
+    written = animate(scene, paths, frames=args.frames, fps=args.fps, analysis=analysis)
+    for path in written:
+        print(f"wrote {path}", file=sys.stderr)
+    if not args.no_mp4 and not ffmpeg_available():
+        print("no MP4: ffmpeg is not on PATH (the GIF holds the same frames)", file=sys.stderr)
+    if args.json:
+        import json
+
+        print(json.dumps({"kind": "animation", "file": scene.path, "files": [str(p) for p in written],
+                          "frames": args.frames, "fps": args.fps}))
+    else:
+        print(f"{scene.title}: {args.frames} frames over the stroke -> {', '.join(map(str, written))}")

@@ -1,0 +1,218 @@
+"""The mechanism moving over its stroke: a GIF (Pillow, as matplotlib's PillowWriter) and, where
+ffmpeg is on PATH, an MP4, with the drive force or torque traced beside it and the transmission angle.
+
+The transmission angle is the scene's own where it has a per-sample constraint named
+'transmission ...' (in its units, with its bounds); otherwise, for a linear drive, the angle
+mu = 90 deg - alpha, where alpha is the angle between the actuator's axis and the relative
+velocity of its two pins (CasADi's derivative in s): mu = 90 deg when the whole motion of the
+pins goes into the actuator's length, 0 at a dead centre."""
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+import textwrap
+from pathlib import Path
+
+import numpy as np
+
+from .drawing import context, draw_mechanism, draw_paths, frame_view, limits
+from .geometry import Geometry
+from .topology import topology
+from .plots import bound_lines, headroom, mark_peak
+from .units import constraint_scale, scaled, sweep_scale
+
+DRIVE_UNIT = {"rotary": ("drive torque", "N m"), "linear": ("drive force", "N")}
+
+
+def transmission(scene, geometry, analysis, s):
+    """(label, values at ``s``, unit, (lower, upper) or None) of the transmission angle, or
+    None where there is none to show."""
+    for c in scene.constraints:
+        if "transmission" in c.name.lower() and analysis is not None and np.ndim(analysis.constraints.get(c.name)):
+            factor, unit = constraint_scale(c)
+            values = np.interp(s, analysis.columns["s"], analysis.constraints[c.name]) * factor
+            bounds = tuple(None if b is None else geometry.resolved.constant(b, c.name) * factor
+                           for b in (c.lower, c.upper))
+            return c.name, values, unit, bounds
+    if scene.drive is None or scene.drive.kind != "linear":
+        return None
+    import casadi as ca
+
+    mech = geometry.mech
+    p, q = (mech.points[n] for n in scene.drive.pins)
+    d = q - p
+    w = mech.ds(d)
+    cos_alpha = ca.fabs(ca.dot(d, w)) / (ca.norm_2(d) * ca.norm_2(w))
+    f = mech.function("transmission", {"cos": cos_alpha}).map(len(s))
+    with np.errstate(invalid="ignore"):
+        c = np.clip(np.asarray(f(s=np.asarray(s)[None, :], p=mech.parameter_values)["cos"], float).ravel(), 0, 1)
+    return "transmission angle (actuator to its pins' motion)", 90.0 - np.degrees(np.arccos(c)), "deg", None
+
+
+def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None) -> list:
+    """Write the animation of ``scene`` to every path in ``paths`` (.gif always; .mp4 only where
+    ffmpeg is available: others are skipped); returns the paths written.  ``analysis``: an
+    :class:`~optdesign.model.analysis.AnalysisResult` of the same scene (made here if None and
+    the scene has a drive)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    geometry = Geometry(scene)
+    scene = geometry.scene
+    top = topology(scene)
+    dense = geometry.frames(geometry.stroke(max(frames, 61)))
+    ctx = context(top, dense)
+    s = geometry.stroke(frames)
+    shots = geometry.frames(s)
+    if analysis is None and scene.drive is not None:
+        from ..model.analysis import analyse
+
+        analysis = analyse(scene)
+    factor, unit = sweep_scale(scene)
+    trans = transmission(scene, geometry, analysis, s)
+    box = limits([ctx])
+    aspect = (box[3] - box[2]) / max(box[1] - box[0], 1e-12)
+    side = analysis is not None or trans is not None
+    fig = Figure(figsize=(10.5 if side else 6.5, float(np.clip(5.2 * aspect, 4.2, 7.0))), layout="constrained")
+    FigureCanvasAgg(fig)
+    grid = fig.add_gridspec(2, 2 if side else 1, width_ratios=[1.25, 1] if side else [1])
+    mech_ax = fig.add_subplot(grid[:, 0])
+    markers = []
+    if analysis is not None:
+        ax = fig.add_subplot(grid[0, 1] if trans is not None else grid[:, 1])
+        name, base = DRIVE_UNIT[scene.drive.kind]
+        drive = analysis.columns["drive"]
+        k, shown = scaled(drive, base)
+        x = analysis.columns["s"] * factor
+        ax.plot(x, drive * k, color="#1f77b4", lw=1.6)
+        i = int(np.argmax(np.abs(drive)))
+        mark_peak(ax, x[i], drive[i] * k, f"peak {abs(drive[i]) * k:.4g} {shown}")
+        headroom(ax)
+        ax.set_ylabel(f"{name} [{shown}]", fontsize=8)
+        ax.grid(alpha=0.3)
+        ax.tick_params(labelsize=7)
+        values = np.interp(s, analysis.columns["s"], drive) * k
+        (dot,) = ax.plot([], [], "o", color="black", ms=6)
+        line = ax.axvline(x[0], color="black", lw=0.8, alpha=0.6)
+        markers.append((dot, line, values))
+    if trans is not None:
+        ax = fig.add_subplot(grid[1, 1])
+        label, values, tunit, bounds = trans
+        x = s * factor
+        ax.plot(x, values, color="#2ca02c", lw=1.6)
+        if bounds:
+            bound_lines(ax, *bounds)
+        ax.set_ylabel(textwrap.fill(f"{label} [{tunit}]", 32), fontsize=8)
+        ax.grid(alpha=0.3)
+        ax.tick_params(labelsize=7)
+        (dot,) = ax.plot([], [], "o", color="black", ms=6)
+        line = ax.axvline(x[0], color="black", lw=0.8, alpha=0.6)
+        markers.append((dot, line, values))
+    for ax in fig.axes[1:]:
+        ax.set_xlabel(f"{scene.sweep.name} [{unit}]" if unit else scene.sweep.name, fontsize=8)
+    fig.suptitle(textwrap.fill(title or scene.title, 90), fontsize=9.5)
+    draw_paths(mech_ax, top, ctx)
+    frame_view(mech_ax, [ctx], box=box)
+    mech_ax.set_title(" ", fontsize=8.5)
+    caption = mech_ax.text(0.5, 1.01, "", transform=mech_ax.transAxes, ha="center", va="bottom", fontsize=8.5,
+                           animated=True)
+    for dot, line, _ in markers:
+        dot.set_animated(True)
+        line.set_animated(True)
+    canvas = fig.canvas
+    fig.set_dpi(dpi)
+    canvas.draw()                       # the layout and every static artist, once
+    fig.set_layout_engine("none")
+    background = canvas.copy_from_bbox(fig.bbox)
+
+    def render(i):
+        canvas.restore_region(background)
+        before = set(mech_ax.get_children())
+        draw_mechanism(mech_ax, top, shots.at(i), ctx, labels="joints", loads=True, scene=scene)
+        new = sorted((a for a in mech_ax.get_children() if a not in before), key=lambda a: a.get_zorder())
+        for a in new:
+            mech_ax.draw_artist(a)
+        text = f"{scene.sweep.name} = {s[i] * factor:.4g} {unit}".rstrip()
+        for dot, line, values in markers:
+            dot.set_data([s[i] * factor], [values[i]])
+            line.set_xdata([s[i] * factor, s[i] * factor])
+            dot.axes.draw_artist(line)
+            dot.axes.draw_artist(dot)
+        if analysis is not None:
+            name, base = DRIVE_UNIT[scene.drive.kind]
+            k, shown = scaled(analysis.columns["drive"], base)
+            text += f"   {name} {markers[0][2][i]:.4g} {shown}"
+        if trans is not None:
+            text += f"   transmission {trans[1][i]:.3g} {trans[2]}"
+        if not shots.assembled[i]:
+            text += f"   (does not assemble: [points] {shots.failed[i]})"
+        caption.set_text(text)
+        mech_ax.draw_artist(caption)
+        image = np.asarray(canvas.buffer_rgba()).copy()
+        for a in new:
+            a.remove()
+        return image
+
+    images = [render(i) for i in range(len(s))]
+    written = []
+    for path in paths:
+        path = Path(path)
+        if path.suffix.lower() == ".mp4":
+            if not ffmpeg_available():
+                continue
+            _write(path, lambda tmp: write_mp4(images, tmp, fps))
+        else:
+            _write(path, lambda tmp: write_gif(images, tmp, fps))
+        written.append(path)
+    return written
+
+
+def _write(path, write):
+    """``write(tmp)`` into a temporary file beside ``path``, then renamed onto it (atomic)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=path.suffix)
+    os.close(fd)
+    try:
+        write(tmp)
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def write_gif(images, path, fps):
+    """RGBA frames as a looping GIF, written with Pillow (as matplotlib's PillowWriter does), all
+    frames on one palette made from a few of them (10x faster than a palette per frame)."""
+    from PIL import Image
+
+    frames = [Image.fromarray(np.ascontiguousarray(im[..., :3])) for im in images]
+    w, h = frames[0].size
+    picks = frames[::max(1, len(frames) // 4)][:4]
+    mosaic = Image.new("RGB", (w, h * len(picks)))
+    for k, f in enumerate(picks):
+        mosaic.paste(f, (0, h * k))
+    palette = mosaic.quantize(colors=255, method=Image.Quantize.FASTOCTREE)
+    frames = [f.quantize(palette=palette, dither=Image.Dither.NONE) for f in frames]
+    frames[0].save(path, format="GIF", save_all=True, append_images=frames[1:], duration=int(1000 / fps), loop=0)
+
+
+def write_mp4(images, path, fps):
+    """RGBA frames as an H.264 MP4 through ffmpeg (as matplotlib's FFMpegWriter pipes them)."""
+    import subprocess
+
+    h, w = images[0].shape[:2]
+    cmd = ["ffmpeg", "-y", "-loglevel", "error", "-f", "rawvideo", "-vcodec", "rawvideo", "-s", f"{w}x{h}",
+           "-pix_fmt", "rgba", "-framerate", str(fps), "-i", "pipe:", "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2",
+           "-vcodec", "libx264", "-pix_fmt", "yuv420p", "-f", "mp4", path]
+    proc = subprocess.run(cmd, input=b"".join(np.ascontiguousarray(im).tobytes() for im in images),
+                          capture_output=True)
+    if proc.returncode:
+        from ..errors import OptdesignError
+
+        raise OptdesignError(f"ffmpeg could not write {path}: {proc.stderr.decode(errors='replace').strip()}")
+
+
+def ffmpeg_available() -> bool:
+    return shutil.which("ffmpeg") is not None
