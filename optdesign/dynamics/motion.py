@@ -25,7 +25,8 @@ from ..kinematics.mechanism import _fmt_s
 from .events import Event, at_rest, first_exit, flow_branch, locate, start
 from .integrate import LONGEST, IntegratorFailed
 
-MAX_EVENTS = 100000
+MAX_EVENTS = 100000   # events in one run
+SAME_INSTANT = 50     # events in a row at one instant (to 1e-12 of an output interval)
 
 
 @dataclass
@@ -66,7 +67,7 @@ def run_motion(run, grid, where):
     out.add(0.0, x, branch)
     if branch.held:
         return _finish(out, events, "stalled", None)
-    t, j, K = 0.0, 1, 1
+    t, j, K, same = 0.0, 1, 1, 0
     peak = abs(x[1]) + run.scale[1]
     while j <= n:
         if abs(t - grid[j - 1]) <= 1e-12 * dt:  # on the grid: a stretch of whole intervals
@@ -108,10 +109,13 @@ def run_motion(run, grid, where):
                 out.add(T[col], X[:, col], branch)
         j += int(np.sum(on_grid + 1 <= i - 1))
         event = _event(run, branch, hit, T, X, failure, where)
+        same = same + 1 if events and event.t - events[-1].t <= 1e-12 * dt else 0
         events.append(event)
-        if len(events) > MAX_EVENTS:
-            raise SolverError(f"{where[0]}: more than {MAX_EVENTS} events (reversals, power-flow switches) by "
-                              f"t = {event.t:.9g} s: the motion chatters; check the law and the efficiency")
+        if len(events) > MAX_EVENTS or same >= SAME_INSTANT:
+            raise SolverError(f"{where[0]}: {len(events)} events (reversals, power-flow switches) by t = "
+                              f"{event.t:.9g} s, {same + 1} of them at that instant: the motion chatters there "
+                              f"({where[1]} = {_fmt_s(event.x[0])}, d{where[1]}/dt = {event.x[1]:.6g}); check the "
+                              "law and the efficiency")
         if j <= n and grid[j] - event.t <= 1e-12 * dt:  # the event falls on a grid time: it replaces it
             j += 1
         after = event.after if event.after is not None else event.before
