@@ -93,34 +93,17 @@ def _write_results(result, folder, workers) -> list:
 
 
 def load_figure(result, folder) -> Path:
-    """Drive load and per-sample constraints over the stroke, before and after."""
+    """Drive load and per-sample constraints over the stroke, start and optimum on one figure, in
+    the units the scene wrote (report/stroke_plots.py): bounds drawn with the feasible side
+    shaded, violations red, the peaks and their positions marked."""
     from ..model.analysis import Analysis
+    from .stroke_plots import stroke_figure
 
     scene = result.scene
     after = scene.with_parameters(**result.design)
-    start = Analysis(scene)
-    analyses = {"start": start.run(), "optimum": Analysis(after).run()}
-    per_sample = [k for k, v in analyses["start"].constraints.items() if np.ndim(v)]
-    fig, axes = new_figure(1 + len(per_sample), 1, figsize=(7, 3.2 * (1 + len(per_sample))), squeeze=False)
-    for label, res in analyses.items():
-        axes[0, 0].plot(res.columns["s"], res.columns["drive"], label=f"{label}: peak {res.peaks['drive']:.4g}")
-        for i, name in enumerate(per_sample):
-            axes[i + 1, 0].plot(res.columns["s"], np.degrees(res.constraints[name]) if "angle" in name else res.constraints[name], label=label)
-    axes[0, 0].set_ylabel("drive torque T_S [N m]" if scene.drive.kind == "rotary" else "drive force F_S [N]")
-    axes[0, 0].set_title(f"{textwrap.fill(scene.title, 80)}\n{scene.objective.minimise}: start vs optimum", fontsize=10)
-    for i, name in enumerate(per_sample):
-        c = next(c for c in scene.constraints if c.name == name)
-        conv = np.degrees if "angle" in name else (lambda v: v)
-        for bound in (c.lower, c.upper):
-            if bound is not None:
-                axes[i + 1, 0].axhline(conv(start.resolved.constant(bound, name)), color="k", ls=":", lw=1)
-        axes[i + 1, 0].set_ylabel(name + (" [deg]" if "angle" in name else ""))
-    for ax in axes[:, 0]:
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
-    axes[-1, 0].set_xlabel(f"sweep {scene.sweep.name}")
+    runs = [("start", Analysis(scene).run()), ("optimum", Analysis(after).run())]
     path = Path(folder) / "drive_and_constraints.png"
-    save_figure(fig, path)
+    stroke_figure(runs, path, title=f"{scene.title}\n{scene.objective.minimise}: start and optimum")
     return path
 
 
