@@ -62,13 +62,19 @@ class Event:
     extra: dict = field(default_factory=dict)
 
 
-def watch(run, branch, X):
+def watch(run, branch, X, rates=True):
     """The indicators of ``branch`` at the states X (columns): names, values g (rows; the branch
-    holds while g >= 0), their rates along the motion, and their round-off bands."""
-    ind = np.asarray(run.eq.mapped("indicators", X.shape[1])(X, run.p, branch.c))
-    s, sd, sdd, B, B_rate, B_size = ind
+    holds while g >= 0), their rates along the motion, and their round-off bands.  Without
+    ``rates`` the speed's and the power's rates are NaN (the stroke's, ds/dt, are states): the
+    values alone cost a fraction of the rates' AD graph."""
+    s, sd = X[0], X[1]
     names, g, rate, band = ["from", "to"], [s - run.lo, run.hi - s], [sd, -sd], [0 * s, 0 * s]
     if run.uses_efficiency and branch.d != 0:
+        if rates:
+            _, _, sdd, B, B_rate, B_size = np.asarray(run.eq.mapped("indicators", X.shape[1])(X, run.p, branch.c))
+        else:
+            B, B_size = np.asarray(run.eq.mapped("power", X.shape[1])(X, run.p))
+            sdd = B_rate = np.full_like(s, np.nan)
         d = branch.d
         e = d if branch.c > 1 else -d  # c = 1/eta: power into the mechanism, d B >= 0
         names += ["speed", "power"]
@@ -94,14 +100,27 @@ def first_exit(run, branch, t, X, blowup=None):
     stop = int(bad[0]) if bad.size else X.shape[1]
     if stop <= 1:
         return ("failed", 1) if stop == 1 else None
-    names, g, rate, band = watch(run, branch, X[:, :stop])
+    names, g, rate, band = watch(run, branch, X[:, :stop], rates=False)
     g[:, 0] = np.maximum(g[:, 0], 0.0)  # the start: an instant just located lies on the branch
     out = g < -band
     out[:, 0] = False
     first = np.flatnonzero(out.any(axis=0))
     last = int(first[0]) if first.size else stop  # dips are looked for before the first exit
+    # the speed's and the power's rates where their values have a local minimum (a dip below
+    # zero between two points leaves one next to it), small against the change around it
+    lows = np.zeros(last, bool)
+    if last > 2 and len(names) > 2:
+        gv = g[2:, :last]
+        low = (gv[:, 1:-1] <= gv[:, :-2]) & (gv[:, 1:-1] <= gv[:, 2:]) & (
+            gv[:, 1:-1] < 2 * (np.abs(gv[:, :-2] - gv[:, 1:-1]) + np.abs(gv[:, 2:] - gv[:, 1:-1])))
+        cols = np.flatnonzero(low.any(axis=0)) + 1
+        near = np.unique(np.clip(np.r_[cols - 1, cols, cols + 1], 0, last - 1))
+        if near.size:
+            rate[:, near] = watch(run, branch, X[:, near])[2]
+            lows[near] = True
     # a dip: the indicator falls at the start of a sub-interval and rises at its end
-    dips = (rate[:, :last - 1] < 0) & (rate[:, 1:last] > 0) & (g[:, :last - 1] >= 0) & (g[:, 1:last] >= 0)
+    with np.errstate(invalid="ignore"):
+        dips = (rate[:, :last - 1] < 0) & (rate[:, 1:last] > 0) & (g[:, :last - 1] >= 0) & (g[:, 1:last] >= 0)
     for i in np.flatnonzero(dips.any(axis=0)) + 1:
         for k in np.flatnonzero(dips[:, i - 1]):
             dt = t[i] - t[i - 1]

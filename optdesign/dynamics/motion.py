@@ -85,8 +85,11 @@ def run_motion(run, grid, where):
                 K = 1
                 continue
             Xs, failure = _pointwise(run, x, H, branch.c, m)
-        # CVODES gives more points than watched: all of them where it took more steps than that
-        npts = k * m if run.counts.steps - steps0 <= k * m // 2 else Xs.shape[1]
+        # CVODES gives more points than watched: about one per step it took, where that is more
+        taken = run.counts.steps - steps0
+        npts = k * m
+        while npts < min(taken, Xs.shape[1]):
+            npts *= 2
         stride, per = Xs.shape[1] // npts, npts // k
         Xs = Xs[:, stride - 1::stride]
         ts = t + H * np.arange(1, npts + 1) / npts

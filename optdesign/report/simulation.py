@@ -62,7 +62,8 @@ def summary_chunks(result):
              f"stopped at t = {result.t_stop:.9g} s: {where}",
              f"steps {st['steps']}, right-hand sides {st['rhs_evaluations']}, error-test failures "
              f"{st['error_test_failures']}, integrator calls {st['integrator_calls']} "
-             f"({st.get('failed_calls', 0)} failed), integrate {result.timings['integrate_s'] * 1e3:.1f} ms",
+             f"({st.get('failed_calls', 0)} failed" + "".join(f", {n} {flag}" for flag, n in st.get("failures", {}).items())
+             + f"), integrate {result.timings['integrate_s'] * 1e3:.1f} ms",
              events_line(result),
              f"q from {result.q[0]:.6g} to {result.q[-1]:.6g} {units['q']}; rate {result.qd.min():.6g} .. "
              f"{result.qd.max():.6g} {units['qd']}; drive {result.drive.min():.6g} .. {result.drive.max():.6g} "
