@@ -2,23 +2,60 @@
 
 Front doors: :func:`load` (a scene file), :func:`kinematics`, :func:`analyse`, :func:`simulate`,
 :func:`optimise` and :class:`Study`.
+
+The names below are imported when first used (``optdesign.analyse``, ``from optdesign import
+Study``): ``import optdesign`` and the command line start without CasADi, numpy or scipy, so a
+Ctrl-C while ``optdesign`` starts up is handled like any other (exit 130, nothing written).
 """
-from .model.analysis import AnalysisResult, analyse
-from .errors import (AssemblyError, DeadCentreError, ExpressionError, OptdesignError, SceneError,
-                     SolverError)
-from .design import OptimisationResult, optimise
-from .dynamics.simulator import SimulationResult, simulate
-from .study import Study, StudyResult
-from .kinematics.mechanism import KinematicsResult, Mechanism, kinematics
-from .model.reduction import ReducedModel
-from .scene import (Attach, Body, Closure, Constraint, Drive, Dyad, Fixed, Gravity, Loop, Objective, Parameter,
-                    Polar, Scene, Slider, Sweep, load, loads)
+from .errors import (ArgumentError, AssemblyError, DeadCentreError, ExpressionError, OptdesignError,  # noqa: F401
+                     ResultError, SceneError, SolverError)
+
+_LAZY = {
+    **dict.fromkeys(("analyse", "AnalysisResult"), ".model.analysis"),
+    **dict.fromkeys(("optimise", "OptimisationResult"), ".design"),
+    **dict.fromkeys(("simulate", "SimulationResult"), ".dynamics.simulator"),
+    **dict.fromkeys(("Study", "StudyResult"), ".study"),
+    **dict.fromkeys(("KinematicsResult", "Mechanism"), ".kinematics.mechanism"),
+    "ReducedModel": ".model.reduction",
+    **dict.fromkeys(("Attach", "Body", "Closure", "Constraint", "Drive", "Dyad", "Fixed", "Gravity", "Loop",
+                     "Objective", "Parameter", "Polar", "Scene", "Slider", "Sweep", "load", "loads"), ".scene"),
+}
+
+
+# the subpackage optdesign.kinematics shares its name with the front door kinematics(): it is
+# imported first (it is cheap), so that the function below keeps the name once it is bound
+from . import kinematics as _kinematics_subpackage  # noqa: E402, F401
+
+
+def kinematics(*args, **kwargs):
+    """Points and body angles with their rates over the stroke, at the scene's motion (front
+    door; :func:`optdesign.kinematics.mechanism.kinematics`)."""
+    from .kinematics.mechanism import kinematics as front_door
+
+    return front_door(*args, **kwargs)
+
+
+def __getattr__(name):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'optdesign' has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(module, __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))
+
 
 __all__ = [
     "load", "loads", "kinematics", "analyse", "simulate", "optimise", "Study", "StudyResult",
     "SimulationResult", "OptimisationResult", "Mechanism", "ReducedModel", "KinematicsResult",
     "AnalysisResult", "Scene", "Parameter", "Sweep", "Fixed", "Polar", "Dyad", "Slider", "Attach",
     "Loop", "Closure", "Body", "Gravity", "Drive", "Constraint", "Objective", "OptdesignError",
-    "SceneError", "ExpressionError", "AssemblyError", "DeadCentreError", "SolverError",
+    "SceneError", "ExpressionError", "AssemblyError", "DeadCentreError", "SolverError", "ArgumentError",
+    "ResultError",
 ]
 __version__ = "0.1.0"

@@ -27,7 +27,11 @@ def parser():
 def main(argv=None):
     from ..report import folder
 
-    args = parser().parse_args(argv)
+    try:
+        args = parser().parse_args(argv)   # the options' checks import optdesign.scene (CasADi)
+    except KeyboardInterrupt:
+        print(f"\noptdesign: interrupted ({interrupted_outcome([])})", file=sys.stderr)
+        return 130
     del folder.replaced[:]
     try:
         args.func(args)

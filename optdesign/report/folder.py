@@ -157,7 +157,7 @@ def replace_folder(folder, write, produces, linked=(), label="folder") -> list:
                     raise NoHardLinks(f"{label} {folder}: cannot hard-link {name} ({_why(exc)})") from None
                 shutil.copy2(folder / name, tmp / name, follow_symlinks=False)
         written = [Path(p) for p in write(tmp)]
-        _fsync_tree(tmp)
+        _fsync_files(written, tmp)             # the new files only: carried ones are not new
         with _sigint_held():
             _swap(tmp, folder)
             swapped = True
@@ -254,15 +254,17 @@ def _alive(pid: int) -> bool:
     return True
 
 
-def _fsync_tree(folder: Path):
-    for root, _, files in os.walk(folder):
-        for f in files:
-            fd = os.open(os.path.join(root, f), os.O_RDONLY)
-            try:
-                os.fsync(fd)
-            finally:
-                os.close(fd)
-        _fsync_dir(Path(root))
+def _fsync_files(paths, folder: Path):
+    for path in paths:
+        try:
+            fd = os.open(path, os.O_RDONLY)
+        except OSError:
+            continue
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+    _fsync_dir(folder)
 
 
 def _fsync_dir(folder: Path):
