@@ -19,11 +19,28 @@ class ExpressionError(SceneError):
 
 
 class AssemblyError(OptdesignError, ValueError):
-    """A construction that cannot be assembled at some sweep value."""
+    """A construction that cannot be assembled at some sweep value, or reaches its limit
+    (lock-up) position there.  ``construction`` names it and ``s`` is the located sweep value
+    (both None when not known)."""
+
+    def __init__(self, message, construction=None, s=None):
+        super().__init__(message)
+        self.construction, self.s = construction, s
+
+    def __reduce__(self):  # keep the attributes through pickling (study workers)
+        return type(self), (str(self), self.construction, self.s)
 
 
 class DeadCentreError(OptdesignError, ValueError):
-    """The drive coordinate stops moving inside the stroke (dk = dq/ds passes through zero)."""
+    """The drive coordinate stops moving inside the stroke (k = dq/ds vanishes); ``s`` is the
+    located sweep value (None when not known)."""
+
+    def __init__(self, message, s=None):
+        super().__init__(message)
+        self.s = s
+
+    def __reduce__(self):
+        return type(self), (str(self), self.s)
 
 
 class ArgumentError(OptdesignError, ValueError):

@@ -20,8 +20,8 @@ downstream carries a relative error ~ eps 4 rho^2 c^2 / m = eps / kappa, kappa =
 (the squared sine of the angle at B).  I_zS ~ 1/m and dI_zS/dalpha ~ 1/m^2 amplify it; measured: at most 4 eps / kappa.  We allow
 20 eps / kappa per sample (at least 1e-12).  At alpha* - 1e-6 rad kappa is 3.6e-7: 1.2e-8.
 
-The errors: sweeping past the lock-up is an AssemblyError naming the dyad, the sweep value and a
-fix.  A stroke ending exactly at the lock-up (the margin rounds to exactly 0.0 at the last
+The errors: sweeping past the lock-up is an AssemblyError naming the dyad, the located lock-up
+(to 1e-8 against alpha*) and a fix.  A stroke ending exactly at the lock-up (the margin rounds to exactly 0.0 at the last
 sample) is an AssemblyError too, saying that the dyad is at its lock-up position (optdesign
 refuses relative margins below 1e-10, where eps/kappa would exceed 1e-6).
 """
@@ -162,9 +162,12 @@ def test_sweeping_past_lock_up_is_an_assembly_error():
     assert "[points] C (dyad) cannot assemble" in msg
     assert "Change its lengths or narrow the sweep" in msg
     alpha = float(re.search(r"alpha = (-?[0-9.eE+-]+) \(", msg).group(1))
+    # the lock-up itself, located between the samples (issue 21), not the first sample past it
+    assert alpha == pytest.approx(ALPHA_LOCK, abs=1e-8)
+    assert info.value.construction == "C" and info.value.s == pytest.approx(ALPHA_LOCK, abs=1e-12)
     s = np.linspace(0.3, ALPHA_LOCK + 0.05, 101)
     first_bad = s[np.argmax(s > ALPHA_LOCK)]
-    assert alpha == pytest.approx(first_bad, abs=1e-5)  # the first sample past the lock-up
+    assert f"alpha = {first_bad:.10g}" in msg  # and the first sample that fails, beside it
 
 
 def _margin_zero_angle():

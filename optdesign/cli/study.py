@@ -66,6 +66,7 @@ def parse_axis(kind, text):
     """An Axis from the text of --grid, --values or --pareto."""
     from ..errors import SceneError
     from ..scene.arguments import study_cases
+    from ..study.axes import evenly_spaced
     from ..study.study import grid, pareto, values
 
     name, sep, spec = text.rpartition("=")
@@ -84,7 +85,7 @@ def parse_axis(kind, text):
             raise SceneError(f"--{kind} {text!r}: N must be at least 1")
         study_cases(f"--{kind} {text!r}: N", n)
         lo, hi = (_constant(v, f"--{kind} {text!r}") for v in parts[:2])
-        items = [lo + (hi - lo) * i / (n - 1) for i in range(n)] if n > 1 else [lo]
+        items = evenly_spaced(lo, hi, n)
         if kind == "grid":
             return grid(name, lo, hi, n)
     else:

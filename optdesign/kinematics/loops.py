@@ -39,7 +39,8 @@ def chain_joints(base, angles, lengths):
 
 
 class LoopGraph:
-    """The graph of one ``Loop`` construction: joints, unknown angles, residual, margin."""
+    """The graph of one ``Loop`` construction: joints, unknown angles, residual, margin (the
+    closure Jacobian's determinant) and its scale."""
 
     def __init__(self, loop, env, points, s, p, where):
         self.loop = loop
@@ -59,9 +60,9 @@ class LoopGraph:
             self.solution = None
             self.joints = joints
             self.residual = ca.MX(0)
-            self.margin = None
+            self.margin = self.margin_scale = None
             return
-        residual = self._closure(joints, local, points, where)
+        residual, end = self._closure(joints, local, points, where)
         guess = ca.vertcat(*[evaluate(loop.unknowns[n], env, points, f"{where}.unknowns.{n}") for n in names])
         g = ca.Function(f"closure_{loop.name}", [u, s, p], [residual])
         solver = ca.rootfinder(
@@ -75,14 +76,22 @@ class LoopGraph:
         self.joints = [placed[:, i] for i in range(len(joints))]
         self.residual = ca.norm_inf(g(solution, s, p))
         # the closure's Jacobian stays regular where the loop assembles; its determinant is the
-        # smooth margin (a change of sign means the loop passed a singular, locking position)
-        self.margin = ca.det(ca.Function(f"closure_jacobian_{loop.name}", [u, s, p], [ca.jacobian(residual, u)])(solution, s, p))
+        # smooth margin (a change of sign means the loop passed a singular, locking position).
+        # Its scale is the product of the lengths of the closing point's velocities per unknown
+        # (Hadamard's bound): the relative margin is the sine of the angle between them, or for
+        # a line closure the cosine of the angle between the point's path and the line.
+        moves = ca.jacobian(end, u)
+        size = 1
+        for j in range(len(names)):
+            size = size * ca.norm_2(moves[:, j])
+        jacobian = ca.Function(f"closure_jacobian_{loop.name}", [u, s, p], [ca.det(ca.jacobian(residual, u)), size])
+        self.margin, self.margin_scale = jacobian(solution, s, p)
 
     def _closure(self, joints, local, points, where):
         cl = self.loop.closure
         end = joints[list(self.loop.joints).index(cl.point)]
         if cl.fixed is not None:
-            return end - points[cl.fixed]
+            return end - points[cl.fixed], end
         angle = evaluate(cl.angle, local, points, f"{where}.closure.line")
         direction = ca.vertcat(ca.cos(angle), ca.sin(angle))
-        return ca.dot(perp(direction), end - points[cl.origin])
+        return ca.dot(perp(direction), end - points[cl.origin]), end

@@ -7,14 +7,13 @@ The graphs are SX (fast, scalar) unless the scene has a Newton-solved loop, whic
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
 
 from . import constructions as geo
-from ..errors import AssemblyError
+from .assembly import LOCKUP_MARGIN, AssemblyCheck, fmt_s as _fmt_s  # noqa: F401  (re-exported)
 from ..scene import Attach, Dyad, Fixed, Loop, Polar, ResolvedScene, Scene, Slider
 from ..scene.arguments import scene_argument
 from ..scene.expressions import evaluate
@@ -26,19 +25,14 @@ class Margin:
     """A construction's assembly margin.  For a dyad or slider (``kind`` 'dyad', 'slider') it is
     positive where the construction assembles and negative where it cannot.  For a loop it is
     the determinant of the closure's Jacobian, whose sign depends on the assembly branch: only
-    a change of sign (a singular, locking position) means something, so the analysis checks
-    loops by their Newton residual and branch continuity instead."""
+    a change of sign or a touch of zero (a singular, locking position) means something.
+    ``expr / scale`` is the relative margin that :mod:`.assembly` checks over the stroke."""
 
     construction: str
     kind: str
     expr: object
-    scale: object = None  # the margin's size far from lock-up (dyad 4 d^2 Lp^2, slider L^2)
-
-
-# A dyad or slider whose margin is below this fraction of its scale is at (or numerically at)
-# its limit position: velocities there grow like 1/sqrt(margin) and the derivatives lose about
-# eps/(relative margin) of their accuracy, so such a stroke is refused rather than evaluated.
-LOCKUP_MARGIN = 1e-10
+    scale: object = None  # the margin's size far from lock-up (dyad 4 d^2 Lp^2, slider L^2,
+    #                       loop: the product of the closing point's speeds per unknown)
 
 
 class Mechanism:
@@ -63,8 +57,11 @@ class Mechanism:
         env[scene.sweep.name] = self.s
         self.env = env
         self.points: dict = {}
-        self._assembly_maps: dict = {}
+        self._assembly = None
         self.margins: list[Margin] = []
+        # a dyad whose two centres meet: its circles (of equal radii) are one circle and its
+        # point is not determined; checked with the margins, but no margin of the design problem
+        self.centres: list[Margin] = []
         self.loops: list[LoopGraph] = []
         for c in scene.points:
             self._construct(c)
@@ -94,7 +91,10 @@ class Mechanism:
         elif isinstance(c, Dyad):
             length_p = ev(c.length_p, "dyad[1]")
             pts[c.name], m = geo.dyad(pts[c.p], length_p, pts[c.q], ev(c.length_q, "dyad[3]"), c.side)
-            self.margins.append(Margin(c.name, "dyad", m, 4 * ca.sumsqr(pts[c.q] - pts[c.p]) * length_p**2))
+            d2 = ca.sumsqr(pts[c.q] - pts[c.p])
+            self.margins.append(Margin(c.name, "dyad", m, 4 * d2 * length_p**2))
+            length_q = ev(c.length_q, "dyad[3]")
+            self.centres.append(Margin(c.name, "dyad centres", d2, length_p**2 + length_q**2))
         elif isinstance(c, Slider):
             length = ev(c.length, "slider[1]")
             pts[c.name], m = geo.slider(pts[c.p], length, pts[c.origin], ev(c.angle, "slider[3]"), c.side)
@@ -107,7 +107,7 @@ class Mechanism:
             for name, joint in zip(c.joints, graph.joints):
                 pts[name] = joint
             if graph.margin is not None:
-                self.margins.append(Margin(c.name, "loop", graph.margin))
+                self.margins.append(Margin(c.name, "loop", graph.margin, graph.margin_scale))
         else:  # pragma: no cover - the scene validates kinds
             raise TypeError(c)
 
@@ -152,75 +152,14 @@ class Mechanism:
         sdd = 0.0 if sw.acceleration is None else self.value(sw.acceleration, "[sweep] acceleration")
         return sd, sdd
 
-    def check_assembly(self, s_values, p_values=None):
-        """Raise :class:`AssemblyError` naming the construction and the first sweep value where
-        it cannot assemble (negative margin, Newton residual, or a jump to another branch)."""
-        p_values = self.parameter_values if p_values is None else p_values
-        outs = {f"m{i}": m.expr / m.scale for i, m in enumerate(self.margins) if m.kind != "loop"}
-        for j, loop in enumerate(self.loops):
-            if loop.solution is not None:
-                outs[f"r{j}"] = loop.residual
-                outs[f"u{j}"] = loop.solution
-        if not outs:
-            return
-        if self.points:
-            outs["size"] = ca.mmax(ca.fabs(ca.horzcat(*self.points.values())))
-        key = len(s_values)
-        if key not in self._assembly_maps:  # built once per stroke length, not on every call
-            self._assembly_maps[key] = self.function("assembly", outs).map(key)
-        f = self._assembly_maps[key]
-        res = f(s=np.asarray(s_values)[None, :], p=p_values)
-        name = self.scene.sweep.name
-        for i, m in enumerate(self.margins):
-            if m.kind == "loop":
-                continue
-            vals = np.asarray(res[f"m{i}"]).ravel()  # relative margin
-            bad = np.flatnonzero(~(vals > LOCKUP_MARGIN))
-            if bad.size:
-                k = bad[0]
-                if vals[k] >= 0:
-                    raise AssemblyError(
-                        f"{self.scene.path}: [points] {m.construction} ({m.kind}) is at its limit "
-                        f"(lock-up) position at {name} = {_fmt_s(s_values[k])} (relative margin "
-                        f"{vals[k]:.3g} <= {LOCKUP_MARGIN:g}): its velocities are infinite there. "
-                        "Narrow the sweep so that it stops short of this position, or change its lengths."
-                    )
-                raise AssemblyError(
-                    f"{self.scene.path}: [points] {m.construction} ({m.kind}) cannot assemble at "
-                    f"{name} = {_fmt_s(s_values[k])}: its circles/line do not meet (relative margin "
-                    f"{vals[k]:.3g} < 0). Change its lengths or narrow the sweep."
-                )
-        for j, loop in enumerate(self.loops):
-            if loop.solution is None:
-                continue
-            r = np.asarray(res[f"r{j}"]).ravel()
-            scale = np.maximum(1.0, np.asarray(res["size"]).ravel())
-            bad = np.flatnonzero(~(r <= 1e-9 * scale))
-            if bad.size:
-                k = bad[0]
-                raise AssemblyError(
-                    f"{self.scene.path}: [points] {loop.loop.name} (loop): Newton's method does not "
-                    f"close the loop at {name} = {_fmt_s(s_values[k])} (residual {r[k]:.3g}). The "
-                    "loop cannot assemble there, or the initial guesses lead elsewhere: check the "
-                    "lengths, the sweep range and the unknowns' guesses."
-                )
-            u = np.atleast_2d(np.asarray(res[f"u{j}"]))
-            jumps = np.abs(np.diff(np.unwrap(u, axis=1), axis=1)) if u.shape[1] > 1 else np.zeros((1, 0))
-            if jumps.size:
-                typical = np.median(jumps, axis=1, keepdims=True)
-                bad = np.argwhere((jumps > 10 * typical + 1e-9) & (jumps > 0.3))
-                if bad.size:
-                    k = bad[0][1]
-                    raise AssemblyError(
-                        f"{self.scene.path}: [points] {loop.loop.name} (loop): the solution jumps to "
-                        f"another assembly branch between {name} = {_fmt_s(s_values[k])} and "
-                        f"{_fmt_s(s_values[k + 1])}. Give initial guesses that follow the branch (they "
-                        "may use the sweep variable), or narrow the sweep."
-                    )
-
-
-def _fmt_s(value):
-    return f"{value:.6g} ({math.degrees(value):.4g} deg)"
+    def check_assembly(self, s_values, p_values=None) -> list:
+        """Raise :class:`AssemblyError` naming the construction and the located sweep value
+        where it cannot assemble or reaches its limit position, at the samples or between them
+        (:class:`~.assembly.AssemblyCheck`: the margins' continuous minima, certified).  Returns
+        the minima narrower than the samples' spacing, (s, width) each."""
+        if self._assembly is None:
+            self._assembly = AssemblyCheck(self)
+        return self._assembly(s_values, self.parameter_values if p_values is None else p_values)
 
 
 @dataclass(frozen=True)

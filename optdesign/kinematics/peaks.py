@@ -33,11 +33,15 @@ class Extremum:
 @dataclass(frozen=True)
 class Request:
     """One target of :func:`continuous_maxima_rows`: row ``row`` of the sampled quantities,
-    maximised as |v|, v or -v (``sense``), grid maxima below ``only_above`` left unrefined."""
+    maximised as |v|, v or -v (``sense``), grid maxima below ``only_above`` left unrefined.
+    ``ends``: also refine the first and the last interval of the grid from the stroke's end
+    (a maximum between the end sample and its neighbour, where the sampled target rises from
+    that end, is found as well; without it the end's own value is the candidate there)."""
 
     row: int
     sense: str = "abs"
     only_above: float | None = None
+    ends: bool = False
 
 
 def target_sign(values, sense):
@@ -94,6 +98,12 @@ def continuous_maxima_rows(evaluate_many, s_grid, V, requests, s_tol=1e-13):
         for i in indices:
             brackets.append((req.row, s_grid[i - 1], s_grid[i + 1], s_grid[i], sign[i]))
             owners.append((k, i, sign[i]))
+        if req.ends and len(s_grid) >= 2:
+            for i, j in ((0, 1), (len(s_grid) - 1, len(s_grid) - 2)):
+                if np.isfinite(V[req.row, i]):
+                    lo, hi = sorted((s_grid[i], s_grid[j]))
+                    brackets.append((req.row, lo, hi, s_grid[i], sign[i]))
+                    owners.append((k, i, sign[i]))
     found = [[Extremum(float(s_grid[0]), float(V[r.row, 0])), Extremum(float(s_grid[-1]), float(V[r.row, -1]))]
              for r in requests]
     for (k, i, sign), (s_star, v_star) in zip(owners, refine_all(evaluate_many, brackets, s_tol)):
@@ -188,3 +198,42 @@ def _refinement(lo, hi, s0, sign, s_tol):
         s = s_new
         at_s, = yield (s,)
     return s, float(at_s[0])
+
+
+def narrow_minima(evaluate_many, extrema, spacing):
+    """The minima among ``extrema`` (of a row that stays positive: an assembly margin, |dq/ds|)
+    that are narrower than the sampling, as (s, width).  Near such a minimum v ~ v* + v''/2
+    (s - s*)^2 and the quantities built on it (a velocity ~ 1/sqrt(v), a reduced inertia ~ 1/v)
+    change over width = sqrt(2 v*/v'') in s; where that is below the sample spacing the samples
+    do not resolve them, and :func:`resolving_points` adds sweep values that do.
+    ``evaluate_many(s) -> (v, dv/ds, d2v/ds2)`` of that one row (arrays over s)."""
+    candidates = [e for e in extrema if e.value > 0]
+    if not candidates:
+        return []
+    s = np.array([e.s for e in candidates], float)
+    v, d1, d2 = (np.asarray(a, float).ravel() for a in evaluate_many(s))
+    out = []
+    for k, e in enumerate(candidates):
+        if d2[k] > 0 and abs(d1[k]) * math.sqrt(2 * v[k] / d2[k]) <= v[k]:  # a minimum, not a slope
+            width = math.sqrt(2 * v[k] / d2[k])
+            if width < spacing:
+                out.append((float(e.s), width))
+    return out
+
+
+def resolving_points(narrow, lo, hi, spacing):
+    """Sweep values that resolve narrow minima ((s*, width) each, :func:`narrow_minima`): s* and
+    s* +- width t for t = 1/4, 1/2, 3/4, 1 and on by a factor 1.4 until width t passes two
+    sample spacings (the quantities' scale grows with the distance from s*), inside [lo, hi]."""
+    steps = [0.25, 0.5, 0.75, 1.0]
+    out = []
+    for centre, width in narrow:
+        t = steps[-1]
+        ts = list(steps)
+        while width * t < 2 * spacing:
+            t *= 1.4
+            ts.append(t)
+        out.append(centre)
+        out += [centre + sign * width * t for t in ts for sign in (-1.0, 1.0)]
+    a, b = min(lo, hi), max(lo, hi)
+    return sorted({x for x in out if a < x < b})

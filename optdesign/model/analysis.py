@@ -11,6 +11,8 @@ from ..kinematics.mechanism import Mechanism
 from ..scene import ResolvedScene, Scene
 from ..scene.arguments import scene_argument
 from ..scene.expressions import evaluate
+from .certified import PEAKS, CertifiedExtremes
+from .mapped import MappedFunction
 from .cases import CaseAnalysis
 from .finite import check_columns, check_values
 from .reduction import ReducedModel
@@ -25,7 +27,17 @@ class AnalysisResult:
     ``static_load``, ``inertia_term``, ``velocity_term``, ``drive``, ``power``, ...) to arrays
     over the samples; names of terms the scene does not use are absent.  ``bodies`` maps body
     name -> ratio name -> array; ``constraints`` maps constraint name -> array (per sample) or
-    float (per stroke); ``peaks`` holds the peak |value| of the main columns."""
+    float (per stroke, its max(...)/min(...) over the continuous stroke).
+
+    ``peaks`` holds the peak |value| of the main columns (drive, static_load, reduced_inertia,
+    power) over the continuous stroke, ``peak_at`` where each lies ({s, q, value}: the located
+    sweep value, the drive coordinate there and the signed value), ``peaks_sampled`` the same
+    peaks on the samples only; ``constraint_extremes`` the min and max of each per-sample
+    constraint over the continuous stroke with their sweep values ({min, min_s, max, max_s,
+    min_sampled, max_sampled}); ``constraints_sampled`` the per-stroke constraints on the
+    samples only.  Without certification (``Analysis(..., certify=False)``) the certified
+    entries equal the sampled ones."""
+
 
     scene: Scene
     columns: dict
@@ -33,6 +45,10 @@ class AnalysisResult:
     constraints: dict
     peaks: dict
     timings: dict = field(default_factory=dict)
+    peaks_sampled: dict = field(default_factory=dict)
+    peak_at: dict = field(default_factory=dict)
+    constraint_extremes: dict = field(default_factory=dict)
+    constraints_sampled: dict = field(default_factory=dict)
     # the scene's [[cases]] (model/cases.py: CasesResult): every case, the governing case of
     # each peak, the duty cycle and the drive train; None without cases
     cases: object = None
@@ -45,7 +61,8 @@ class AnalysisResult:
 class Analysis:
     """The compiled stroke evaluation of one scene (a class under :func:`analyse`)."""
 
-    def __init__(self, scene: Scene | ResolvedScene, samples: int | None = None, efficiency_smoothing: float = 0.0):
+    def __init__(self, scene: Scene | ResolvedScene, samples: int | None = None, efficiency_smoothing: float = 0.0,
+                 certify: bool = True):
         t0 = time.perf_counter()
         self.mech = Mechanism(scene_argument("analyse", scene, ResolvedScene))
         self.resolved = self.mech.resolved
@@ -67,7 +84,8 @@ class Analysis:
             self.vectorised = VectorisedSX(self.function)
         except NotImplementedError:
             self.vectorised = None
-        self._points_map = None
+        self._points = None
+        self.certified = CertifiedExtremes(self) if certify else None
         self.case_analysis = CaseAnalysis(self.mech, self.s_values) if scene.cases else None
         self.build_time = time.perf_counter() - t0
 
@@ -75,8 +93,9 @@ class Analysis:
         mech, model = self.mech, self.model
         p_values = mech.parameter_values if p_values is None else np.asarray(p_values, float)
         t0 = time.perf_counter()
-        mech.check_assembly(self.s_values, p_values)
-        model.check_dead_centre(self.s_values, p_values)
+        # both certified over the continuous stroke; what they return are minima of a margin or
+        # of |dq/ds| narrower than the samples' spacing, where the peaks need finer samples
+        narrow = mech.check_assembly(self.s_values, p_values) + model.check_dead_centre(self.s_values, p_values)
         if self.vectorised is not None:
             raw = self.vectorised(self.s_values, p_values)
         else:
@@ -96,29 +115,57 @@ class Analysis:
         if self.scene.drive.kind == "rotary":
             columns["q"] = np.unwrap(columns["q"])
         check_columns(self, self.s_values, columns, constraints, p_values)   # no NaN/inf: an error naming it
-        constraints.update(self._per_stroke(p_values))
-        peaks = {k: float(np.max(np.abs(columns[k]))) for k in
-                 ("drive", "static_load", "reduced_inertia", "power") if k in columns}
+        s = self.s_values
+        sampled_stroke = self._per_stroke(p_values, s)
+        peaks_sampled, peak_at = {}, {}
+        for k in PEAKS:
+            if k in columns:
+                i = int(np.argmax(np.abs(columns[k])))
+                peaks_sampled[k] = float(abs(columns[k][i]))
+                peak_at[k] = {"s": float(s[i]), "q": float(columns["q"][i]), "value": float(columns[k][i])}
+        extremes = {}
+        for name, v in constraints.items():
+            lo, hi = int(np.argmin(v)), int(np.argmax(v))
+            extremes[name] = {"min": float(v[lo]), "min_s": float(s[lo]), "max": float(v[hi]), "max_s": float(s[hi])}
         timings = {"build_s": self.build_time, "evaluate_s": time.perf_counter() - t0}
+        peaks, stroke = dict(peaks_sampled), dict(sampled_stroke)
+        if self.certified is not None:
+            t1 = time.perf_counter()
+            found = self.certified(s, p_values, columns, constraints, narrow)
+            peaks, peak_at = found["peaks"], found["peak_at"]
+            extra = sorted({x for located in found["aggregates"].values() for x in located})
+            if extra:  # the located extrema join the samples, inside: start()/end() keep the ends
+                stroke = self._per_stroke(p_values, np.r_[s[:-1], extra, s[-1:]])
+            extremes = {k: dict(e, min_sampled=extremes[k]["min"], max_sampled=extremes[k]["max"])
+                        for k, e in found["constraint_extremes"].items()}
+            timings["certify_s"] = time.perf_counter() - t1
+        else:
+            extremes = {k: dict(e, min_sampled=e["min"], max_sampled=e["max"]) for k, e in extremes.items()}
+        constraints.update(stroke)
         check_values(self, {**{f"constraint {k!r}": v for k, v in constraints.items() if not np.ndim(v)},
                             **{f"peak |{k}|": v for k, v in peaks.items()}})
-        return AnalysisResult(self.scene, columns, bodies, constraints, peaks, timings,
+        return AnalysisResult(self.scene, columns, bodies, constraints, peaks, timings, peaks_sampled,
+                              peak_at, extremes, sampled_stroke,
                               cases=self.case_analysis.run(p_values) if self.case_analysis else None)
 
-    def _per_stroke(self, p_values):
+    def _per_stroke(self, p_values, s_values):
+        """The per-stroke constraints with their aggregates taken over ``s_values``."""
         if not self.per_stroke:
             return {}
         mech = self.mech
-        if self._points_map is None:  # built once, on the first run that needs it
-            self._points_map = mech.function("points", dict(mech.points)).map(len(self.s_values))
-        rows = self._points_map(s=self.s_values[None, :], p=p_values)
+        if self._points is None:  # built once, on the first run that needs it
+            self._points = MappedFunction(mech.function("points", dict(mech.points)))
+        names = list(mech.points)
+        rows = self._points(s_values, p_values)
         values = self.resolved.environment(p_values)
-        values[self.scene.sweep.name] = ca.DM(self.s_values[None, :])
-        points = {k: ca.DM(np.asarray(v)) for k, v in rows.items()}
+        values[self.scene.sweep.name] = ca.DM(np.asarray(s_values, float)[None, :])
+        points = {k: ca.DM(np.asarray(v)) for k, v in zip(names, rows)}
         return {c.name: float(evaluate(c.expr, values, points, f"[[constraints]] {c.name}"))
                 for c in self.per_stroke}
 
 
-def analyse(scene: Scene | ResolvedScene, samples: int | None = None) -> AnalysisResult:
-    """The reduced model of ``scene`` over its stroke (front door)."""
-    return Analysis(scene, samples).run()
+def analyse(scene: Scene | ResolvedScene, samples: int | None = None, certify: bool = True) -> AnalysisResult:
+    """The reduced model of ``scene`` over its stroke (front door).  Assembly and dead centres
+    are checked over the continuous stroke; the peaks and constraint extremes are certified
+    over it too, unless ``certify`` is False (then they are the samples' own)."""
+    return Analysis(scene, samples, certify=certify).run()

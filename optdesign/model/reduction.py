@@ -30,6 +30,8 @@ import numpy as np
 
 from ..errors import DeadCentreError, SceneError
 from ..kinematics.mechanism import Mechanism, _fmt_s
+from ..kinematics.peaks import Request, continuous_maxima_rows, narrow_minima
+from .mapped import MappedFunction
 from ..scene.expressions import Expression
 
 
@@ -268,35 +270,64 @@ class ReducedModel:
         return n, (k / k_ref) ** 4
 
     # --- checks ---
-    def check_dead_centre(self, s_values, p_values=None):
-        """Raise :class:`DeadCentreError` where k = dq/ds vanishes in the stroke."""
+    def check_dead_centre(self, s_values, p_values=None) -> list:
+        """Raise :class:`DeadCentreError` where k = dq/ds vanishes in the stroke: at a sample,
+        between two samples where k changes sign (located by bisection), or where k touches
+        zero between samples without changing sign (its continuous minimum |k|, certified by
+        :func:`~optdesign.kinematics.peaks.continuous_maxima_rows`, at most 1e-12 of max |k|).
+        Else returns the minima of |k| narrower than the samples' spacing, (s, width) each."""
         m = self.mech
-        p_values = m.parameter_values if p_values is None else p_values
+        p_values = m.parameter_values if p_values is None else np.asarray(p_values, float)
         if self._k_function is None:
+            dk = m.ds(self.k)
             self._k_function = ca.Function("k", [m.s, m.p], [self.k])
+            self._k_derivatives = MappedFunction(m.function("k_ds", {"k": self.k, "dk": dk, "d2k": m.ds(dk)}))
             self._k_maps = {}
         f = self._k_function
         if len(s_values) not in self._k_maps:
             self._k_maps[len(s_values)] = f.map(len(s_values))
-        k = np.asarray(self._k_maps[len(s_values)](np.asarray(s_values)[None, :], p_values)).ravel()
+        s_values = np.asarray(s_values, float)
+        k = np.asarray(self._k_maps[len(s_values)](s_values[None, :], p_values)).ravel()
         scale = np.max(np.abs(k)) if k.size else 1.0
         zero = np.flatnonzero(np.abs(k) <= 1e-12 * max(scale, 1e-300))
         change = np.flatnonzero(np.sign(k[:-1]) * np.sign(k[1:]) < 0)
-        if not zero.size and not change.size:
-            return
         if zero.size and (not change.size or zero[0] <= change[0]):
             where = s_values[zero[0]]
-        else:
+        elif change.size:
             i = change[0]
             where = _bisect(lambda x: float(f(x, p_values)), s_values[i], s_values[i + 1])
+        else:
+            where, narrow = self._dead_centre_between(s_values, k, p_values, scale)
+            if where is None:
+                return narrow
         what = "crank angle" if self.rotary else "actuator length"
         pins = "-".join(self.scene.drive.pins)
         raise DeadCentreError(
             f"{self.scene.path}: [drive] dead centre at {self.scene.sweep.name} = {_fmt_s(where)}: the "
             f"drive coordinate ({what} {pins}) stops moving there (dq/d{self.scene.sweep.name} = 0), so "
             "the reduced inertia and load are infinite. Narrow the sweep to exclude it, or move the "
-            "drive's pins so that q changes monotonically over the stroke."
-        )
+            "drive's pins so that q changes monotonically over the stroke.", s=float(where))
+
+    def _dead_centre_between(self, s_values, k, p_values, scale):
+        """(where, narrow): where |k| (one sign over the samples) comes within 1e-12 of max |k|
+        between samples, or None; and the minima of |k| narrower than the samples' spacing
+        (:func:`~optdesign.kinematics.peaks.narrow_minima`).  A k that does not vary (a crank
+        swept by its own angle) has neither."""
+        if len(s_values) < 2 or np.ptp(k) <= 1e-12 * max(scale, 1e-300) or not ca.depends_on(self.k, self.mech.s):
+            return None, []
+        sign = 1.0 if k[0] > 0 else -1.0
+        ascending = s_values[-1] >= s_values[0]
+        grid, row = (s_values, k) if ascending else (s_values[::-1], k[::-1])
+
+        def evaluate_many(s):
+            return tuple(sign * a for a in self._k_derivatives(s, p_values))
+
+        extrema = continuous_maxima_rows(evaluate_many, grid, sign * row[None, :], [Request(0, "min", ends=True)])[0]
+        low = [e for e in extrema if e.value <= 1e-12 * scale]
+        if not low:
+            spacing = abs(float(s_values[-1] - s_values[0])) / (len(s_values) - 1)
+            return None, narrow_minima(lambda s: tuple(a[0] for a in evaluate_many(s)), extrema, spacing)
+        return min(low, key=lambda e: e.s if ascending else -e.s).s, []
 
 
 def _bisect(f, a, b, iterations=60):

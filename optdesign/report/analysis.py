@@ -87,7 +87,11 @@ def analysis_json(result) -> dict:
         "units": {k: UNITS[kind][k] for k in cols if k in UNITS[kind]},
         "seed_names": {k: SEED_NAMES[kind][k] for k in cols if k in SEED_NAMES[kind]},
         "peaks": result.peaks,
+        "peaks_sampled": result.peaks_sampled,
+        "peak_at": result.peak_at,
         "constraints": {k: v for k, v in result.constraints.items() if not np.ndim(v)},
+        "constraints_sampled": result.constraints_sampled,
+        "constraint_extremes": result.constraint_extremes,
         "samples": samples,
         **cases_json(result),   # with [[cases]]: cases, governing, duty, drive_train (report/cases.py)
     }
@@ -105,11 +109,25 @@ def analysis_table_chunks(result):
             cols[name.replace(" ", "_")] = v
     yield from table_chunks(cols, ordered(result.columns) + [c for c in cols if c not in result.columns])
     lines = [""]
+    sweep = result.scene.sweep.name
     for k, v in result.peaks.items():
-        lines.append(f"peak |{k}| = {v:.6g} {UNITS[result.drive_kind].get(k, '')}")
+        unit = UNITS[result.drive_kind].get(k, "")
+        at = result.peak_at.get(k, {}).get("s")
+        where = f" at {sweep} = {at:.10g}" if at is not None else ""
+        sampled = result.peaks_sampled.get(k)
+        tail = f" (samples alone: {sampled:.8g})" if sampled is not None and sampled != v else ""
+        lines.append(f"peak |{k}| = {v:.8g}{' ' + unit if unit else ''}{where}{tail}")
+    for k, e in result.constraint_extremes.items():
+        lines.append(f"{k}: min {e['min']:.8g} at {sweep} = {e['min_s']:.10g}, "
+                     f"max {e['max']:.8g} at {sweep} = {e['max_s']:.10g}")
     for k, v in result.constraints.items():
         if not np.ndim(v):
-            lines.append(f"{k} = {v:.6g}")
+            sampled = result.constraints_sampled.get(k)
+            tail = f" (samples alone: {sampled:.8g})" if sampled is not None and sampled != v else ""
+            lines.append(f"{k} = {v:.8g}{tail}")
+    lines.append(f"(peaks and extremes over the continuous stroke, located between the samples where "
+                 f"they lie there; the drive load at every {sweep} is the load at the drive speed and "
+                 "acceleration given in [drive])")
     yield "\n" + "\n".join(lines)
     yield cases_table(result)   # with [[cases]] (report/cases.py)
 

@@ -106,6 +106,20 @@ class Expression:
     def is_constant_number(self) -> bool:
         return isinstance(self.tree, Num)
 
+    def aggregate_calls(self) -> list:
+        """The one-argument ``min``/``max`` calls over the stroke, in order: (func, inner tree)."""
+        out = []
+
+        def walk(node):
+            if _is_aggregate_call(node):
+                out.append((node.func, node.args[0]))
+            else:
+                for child in _children(node):
+                    walk(child)
+
+        walk(self.tree)
+        return out
+
     def outside_aggregates(self) -> tuple[set, set]:
         """(names, points) used outside every one-argument ``min``/``max``: for an aggregate
         expression these must not vary along the stroke."""

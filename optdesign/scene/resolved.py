@@ -25,16 +25,21 @@ class ResolvedScene:
         leaf_values:  their numbers (a float array, p at the scene's values).
         derived:      the parameters defined by expressions of earlier ones (``Parameter``\\ s).
         design_names: the design variables (parameters with min/max), in file order.
+        variable:     other parameters whose value changes between runs of one build (a
+                      study's axes): :meth:`fixed_value` folds none of them, nor a design variable.
         sweep_name, start, stop, samples: the stroke ([sweep] name, from, to as numbers, samples).
     """
 
-    def __init__(self, scene):
+    def __init__(self, scene, variable=()):
         self.scene = scene
         self.values = scene.parameter_values()
         self.leaf_names = tuple(p.name for p in scene.parameters if not p.value.names())
         self.leaf_values = np.array([self.values[n] for n in self.leaf_names], dtype=float)
         self.derived = tuple(p for p in scene.parameters if p.value.names())
         self.design_names = tuple(p.name for p in scene.parameters if p.is_design)
+        # parameters whose value changes between runs of one build (a study's axes): like the
+        # design variables, never folded into a constant by fixed_value
+        self.variable = tuple(variable)
         self._uses = {p.name: p.value.names() for p in scene.parameters}
         sweep = scene.sweep
         self.sweep_name = sweep.name
@@ -57,7 +62,7 @@ class ResolvedScene:
         parameters); else None."""
         if expr.points() or self.sweep_name in expr.names():
             return None
-        if self.depends_on(expr, self.design_names):
+        if self.depends_on(expr, self.design_names + self.variable):
             return None
         return self.constant(expr, "")
 

@@ -97,6 +97,17 @@ class Scene:
                                                   f"--set {where.item}=...)", self.path) from None
 
 
+    def without_bounds(self, *names) -> "Scene":
+        """A copy in which the parameters ``names`` are plain parameters, their min/max (the
+        design box) dropped: an analysis has no box, so an analyse-mode study may set them to
+        any value.  Unknown names are an error, as in :meth:`with_parameters`."""
+        unknown = [n for n in names if n not in {p.name for p in self.parameters}]
+        if unknown:
+            self.with_parameters(**{unknown[0]: 0.0})  # raises the usual error, with the near miss
+        params = tuple(dataclasses.replace(p, lower=None, upper=None) if p.name in names else p
+                       for p in self.parameters)
+        return dataclasses.replace(self, parameters=params)
+
     def validate(self):
         """Check every cross reference, in the order of the file; raise SceneError on the first
         problem, naming its place."""

@@ -100,10 +100,14 @@ class Validator:
             self._fail(where.at("value"), f"a design variable's start must be a number, found {p.value.source!r} "
                                           "(which depends on other parameters)")
         if not lo < hi:
-            self._fail(where.at("min"), f"min {lo:g} must be below max {hi:g}")
-        if not lo <= value <= hi:
-            self._fail(where.at("value"), f"the start value {value:g} lies outside its bounds "
-                                          f"[{lo:g}, {hi:g}]; move the start inside or widen the bounds")
+            self._fail(where.at("min"), f"min {_exact(lo)} must be below max {_exact(hi)}")
+        # a few ulps of slack: a value computed to land on a bound (a study grid's end, 0.1*3)
+        # may round to its neighbouring float
+        slack = 4 * math.ulp(max(abs(x) for x in (lo, hi, value) if math.isfinite(x)))
+        if not lo - slack <= value <= hi + slack:
+            self._fail(where.at("value"), f"the start value {_exact(value)} lies outside its bounds "
+                                          f"[{_exact(lo)}, {_exact(hi)}] (the design variable's min and "
+                                          "max); move the start inside or widen the bounds")
 
     def _check_points(self, names):
         if not self.scene.points:
@@ -340,3 +344,9 @@ class Validator:
                 near_miss(ref, self.scene.point_names()) or
                 (f"; points built so far: {', '.join(built)}" if built else "; no point is built before this"))
         self._fail(where, src + detail, cls)
+
+def _exact(x) -> str:
+    """A number in full precision (the shortest text that reads back as the same float), so
+    that a message never shows a value and a bound as equal when they differ: 0.4500000000000001."""
+    text = repr(float(x))
+    return text[:-2] if text.endswith(".0") else text

@@ -47,12 +47,23 @@ def values(name: str, items) -> Axis:
 
 
 def grid(name: str, start: float, stop: float, n: int) -> Axis:
-    """``n`` evenly spaced values of parameter ``name`` from ``start`` to ``stop`` (ends included)."""
+    """``n`` evenly spaced values of parameter ``name`` from ``start`` to ``stop`` (ends included,
+    exactly as written: :func:`evenly_spaced`)."""
     if int(n) < 1:
         raise SceneError(f"axis {name!r}: expected at least one value, found n = {n}")
     study_cases(f"axis {name!r}: n", int(n))
-    n = int(n)
-    return values(name, [start + (stop - start) * i / (n - 1) if n > 1 else start for i in range(n)])
+    return values(name, evenly_spaced(start, stop, int(n)))
+
+
+def evenly_spaced(start: float, stop: float, n: int) -> list:
+    """``n`` evenly spaced values from ``start`` to ``stop`` whose ends are exactly ``start``
+    and ``stop`` (-0.2 + 0.65*13/13 rounds to 0.45000000000000007; the last value is 0.45)."""
+    start, stop = float(start), float(stop)
+    if n <= 1:
+        return [start][:n]
+    out = [start + (stop - start) * i / (n - 1) for i in range(n)]
+    out[-1] = stop
+    return out
 
 
 def together(rows) -> Axis:

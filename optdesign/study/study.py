@@ -36,7 +36,7 @@ from ..errors import SceneError
 from ..scene.arguments import scene_argument, study_cases, whole
 from .axes import Axis, _constant, _number, grid, pareto, together, values  # noqa: F401  (re-exported)
 from .results import StudyInterrupted, StudyResult  # noqa: F401  (re-exported)
-from .tasks import Task, scene_digest
+from .tasks import Task, case_scene, scene_digest
 
 MODES = ("optimise", "analyse")
 
@@ -149,7 +149,7 @@ class Study:
                 seen.add(col)
             if axis.kind != "pareto":
                 for point in axis.points:   # unknown names and bad values fail here, early
-                    sc.with_parameters(**dict(point))
+                    case_scene(sc, self.mode, dict(point))
 
     # --- cases ---
     @property

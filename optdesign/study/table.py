@@ -11,7 +11,7 @@ from ..report.output import write_atomic
 CSV = "cases.csv"
 LEADING = ("status", "success", "objective", "objective_sampled", "peak_certified", "starts_total",
            "starts_at_best", "warm", "iterations")
-GROUPS = ("design:", "constraint:", "multiplier:", "sensitivity:", "peak:", "rms:")
+GROUPS = ("design:", "constraint:", "multiplier:", "sensitivity:", "peak:", "peak_at:", "peak_sampled:", "rms:")
 
 
 def columns(input_names, rows) -> list:

@@ -52,6 +52,15 @@ class Task:
     x_warm: tuple | None       # the previous case's optimum (design variables in scene order)
 
 
+def case_scene(base, mode: str, overrides: dict):
+    """The scene of a case: ``base`` with the case's parameter values.  An analysis has no
+    design box, so in mode 'analyse' a design variable may take any value (its min/max are
+    dropped); an optimisation keeps the box, and a value outside it is an error."""
+    if mode == "analyse" and overrides:
+        base = base.without_bounds(*overrides)
+    return base.with_parameters(**overrides) if overrides else base
+
+
 def scene_digest(scene) -> str:
     """A digest of everything in a scene that can change a result (not its file path)."""
     text = repr(dataclasses.replace(scene, path=""))
@@ -121,12 +130,13 @@ def _model(task: Task, base, structural: dict):
 def _built(task: Task, base, structural: dict, bounds: tuple):
     """The built problem and repair (optimise) or analysis (analyse), cached per thread."""
     c = _cache()
+    varied = sorted(k for k, _ in task.overrides) if task.mode == "analyse" else []
     key = json.dumps([task.scene_digest, task.mode, sorted(structural.items()), bounds,
-                      task.settings], default=repr)
+                      task.settings, varied], default=repr)
     if key in c.models:
         c.models[key] = c.models.pop(key)   # most recently used last
         return c.models[key]
-    scene = base.with_parameters(**structural)
+    scene = (base.without_bounds(*varied) if varied else base).with_parameters(**structural)
     if bounds:
         from ..design.bounds import scene_with_bounds
 
@@ -139,8 +149,11 @@ def _built(task: Task, base, structural: dict, bounds: tuple):
         model = (problem, Repair(problem))
     else:
         from ..model.analysis import Analysis
+        from ..scene.resolved import ResolvedScene
 
-        model = Analysis(scene)
+        # the build serves every value of the varied parameters: none of them may be folded
+        # into a constant (a mass swept from 0 must keep its term)
+        model = Analysis(ResolvedScene(scene, variable=varied))
     while len(c.models) >= _CACHE_SIZE:
         c.models.pop(next(iter(c.models)))
     c.models[key] = model
@@ -162,7 +175,7 @@ def run_task(task: Task) -> dict:
     structural = {k: v for k, v in overrides.items() if k in structural_names(base, task.mode)}
     try:
         model = _model(task, base, structural)
-        scene = base.with_parameters(**overrides) if overrides else None
+        scene = case_scene(base, task.mode, overrides) if overrides else None
         if task.mode == "optimise":
             row, x = _optimise(task, model, scene)
         else:
@@ -230,7 +243,11 @@ def _analyse(analysis, scene) -> dict:
     p = _leaf_values(analysis.mech.parameter_names, scene, analysis.mech.parameter_values)
     res = analysis.run(p)
     row = {"status": "ok", "success": True}
+    # peaks and constraint extremes over the continuous stroke (certified), with where they lie
+    # and the samples' own values beside them
     row.update({f"peak:{k}": v for k, v in res.peaks.items()})
+    row.update({f"peak_at:{k}": at["s"] for k, at in res.peak_at.items()})
+    row.update({f"peak_sampled:{k}": v for k, v in res.peaks_sampled.items()})
     s = res.columns["s"]
     for k in ("drive", "power"):
         if k in res.columns:  # rms over the stroke (trapezoid rule on the samples)
@@ -238,7 +255,8 @@ def _analyse(analysis, scene) -> dict:
             row[f"rms:{k}"] = float(math.sqrt(np.trapezoid(v**2, s) / (s[-1] - s[0])))
     for name, v in res.constraints.items():
         if np.ndim(v):
-            row[f"constraint:{name}:min"], row[f"constraint:{name}:max"] = float(np.min(v)), float(np.max(v))
+            e = res.constraint_extremes[name]
+            row[f"constraint:{name}:min"], row[f"constraint:{name}:max"] = e["min"], e["max"]
         else:
             row[f"constraint:{name}"] = float(v)
     return row

@@ -1,0 +1,316 @@
+"""Assembly over the whole stroke, not only at the samples.
+
+Every construction that can fail to assemble has a margin (:class:`~.mechanism.Margin`), a
+smooth function of the sweep value s: a dyad's ``4 d^2 Lp^2 - (d^2 + Lp^2 - Lq^2)^2`` (the
+squared height of its triangle, times 4 d^2), a slider's ``L^2 - dist(p, line)^2``, a closed
+loop's Jacobian determinant.  Each is divided by its size far from the limit, so that the
+*relative margin* is dimensionless: the squared sine of the dyad's or slider's angle at its
+limit, the sine of the angle between the loop Jacobian's columns (kept at the sign of its branch).
+
+The check has two parts, and a stroke passes only both:
+
+* at the samples: no relative margin at or below its limit (:data:`LOCKUP_MARGIN` for dyads and
+  sliders, :data:`LOOP_LOCKUP` for loops), every loop closed by Newton's method and staying on
+  one branch;
+* between the samples: every interior local minimum of a sampled relative margin, and each end
+  interval, brackets a continuous minimum, refined by the one certification
+  (:func:`~.peaks.continuous_maxima_rows`: Newton on the exact derivative dm/ds from CasADi,
+  bisection as its safeguard).  A minimum at or below the limit is a lock-up (the margin
+  touches zero: a four-bar's toggle, a slider at its end of travel) or a stretch of the stroke
+  that does not assemble (the margin dips below zero between two samples).
+
+The error names the construction and the located position: the minimum of a touch, the point
+where the margin crosses zero on entering a stretch that does not assemble (located by
+bisection), or the first sample where a loop does not close.  The earliest failure along the
+sweep is reported.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from ..errors import AssemblyError
+from .peaks import Request, continuous_maxima_rows, narrow_minima
+
+# A dyad or slider whose relative margin is below this is at (or numerically at) its limit
+# position: velocities there grow like 1/sqrt(margin) and the derivatives lose about
+# eps/(relative margin) of their accuracy, so such a stroke is refused rather than evaluated.
+LOCKUP_MARGIN = 1e-10
+# The same limit for a loop, whose relative margin is a sine where a dyad's is a squared sine.
+LOOP_LOCKUP = math.sqrt(LOCKUP_MARGIN)
+
+
+def fmt_s(value) -> str:
+    """A sweep value in messages: 10 significant digits (a located position is meant to be
+    read to 1e-9), and in degrees."""
+    return f"{value:.10g} ({math.degrees(value):.6g} deg)"
+
+
+@dataclass(frozen=True)
+class _Failure:
+    """Where one construction first fails along the sweep (``at``: its position along the
+    sweep's direction, for ordering) and the message saying so."""
+
+    at: float
+    order: int
+    s: float
+    construction: str
+    message: str
+
+
+class AssemblyCheck:
+    """The assembly check of one :class:`~.mechanism.Mechanism` (its functions built once, on
+    first use).  Call it with the stroke's sweep values and the parameter vector."""
+
+    def __init__(self, mech):
+        self.mech = mech
+        self.rows = []      # (margin, relative margin expression, limit)
+        for m in mech.centres + mech.margins:
+            limit = LOOP_LOCKUP if m.kind == "loop" else LOCKUP_MARGIN
+            self.rows.append((m, m.expr / m.scale, limit))
+        self.varies = [bool(ca.depends_on(rel, mech.s)) for _, rel, _ in self.rows]
+        self._sampled = None
+        self._maps = {}
+        self._derivatives = None
+        self._derivative_maps = {}
+
+    # --- functions ---
+    def _sampled_function(self):
+        mech = self.mech
+        outs = {"r": ca.vertcat(*(rel for _, rel, _ in self.rows)) if self.rows else ca.DM.zeros(0, 1)}
+        closing = [(j, loop) for j, loop in enumerate(mech.loops) if loop.solution is not None]
+        for j, loop in closing:
+            outs[f"res{j}"] = loop.residual
+            outs[f"u{j}"] = loop.solution
+        if mech.points:
+            outs["size"] = ca.mmax(ca.fabs(ca.horzcat(*mech.points.values())))
+        return mech.function("assembly", outs), closing
+
+    def _derivatives_many(self, s, p):
+        """(R, dR/ds, d2R/ds2) of every relative margin at the sweep values ``s``."""
+        if self._derivatives is None:
+            mech = self.mech
+            r = ca.vertcat(*(rel for _, rel, _ in self.rows))
+            dr = mech.ds(r)
+            self._derivatives = mech.function("assembly_ds", {"r": r, "dr": dr, "d2r": mech.ds(dr)})
+        n = len(s)
+        if n not in self._derivative_maps:
+            self._derivative_maps[n] = self._derivatives.map(n)
+        out = self._derivative_maps[n](s=np.asarray(s, float)[None, :], p=p)
+        return tuple(np.asarray(out[k], float).reshape(len(self.rows), n) for k in ("r", "dr", "d2r"))
+
+    def _relative(self, s, p, i):
+        return float(self._derivatives_many(np.array([s]), p)[0][i, 0])
+
+    # --- the check ---
+    def __call__(self, s_values, p_values):
+        """Raise :class:`AssemblyError` at the earliest place along the sweep where a
+        construction does not assemble or reaches its limit position, at or between samples.
+        Else return the margins' minima that the samples do not resolve, as (s, width) (what
+        a certified peak must sample more finely: :func:`~.peaks.resolving_points`)."""
+        if not self.rows and not self.mech.loops:
+            return []
+        s_values = np.asarray(s_values, float)
+        p = np.asarray(p_values, float)
+        if self._sampled is None:
+            self._sampled = self._sampled_function()
+        f, closing = self._sampled
+        n = len(s_values)
+        if n not in self._maps:  # built once per stroke length, not on every call
+            self._maps[n] = f.map(n)
+        res = self._maps[n](s=s_values[None, :], p=p)
+        R = np.asarray(res["r"], float).reshape(len(self.rows), n)
+        direction = 1.0 if n < 2 or s_values[-1] >= s_values[0] else -1.0
+        failures = self._loops(res, closing, s_values, direction)
+        more, narrow = self._margins(R, s_values, p, direction)
+        failures += more
+        if failures:
+            first = min(failures, key=lambda x: (x.at, x.order))
+            raise AssemblyError(first.message, construction=first.construction, s=first.s)
+        return narrow
+
+    def _margins(self, R, s_values, p, direction):
+        """Failures of the relative margins, at the samples and between them, and the minima
+        that pass but are narrower than the samples' spacing ((s, width) each:
+        :func:`~.peaks.narrow_minima`)."""
+        sign = np.ones(len(self.rows))
+        for i, (m, _, _) in enumerate(self.rows):
+            if m.kind == "loop":  # a loop's determinant keeps the sign of its branch
+                finite = R[i][np.isfinite(R[i])]
+                sign[i] = 1.0 if not finite.size or finite[0] >= 0 else -1.0
+        T = sign[:, None] * R
+        failures, narrow = [], []
+        first_bad = {}
+        for i, (m, _, limit) in enumerate(self.rows):
+            bad = np.flatnonzero(~(T[i] > limit))
+            if bad.size:
+                first_bad[i] = k = int(bad[0])
+                failures.append(self._sampled_failure(i, k, T, s_values, p, sign, direction))
+        # between the samples: the continuous minima of every margin that varies with s
+        rows = [i for i in range(len(self.rows)) if self.varies[i] and np.any(np.isfinite(T[i]))]
+        if rows and len(s_values) >= 2:
+            ascending = direction > 0
+            s_grid = s_values if ascending else s_values[::-1]
+            V = T[rows] if ascending else T[rows][:, ::-1]
+
+            def evaluate_many(s):
+                out = self._derivatives_many(s, p)
+                return tuple(sign[rows, None] * a[rows] for a in out)
+
+            requests = [Request(j, "min", ends=True) for j in range(len(rows))]
+            extrema = continuous_maxima_rows(evaluate_many, s_grid, V, requests)
+            for j, i in enumerate(rows):
+                m, _, limit = self.rows[i]
+                low = [e for e in extrema[j] if e.value <= limit]
+                if not low:
+                    if i not in first_bad:
+                        one = lambda s, j=j: tuple(a[j] for a in evaluate_many(s))  # noqa: E731
+                        narrow += narrow_minima(one, extrema[j], _spacing(s_values))
+                    continue
+                e = min(low, key=lambda e: direction * e.s)
+                k = first_bad.get(i)
+                if k is not None and direction * e.s >= direction * s_values[k]:
+                    # the samples already fail first; a touch beside a failing sample names it better
+                    if e.value >= -limit and abs(e.s - s_values[k]) <= _spacing(s_values):
+                        failures = [x for x in failures if x.order != i]
+                        failures.append(self._touch(i, e.s, e.value, direction))
+                    continue
+                failures.append(self._continuous_failure(i, e, s_values, p, sign, direction))
+        return failures, narrow
+
+    def _sampled_failure(self, i, k, T, s_values, p, sign, direction):
+        m, _, limit = self.rows[i]
+        v = T[i, k]
+        if math.isnan(v):
+            return self._failure(i, s_values[k], direction, (
+                f"cannot be evaluated at {self._name} = {fmt_s(s_values[k])} (its margin is NaN: a "
+                "point it is built from does not assemble there). Check the constructions it uses."))
+        if v >= -limit or m.kind == "dyad centres":
+            return self._touch(i, s_values[k], v, direction)
+        if k == 0 or not T[i, k - 1] > limit:
+            return self._failure(i, s_values[k], direction, (
+                f"cannot assemble at {self._name} = {fmt_s(s_values[k])}: {self._meet(m)} "
+                f"(relative margin {v:.3g} < 0). Change its lengths or narrow the sweep."))
+        s0 = _crossing(lambda s: sign[i] * self._relative(s, p, i), s_values[k - 1], s_values[k])
+        if m.kind == "loop":
+            return self._singular(i, s0, direction)
+        return self._failure(i, s0, direction, (
+            f"cannot assemble past {self._name} = {fmt_s(s0)}: it reaches its limit position there "
+            f"and {self._meet(m)} beyond it (relative margin {v:.3g} < 0 at the sample "
+            f"{self._name} = {fmt_s(s_values[k])}). Change its lengths or narrow the sweep."))
+
+    def _continuous_failure(self, i, e, s_values, p, sign, direction):
+        m, _, limit = self.rows[i]
+        if e.value >= -limit or m.kind == "dyad centres":
+            return self._touch(i, e.s, e.value, direction)
+        # the margin dips below zero between two samples: name where it enters that stretch
+        before = s_values[(s_values - e.s) * direction < 0]
+        lo = before[-1] if before.size else s_values[0]
+        relative = lambda s: sign[i] * self._relative(s, p, i)  # noqa: E731
+        s0 = _crossing(relative, lo, e.s) if relative(lo) > 0 else e.s
+        if m.kind == "loop":
+            return self._singular(i, s0, direction)
+        s1 = _crossing(relative, _next_sample(s_values, e.s, direction), e.s)
+        return self._failure(i, s0, direction, (
+            f"cannot assemble from {self._name} = {fmt_s(s0)} to {fmt_s(s1)}, between two samples: "
+            f"{self._meet(m)} there (relative margin down to {e.value:.3g} at {self._name} = "
+            f"{fmt_s(e.s)}; the samples alone miss it). Change its lengths or narrow the sweep."))
+
+    def _touch(self, i, s, value, direction):
+        m, _, limit = self.rows[i]
+        if m.kind == "dyad centres":
+            return self._failure(i, s, direction, (
+                f"has its two centres at one place at {self._name} = {fmt_s(s)} (squared distance "
+                f"{value:.3g} <= {limit:g} of the sum of its squared lengths): its circles are one "
+                "circle and its point is not determined there (a kite or parallelogram folding). "
+                "Narrow the sweep so that it stops short of this position, or change its lengths."))
+        what = ("is at a singular position (its closure's Jacobian is singular: a locking position)"
+                if m.kind == "loop" else "is at its limit (lock-up) position")
+        return self._failure(i, s, direction, (
+            f"{what} at {self._name} = {fmt_s(s)} (relative margin {value:.3g} <= {limit:g}): "
+            "its velocities are infinite there. Narrow the sweep so that it stops short of this "
+            "position, or change its lengths."))
+
+    def _singular(self, i, s, direction):
+        return self._failure(i, s, direction, (
+            f"passes a singular (locking) position at {self._name} = {fmt_s(s)}: its closure's "
+            "Jacobian changes sign there, so the loop folds onto another branch or locks. Narrow "
+            "the sweep so that it stops short of this position, or change its lengths."))
+
+    def _failure(self, i, s, direction, text):
+        m = self.rows[i][0]
+        kind = "dyad" if m.kind == "dyad centres" else m.kind
+        return _Failure(direction * float(s), i, float(s), m.construction,
+                        f"{self.mech.scene.path}: [points] {m.construction} ({kind}) {text}")
+
+    @property
+    def _name(self):
+        return self.mech.scene.sweep.name
+
+    @staticmethod
+    def _meet(m):
+        return {"dyad": "its circles do not meet", "slider": "its circle and line do not meet",
+                "loop": "it does not close"}[m.kind]
+
+    def _loops(self, res, closing, s_values, direction):
+        """Loops that Newton's method does not close at a sample, or that jump to another
+        branch between two samples."""
+        failures = []
+        name = self._name
+        path = self.mech.scene.path
+        for j, loop in closing:
+            order = len(self.rows) + j
+            r = np.asarray(res[f"res{j}"]).ravel()
+            scale = np.maximum(1.0, np.asarray(res["size"]).ravel())
+            bad = np.flatnonzero(~(r <= 1e-9 * scale))
+            if bad.size:
+                k = int(bad[0])
+                failures.append(_Failure(direction * s_values[k], order, float(s_values[k]), loop.loop.name, (
+                    f"{path}: [points] {loop.loop.name} (loop): Newton's method does not close the "
+                    f"loop at {name} = {fmt_s(s_values[k])} (residual {r[k]:.3g}). The loop cannot "
+                    "assemble there, or the initial guesses lead elsewhere: check the lengths, the "
+                    "sweep range and the unknowns' guesses.")))
+                continue
+            u = np.atleast_2d(np.asarray(res[f"u{j}"]))
+            jumps = np.abs(np.diff(np.unwrap(u, axis=1), axis=1)) if u.shape[1] > 1 else np.zeros((1, 0))
+            if jumps.size:
+                typical = np.median(jumps, axis=1, keepdims=True)
+                bad = np.argwhere((jumps > 10 * typical + 1e-9) & (jumps > 0.3))
+                if bad.size:
+                    k = int(bad[0][1])
+                    failures.append(_Failure(direction * s_values[k], order, float(s_values[k]), loop.loop.name, (
+                        f"{path}: [points] {loop.loop.name} (loop): the solution jumps to another "
+                        f"assembly branch between {name} = {fmt_s(s_values[k])} and "
+                        f"{fmt_s(s_values[k + 1])}. Give initial guesses that follow the branch (they "
+                        "may use the sweep variable), or narrow the sweep.")))
+        return failures
+
+
+def _spacing(s_values):
+    return abs(float(s_values[-1] - s_values[0])) / max(len(s_values) - 1, 1)
+
+
+def _next_sample(s_values, s, direction):
+    after = s_values[(s_values - s) * direction > 0]
+    return after[0] if after.size else s_values[-1]
+
+
+def _crossing(f, a, b, iterations=200):
+    """Where f crosses zero between a (f > 0) and b (f <= 0 or NaN), by bisection down to
+    neighbouring floats: the first point with f <= 0, within an ulp or so of the crossing
+    (a point where the construction no longer assembles; ``a`` itself if f(a) is not > 0)."""
+    fa = f(a)
+    if not fa > 0:
+        return float(a)
+    for _ in range(iterations):
+        mid = 0.5 * (a + b)
+        if mid in (a, b):
+            break
+        if f(mid) > 0:
+            a = mid
+        else:
+            b = mid
+    return float(b)

@@ -1,0 +1,135 @@
+"""What analyse summarises, over the continuous stroke: the peaks of the drive load, the static
+load, the reduced inertia and the power, the extremes of every per-sample constraint, and the
+aggregates max(...)/min(...) inside the per-stroke constraints.
+
+Each is a row of one CasADi function of (s, p) with its exact first and second derivatives in
+s; the rows' sampled extrema bracket the continuous ones, which the one certification refines
+(:func:`~optdesign.kinematics.peaks.continuous_maxima_rows`: Newton on dv/ds = 0, bisection as
+its safeguard, the brackets of all rows in lockstep, the intervals at the stroke's ends
+included).  A per-stroke constraint is then evaluated on the samples plus the located extrema
+of its aggregates, so max(...) and min(...) inside it take their continuous values.
+"""
+from __future__ import annotations
+
+import math
+
+import casadi as ca
+import numpy as np
+
+from ..kinematics.peaks import Extremum, Request, continuous_maxima_rows, resolving_points
+from ..scene.expressions import Expression
+from .mapped import MappedFunction
+
+PEAKS = ("drive", "static_load", "reduced_inertia", "power")
+
+
+class CertifiedExtremes:
+    """The continuous extremes of one :class:`~optdesign.model.analysis.Analysis` (its
+    functions built once, with the analysis)."""
+
+    def __init__(self, analysis):
+        mech = analysis.mech
+        self.mech = mech
+        outputs = analysis.model.outputs()
+        rows, self.peak_rows, self.constraint_rows, self.aggregate_rows = [], {}, {}, []
+        for name in PEAKS:
+            if name in outputs:
+                self.peak_rows[name] = len(rows)
+                rows.append(outputs[name])
+        for c in analysis.per_sample:
+            self.constraint_rows[c.name] = len(rows)
+            rows.append(mech.value(c.expr, f"[[constraints]] {c.name}"))
+        for c in analysis.per_stroke:
+            for func, inner in aggregates(c.expr):
+                self.aggregate_rows.append((c.name, func, len(rows)))
+                rows.append(mech.value(inner, f"[[constraints]] {c.name}"))
+        self.n_rows = len(rows)
+        v = ca.vertcat(*rows) if rows else ca.DM.zeros(0, 1)
+        dv = mech.ds(v)
+        self.derivatives = MappedFunction(mech.function("certified_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)}))
+        self.values = MappedFunction(mech.function("certified_v", {"v": v}))
+        self.q = MappedFunction(mech.function("q", {"q": mech.q}))
+
+    def __call__(self, s_values, p, columns, constraints, narrow=()):
+        """The continuous extremes at parameters ``p``, given the sampled ``columns`` and
+        per-sample ``constraints`` of a run on ``s_values``.  ``narrow``: (s, width) of the
+        assembly margins' and |dq/ds|'s minima that the samples do not resolve (near a lock-up
+        or a dead centre the quantities change over that width): sweep values that resolve
+        them join the samples (:func:`~optdesign.kinematics.peaks.resolving_points`) before
+        the extrema are bracketed.  Returns a dict: ``peaks`` (name -> |peak|), ``peak_at``
+        (name -> {s, q, value}), ``constraint_extremes`` (per-sample constraint -> {min, min_s,
+        max, max_s}) and ``aggregates`` (constraint -> located s values of its aggregates)."""
+        s_values = np.asarray(s_values, float)
+        V = np.empty((self.n_rows, len(s_values)))
+        for name, i in self.peak_rows.items():
+            V[i] = columns[name]
+        for name, i in self.constraint_rows.items():
+            V[i] = constraints[name]
+        if self.aggregate_rows:
+            rows = [i for _, _, i in self.aggregate_rows]
+            V[rows] = self.values(s_values, p)[0][rows]
+        q_sampled = columns["q"]
+        spacing = abs(float(s_values[-1] - s_values[0])) / max(len(s_values) - 1, 1)
+        extra = resolving_points(narrow, s_values[0], s_values[-1], spacing)
+        if extra:
+            s_all = np.r_[s_values, extra]
+            order = np.argsort(s_all, kind="stable")
+            if s_values[-1] < s_values[0]:
+                order = order[::-1]
+            V = np.c_[V, self.values(np.array(extra), p)[0]][:, order]
+            q_sampled = np.r_[q_sampled, np.full(len(extra), np.nan)][order]
+            s_values = s_all[order]
+        requests = []
+        for i in self.peak_rows.values():
+            requests.append(Request(i, "abs", ends=True))
+        for i in self.constraint_rows.values():
+            requests += [Request(i, "max", ends=True), Request(i, "min", ends=True)]
+        for _, func, i in self.aggregate_rows:
+            requests.append(Request(i, func, ends=True))
+        extrema = self._extrema(s_values, V, p, requests)
+        out = {"peaks": {}, "peak_at": {}, "constraint_extremes": {}, "aggregates": {}}
+        located = iter(extrema)
+        for name in self.peak_rows:
+            e = next(located)
+            out["peaks"][name] = abs(e.value)
+            out["peak_at"][name] = {"s": e.s, "q": self._q(e.s, s_values, q_sampled, p), "value": e.value}
+        for name in self.constraint_rows:
+            hi, lo = next(located), next(located)
+            out["constraint_extremes"][name] = {"min": lo.value, "min_s": lo.s, "max": hi.value, "max_s": hi.s}
+        for name, _, _ in self.aggregate_rows:
+            out["aggregates"].setdefault(name, []).append(next(located).s)
+        return out
+
+    def _extrema(self, s_values, V, p, requests):
+        """The largest continuous extremum of each request (a row flat over the samples keeps
+        its sampled extreme: every sample of it would be a bracket, none of them telling)."""
+        ascending = len(s_values) < 2 or s_values[-1] >= s_values[0]
+        grid, values = (s_values, V) if ascending else (s_values[::-1], V[:, ::-1])
+        flat = [np.ptp(values[r.row]) <= 1e-14 * max(float(np.max(np.abs(values[r.row]))), 1e-300)
+                for r in requests]
+        live = [r for r, f in zip(requests, flat) if not f]
+        found = iter(continuous_maxima_rows(lambda s: self.derivatives(s, p), grid, values, live) if live else [])
+        out = []
+        for r, f in zip(requests, flat):
+            if f:
+                row = values[r.row]
+                k = int(np.argmax(np.abs(row)) if r.sense == "abs" else np.argmax(row) if r.sense == "max" else np.argmin(row))
+                out.append(Extremum(float(grid[k]), float(row[k])))
+            else:
+                out.append(next(found)[0])
+        return out
+
+    def _q(self, s, s_values, q_sampled, p):
+        """The drive coordinate at s, on the branch of the sampled (unwrapped) q."""
+        q = float(self.q(np.array([s]), p)[0][0, 0])
+        if self.mech.scene.drive.kind != "rotary":
+            return q
+        known = np.isfinite(q_sampled)
+        near = q_sampled[known][int(np.argmin(np.abs(s_values[known] - s)))]
+        return float(near + math.remainder(q - near, 2 * math.pi))
+
+
+def aggregates(expr: Expression) -> list:
+    """The one-argument max(...)/min(...) calls of a stroke expression, in order, as (func,
+    inner expression)."""
+    return [(func, Expression(f"{func}(...) in {expr.source}", inner)) for func, inner in expr.aggregate_calls()]
