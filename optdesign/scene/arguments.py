@@ -64,34 +64,32 @@ def real(name: str, value, *, above: float | None = None, below: float | None = 
 
 # --- sizes ---------------------------------------------------------------------------------------
 def available_memory() -> int:
-    """Bytes this process may still allocate: the kernel's MemAvailable, capped by a cgroup
-    (container) limit when there is one."""
+    """Bytes of memory this machine has: the kernel's MemTotal, capped by a cgroup (container)
+    limit when there is one.  The whole memory, not what is free at this instant: a size is
+    refused only when it could never fit, never because other programs happen to use memory
+    now (a 201-sample analyse was refused on a busy machine with MemAvailable near zero)."""
     avail = None
     try:
         with open("/proc/meminfo") as fh:
             for line in fh:
-                if line.startswith("MemAvailable:"):
+                if line.startswith("MemTotal:"):
                     avail = int(line.split()[1]) * 1024
                     break
     except (OSError, ValueError, IndexError):
         pass
     if avail is None:
         try:
-            avail = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+            avail = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
         except (ValueError, OSError, AttributeError):
             avail = 1 << 62                       # unknown: no limit from here
-    for limit_file, usage_file in (("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current"),
-                                   ("/sys/fs/cgroup/memory/memory.limit_in_bytes",
-                                    "/sys/fs/cgroup/memory/memory.usage_in_bytes")):
+    for limit_file in ("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"):
         try:
             with open(limit_file) as fh:
                 limit = fh.read().strip()
-            with open(usage_file) as fh:
-                usage = int(fh.read().strip())
-        except (OSError, ValueError):
+        except OSError:
             continue
         if limit.isdigit() and int(limit) < 1 << 60:
-            avail = min(avail, max(int(limit) - usage, 0))
+            avail = min(avail, int(limit))
         break
     return avail
 
