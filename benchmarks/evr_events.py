@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import statistics
 import sys
+import textwrap
 import time
 from pathlib import Path
 
@@ -116,6 +117,7 @@ def section(out_dir: Path) -> str:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.ticker
 
     from optdesign.report.output import save_figure
 
@@ -129,7 +131,7 @@ def section(out_dir: Path) -> str:
              "of |s - s_ref| / range(s_ref) and |ds/dt - sd_ref| / range(sd_ref) at every sample (the output "
              "times and the events) and the stop time's relative error. Run time: integration wall time, median "
              f"of {REPEATS} runs. 'events' = the run's count; '= ref' when kinds and order are the reference's.", ""]
-    fig, axes = plt.subplots(1, 3, figsize=(14, 4.2))
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.8))
     verdicts = []
     for ax, case in zip(axes, TITLES):
         ref, ref_time, rows = _rows(case)
@@ -155,7 +157,8 @@ def section(out_dir: Path) -> str:
             ax.loglog(*zip(*pts), style, label=method)
         ax.set_xlabel("integration wall time [s]")
         ax.set_ylabel("error / range")
-        ax.set_title(TITLES[case], fontsize=8)
+        ax.set_title(textwrap.fill(TITLES[case], 48), fontsize=8)
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         ax.grid(alpha=0.3, which="both")
         ax.legend(fontsize=8)
         lines.append("")
