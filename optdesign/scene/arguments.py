@@ -109,7 +109,7 @@ def fits_in_memory(name: str, count: int, bytes_each: float, unit: str, advice: 
     if need > have:
         raise ArgumentError(f"{name} = {count:,}: would need about {size_text(need)} of memory "
                             f"({size_text(bytes_each)} per {unit}), more than the {size_text(have)} "
-                            f"available here" + (f"; {advice}" if advice else ""))
+                            f"this machine has" + (f"; {advice}" if advice else ""))
 
 
 def within_time(name: str, count: float, seconds_each: float, limit_s: float, unit: str, advice: str = "") -> None:

@@ -14,7 +14,7 @@ from optdesign.study import Study, grid, values
 
 from .util import JIB, JIB_DESIGN, SIM, cli
 
-MEMORY = r"would need about [\d.e+]+ [kMGTP]?B of memory \([\d.]+ kB per {}\), more than the [\d.]+ [kMGTP]?B available here"
+MEMORY = r"would need about [\d.e+]+ [kMGTP]?B of memory \([\d.]+ kB per {}\), more than the [\d.]+ [kMGTP]?B this machine has"
 
 
 @pytest.fixture(scope="module")
@@ -74,7 +74,7 @@ def test_the_estimates(monkeypatch):
     monkeypatch.setattr(arguments, "available_memory", lambda: 10**9)
     arguments.fits_in_memory("n", 1000, 10**6, "item")          # exactly 1 GB: fits
     with pytest.raises(ArgumentError, match=r"^n = 1,001: would need about 1 GB of memory \(1 MB per item\), "
-                                            r"more than the 1 GB available here; fewer$"):
+                                            r"more than the 1 GB this machine has; fewer$"):
         arguments.fits_in_memory("n", 1001, 10**6, "item", "fewer")
     assert arguments.size_text(3.2e15) == "3.2 PB" and arguments.size_text(512) == "512 bytes"
 
