@@ -18,6 +18,8 @@ def add_arguments(p):
     p.add_argument("--workers", type=workers, default=os.cpu_count() or 1,
                    help="processes that share the starts (default: the machine's cores; 1 = in this process)")
     p.add_argument("--out", metavar="DIR", help="results folder (default results/<scene name>)")
+    p.add_argument("--no-animation", action="store_true",
+                   help="leave the optimum's animation (animation.gif, .mp4) out of the results folder")
 
 
 def run(args):
@@ -47,7 +49,8 @@ def run(args):
         else:
             result = optimise(scene, starts=args.starts, seed=args.seed, progress=progress, workers=args.workers)
     if result.success:
-        for path in design_report.write_results(result, folder, workers=args.workers, label="--out"):
+        for path in design_report.write_results(result, folder, workers=args.workers, label="--out",
+                                                 animate=not args.no_animation):
             print(f"wrote {path}", file=sys.stderr)
     if catalogue is not None:
         from ..report.design_cases import catalogue_json, catalogue_summary

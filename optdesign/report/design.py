@@ -2,14 +2,11 @@
 from __future__ import annotations
 
 import dataclasses
-import multiprocessing
-import textwrap
-from pathlib import Path
-
-import numpy as np
 
 from .design_cases import cases_json, cases_summary
-from .output import SCHEMA, new_figure, save_figure, to_json, write_atomic
+from . import design_figures
+from .design_figures import FIGURES, write_figures
+from .output import SCHEMA, to_json, write_atomic
 
 
 def optimisation_json(result) -> dict:
@@ -60,60 +57,23 @@ def _fmt(v):
     return "-" if v is None else f"{v:.6g}"
 
 
-FILES = ("result.json", "summary.txt", "drive_and_constraints.png", "mechanism.png", "mechanism.svg")
+FILES = ("result.json", "summary.txt") + FIGURES
 
 
-def write_results(result, folder, workers=1, label="results folder") -> list:
+def write_results(result, folder, workers=1, label="results folder", animate=True) -> list:
     """Replace ``folder`` as a whole (:func:`optdesign.report.folder.replace_folder`) by one
-    holding result.json, summary.txt and the figures; returns the paths.  With ``workers`` > 1
-    the mechanism figure is drawn by a forked process while this one draws the other (each
-    figure takes ~0.3 s of rasterising)."""
+    holding result.json, summary.txt, the figures, the optimum's animation (unless not
+    ``animate``) and report.html (:mod:`.design_figures`); returns the paths."""
     from .folder import replace_folder
 
-    return replace_folder(folder, lambda tmp: _write_results(result, tmp, workers), FILES, label=label)
+    return replace_folder(folder, lambda tmp: _write_results(result, tmp, workers, animate), FILES, label=label)
 
 
-def _write_results(result, folder, workers) -> list:
+def _write_results(result, folder, workers, animate=True) -> list:
     written = [folder / "result.json", folder / "summary.txt"]
     write_atomic(written[0], to_json(optimisation_json(result)) + "\n")
     write_atomic(written[1], summary(result) + "\n")
-    if workers > 1 and "fork" in multiprocessing.get_all_start_methods():
-        import matplotlib.backends.backend_agg  # noqa: F401  (imported once, before the fork)
-
-        child = multiprocessing.get_context("fork").Process(target=mechanism_figure, args=(result, folder))
-        child.start()
-        written.append(load_figure(result, folder))
-        child.join()
-        # the child writes atomically; should it have failed, draw the figure here
-        written.append(mechanism_figure(result, folder) if child.exitcode != 0 else folder / "mechanism.png")
-    else:
-        written += [load_figure(result, folder), mechanism_figure(result, folder)]
-    written.append(folder / "mechanism.svg")
-    return written
+    return written + write_figures(result, folder, workers, animate)
 
 
-def load_figure(result, folder) -> Path:
-    """Drive load and per-sample constraints over the stroke, start and optimum on one figure, in
-    the units the scene wrote (report/stroke_plots.py): bounds drawn with the feasible side
-    shaded, violations red, the peaks and their positions marked."""
-    from ..model.analysis import Analysis
-    from .stroke_plots import stroke_figure
-
-    scene = result.scene
-    after = scene.with_parameters(**result.design)
-    runs = [("start", Analysis(scene).run()), ("optimum", Analysis(after).run())]
-    path = Path(folder) / "drive_and_constraints.png"
-    stroke_figure(runs, path, title=f"{scene.title}\n{scene.objective.minimise}: start and optimum")
-    return path
-
-
-def mechanism_figure(result, folder) -> Path:
-    """The engineering drawing of the start and the optimum side by side at one scale
-    (mechanism.png and mechanism.svg); returns the PNG's path."""
-    from .mechanism import mechanism_figure as draw
-
-    scene = result.scene
-    folder = Path(folder)
-    draw([("start", scene), ("optimum", scene.with_parameters(**result.design))],
-         [folder / "mechanism.png", folder / "mechanism.svg"], suptitle=scene.title)
-    return folder / "mechanism.png"
+load_figure, mechanism_figure = design_figures.load_figure, design_figures.mechanism_figure

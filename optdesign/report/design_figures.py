@@ -1,0 +1,93 @@
+"""The figures of an optimisation's folder and its report.html: the load figure (start and
+optimum over the stroke), the engineering drawing (PNG and SVG), the optimum's animation (GIF,
+MP4 where ffmpeg is on PATH), and report.html with all of them inlined.
+
+The start's and the optimum's analyses are made once and shared.  With ``workers`` > 1 the
+drawing and the animation are made by forked processes while this one draws the load figure
+(each takes a second or more of rasterising); the page is written last, from the files."""
+from __future__ import annotations
+
+import multiprocessing
+from pathlib import Path
+
+FIGURES = ("drive_and_constraints.png", "mechanism.png", "mechanism.svg", "animation.gif", "animation.mp4",
+           "report.html")
+
+
+def analyses(result) -> list:
+    """[('start', AnalysisResult), ('optimum', AnalysisResult)] of ``result``'s scene."""
+    from ..model.analysis import Analysis
+
+    scene = result.scene
+    return [("start", Analysis(scene).run()), ("optimum", Analysis(scene.with_parameters(**result.design)).run())]
+
+
+def load_figure(result, folder, runs=None) -> Path:
+    """Drive load and per-sample constraints over the stroke, start and optimum on one figure, in
+    the units the scene wrote (:mod:`.stroke_plots`): bounds drawn with the feasible side
+    shaded, violations red, the peaks and their positions marked."""
+    from .stroke_plots import stroke_figure
+
+    scene = result.scene
+    path = Path(folder) / "drive_and_constraints.png"
+    stroke_figure(runs or analyses(result), path, title=f"{scene.title}\n{scene.objective.minimise}: start and optimum")
+    return path
+
+
+def mechanism_figure(result, folder, runs=None) -> list:
+    """The engineering drawing of the start and the optimum side by side at one scale
+    (mechanism.png and mechanism.svg); a design that breaks a constraint (``runs``: the
+    analyses) says which in its title."""
+    from .checks import violations
+    from .mechanism import mechanism_figure as draw
+
+    scene = result.scene
+    folder = Path(folder)
+    labels = []
+    for label, analysis in runs or (("start", None), ("optimum", None)):
+        broken = sorted({v["name"] for v in violations(analysis)}) if analysis is not None else []
+        labels.append(f"{label} (infeasible: {', '.join(broken)})" if broken else label)
+    return draw([(labels[0], scene), (labels[1], scene.with_parameters(**result.design))],
+                [folder / "mechanism.png", folder / "mechanism.svg"], suptitle=scene.title)
+
+
+def animation(result, folder, analysis=None) -> list:
+    """The optimum moving over its stroke: animation.gif (and animation.mp4 with ffmpeg)."""
+    from .animate import animate
+
+    scene = result.scene.with_parameters(**result.design)
+    folder = Path(folder)
+    return animate(scene, [folder / "animation.gif", folder / "animation.mp4"], frames=30, analysis=analysis,
+                   title=f"{scene.title} (optimum)")
+
+
+def write_figures(result, folder, workers=1, animate=True) -> list:
+    """Every figure and report.html into ``folder``; returns the paths written."""
+    from .html import write_html
+
+    folder = Path(folder)
+    runs = analyses(result)
+    jobs = [(mechanism_figure, (result, folder, runs))]
+    if animate:
+        jobs.append((animation, (result, folder, runs[1][1])))
+    written = []
+    if workers > 1 and "fork" in multiprocessing.get_all_start_methods():
+        import matplotlib.backends.backend_agg  # noqa: F401  (imported once, before the fork)
+
+        context = multiprocessing.get_context("fork")
+        children = [context.Process(target=job, args=args) for job, args in jobs]
+        for child in children:
+            child.start()
+        written.append(load_figure(result, folder, runs))
+        for child, (job, args) in zip(children, jobs):
+            child.join()
+            if child.exitcode != 0:  # the child writes atomically; should it have failed, do it here
+                job(*args)
+    else:
+        written.append(load_figure(result, folder, runs))
+        for job, args in jobs:
+            job(*args)
+    written += [folder / n for n in ("mechanism.png", "mechanism.svg", "animation.gif", "animation.mp4")
+                if (folder / n).exists()]
+    written.append(write_html(result, folder, runs, [p.name for p in written]))
+    return written
