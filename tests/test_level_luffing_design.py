@@ -37,7 +37,7 @@ import pytest
 from scipy.optimize import brentq, minimize, minimize_scalar
 
 from optdesign.design import optimise
-from optdesign.scene.file import load
+from optdesign.scene.file import load, loads
 
 ROOT = Path(__file__).resolve().parents[1]
 PATH_SCENE = ROOT / "problems" / "level_luffing_path.toml"
@@ -260,6 +260,33 @@ def test_path_constraints_and_the_active_outreach():
     assert result.constraints["minimum outreach"]["max"] == pytest.approx(x_in, abs=1e-6)
     active = {name for name, c in result.constraints.items() if c.get("active")}
     assert active == {"minimum outreach"}, active
+
+
+@pytest.mark.parametrize("lowered, raised", [("start(x(T))", "end(x(T))"), ("max(x(T))", "min(x(T))")],
+                         ids=["end values", "located extremes"])
+def test_path_with_the_outreach_stated_directly(lowered, raised):
+    """The two end outreaches stated directly instead of by the ramps: as the values at the
+    stroke's ends (start(x(T)) >= 30, end(x(T)) <= 9.5), or as the outreach's largest and
+    smallest values over the stroke (max(x(T)) >= 30, min(x(T)) <= 9.5: a lower bound on a max
+    and an upper bound on a min, held at their located extremes).  The outreach falls along the
+    stroke, so both say what the ramps say: the same optimum (1e-9), and the reported values
+    are the end outreaches of the numpy four-bar (1e-9 m)."""
+    text = PATH_SCENE.read_text()
+    for old, new in (('"x(T) + 100*(theta - theta_out)"', f'"{lowered}"'), ('"x(T) + 100*(theta - theta_in)"', f'"{raised}"')):
+        assert old in text
+        text = text.replace(old, new)
+    stated = optimise(loads(text, "level_luffing_path_stated.toml"), starts=20, seed=0)
+    ramps = optimum(PATH_SCENE)
+    assert stated.success, stated.message
+    assert stated.objective == pytest.approx(ramps.objective, rel=1e-9)
+    assert stated.design == pytest.approx(ramps.design, abs=1e-6)
+    p, (t_out, t_in), _, _ = with_design(PATH_SCENE, stated.design)
+    T = Crane(p).points(np.array([t_out, t_in]))["T"]
+    assert stated.constraints["maximum outreach"]["value"] == pytest.approx(T[0, 0], abs=1e-9)
+    assert stated.constraints["minimum outreach"]["value"] == pytest.approx(9.5, abs=1e-9)
+    assert T[0, 1] == pytest.approx(9.5, abs=1e-8)
+    active = {name: c["active"] for name, c in stated.constraints.items() if c.get("active")}
+    assert active == {"minimum outreach": "upper"}, active
 
 
 def test_path_optimum_equioscillates():

@@ -1,10 +1,11 @@
 """Quantities of the whole stroke: stroke aggregates max(e)/min(e) and the rms.
 
-A stroke aggregate is an epigraph variable of the NLP (:mod:`.rows` takes it out of its
-expression, leaving an *outer* expression of named aggregates); :func:`outer_value` evaluates
-such an expression, and :func:`check_monotone` makes sure a bound on it is conservative.  The
-rms of the objective's quantity is a composite Gauss-Legendre :func:`quadrature` over the
-continuous stroke.
+A stroke aggregate (max(e), min(e), start(e), end(e)) is a variable of the NLP (:mod:`.rows`
+takes it out of its expression, leaving an *outer* expression of named aggregates);
+:func:`outer_value` evaluates such an expression, and :func:`needs_location` says which max/min
+aggregates a bound on it cannot hold by an epigraph (the NLP then holds them at their located
+extreme, :mod:`.nlp`).  The rms of the objective's quantity is a composite Gauss-Legendre
+:func:`quadrature` over the continuous stroke.
 
 The functions take the problem (``pb``: a :class:`~optdesign.design.problem.DesignProblem`,
 which imports this module; hence no annotation) and read or set its attributes.
@@ -16,14 +17,17 @@ import math
 import casadi as ca
 import numpy as np
 
-from ..errors import SceneError
 from ..scene.expressions import evaluate
 
 
 # --- stroke aggregates ---
 def sampled_extreme(ag, q) -> float:
-    """The aggregate ``ag`` (its max or min) of the per-sample quantities ``q`` (rows x samples)."""
-    return float(np.max(q[ag.index]) if ag.func == "max" else np.min(q[ag.index]))
+    """The aggregate ``ag`` (its max, min, first or last value) of the per-sample quantities
+    ``q`` (rows x samples; for start/end the first and last columns are the stroke's ends)."""
+    row = q[ag.index]
+    if ag.func in ("start", "end"):
+        return float(row[0] if ag.func == "start" else row[-1])
+    return float(np.max(row) if ag.func == "max" else np.min(row))
 
 
 def aggregate_start(pb, ag) -> float:
@@ -62,29 +66,46 @@ def stroke_value(pb, outer, extremes) -> float:
     return float(outer_value(pb, outer, [extremes.get((ag.name, ag.func), math.nan) for ag in pb.aggregates]))
 
 
-def check_monotone(pb, outer, where, source, lo, hi):
-    """The epigraph of an aggregate is conservative only if the bound pushes the outer
-    expression the right way: an upper bound needs it increasing in each max(...) and
-    decreasing in each min(...), a lower bound the reverse."""
-    if not pb.aggregates:
-        return
+def needs_location(pb, outer, lo, hi) -> set:
+    """Indices (in ``pb.aggregates``) of the max/min aggregates of the stroke expression
+    ``outer`` that the bounds ``lo <= outer <= hi`` (+-inf: open) cannot hold by an epigraph.
+
+    An epigraph a >= e(s_j) (a <= e(s_j) for a min) is exact only where the bound pushes a
+    down onto the largest e(s_j): an upper bound needs the outer expression increasing in each
+    max(...) and decreasing in each min(...), a lower bound the reverse, so an equality
+    (max(y) - min(y) == H) or a lower bound on a stroke needs the located extreme.  So does
+    an aggregate whose direction the start design does not tell (zero derivative there)."""
+    names = outer.names()
+    members = [i for i, ag in enumerate(pb.aggregates) if ag.name in names and ag.func in ("max", "min")]
+    if not members:
+        return set()
     a = ca.SX.sym("a", len(pb.aggregates))
     expr = outer_value(pb, outer, a)
     grad = ca.Function("g", [a], [ca.gradient(expr, a)])
-    start = [aggregate_start(pb, ag) for ag in pb.aggregates]
-    grad_v = np.asarray(grad(start)).ravel()
-    for i, ag in enumerate(pb.aggregates):
-        if grad_v[i] == 0:  # this aggregate belongs to another expression
+    grad_v = np.asarray(grad([aggregate_start(pb, ag) for ag in pb.aggregates])).ravel()
+    out = set()
+    for i in members:
+        ag = pb.aggregates[i]
+        if grad_v[i] == 0 or not np.isfinite(grad_v[i]):
+            out.add(i)
             continue
-        increasing = grad_v[i] > 0
-        ok_upper = increasing == (ag.func == "max")
+        ok_upper = (grad_v[i] > 0) == (ag.func == "max")  # an upper bound is conservative
         if (math.isfinite(hi) and not ok_upper) or (math.isfinite(lo) and ok_upper):
-            raise SceneError(
-                f"{pb.scene.path}: {where}: a {'lower' if ok_upper else 'upper'} "
-                f"bound on {source!r} is not conservative in its {ag.func}(...) over the stroke; "
-                "write it so that the bound limits a max from above or a min from below "
-                "(e.g. max(L)/min(L) <= r, or max(L) - r*min(L) <= 0)"
-            )
+            out.add(i)
+    return out
+
+
+def located_aggregates(pb, stroke_bounds) -> list:
+    """Indices (in ``pb.aggregates``, increasing) of the max/min aggregates held at their
+    located extreme, not by an epigraph: those of the objective or of a stroke constraint
+    whose bound there is not conservative (:func:`needs_location`), under the
+    stroke constraints' bounds ``stroke_bounds`` (name -> (lower, upper), physical units)."""
+    located = set()
+    if pb.objective_kind == "expression":
+        located |= needs_location(pb, pb.objective_expr, -math.inf, 0.0)
+    for c, outer in pb.stroke_constraints:
+        located |= needs_location(pb, outer, *stroke_bounds[c.name])
+    return sorted(located)
 
 
 # --- rms ---

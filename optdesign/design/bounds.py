@@ -17,7 +17,7 @@ import math
 from ..errors import SceneError
 from ..scene import ResolvedScene, Scene
 from ..scene.expressions import near_miss, parse
-from .aggregates import check_monotone
+from .aggregates import located_aggregates
 
 
 def numeric_bounds(resolved: ResolvedScene, c) -> tuple:
@@ -47,13 +47,20 @@ def with_bounds(pb, bounds):
     that maximum, and always for stroke constraints, scaled by their start value alone).
     Multipliers are reported per unit of the physical bound, so their meaning is the same.
 
-    A stroke constraint (max(...)/min(...) over the stroke) is exact only on a side where
-    its bound is conservative (it limits a max from above or a min from below); a new
-    finite side that is not raises SceneError, as a fresh build of the new scene would.
+    A stroke constraint's max(...)/min(...) is held by an epigraph where its bound is
+    conservative (it limits a max from above or a min from below) and at its located extreme
+    otherwise (:mod:`.nlp`); the two have different rows.  New bounds that need the located
+    extreme of an aggregate this build holds by an epigraph (a lower bound on a stroke whose
+    build had an upper one) give a fresh build of the new scene, with its own NLP, solvers and
+    scales (the result of that build, not a shared one).
     """
     new_bounds, requested = _requested_bounds(pb, bounds)
     if not new_bounds:
         return pb
+    stroke_bounds = dict(pb.stroke_bounds)
+    stroke_bounds.update({k: v for k, v in new_bounds.items() if k in stroke_bounds})
+    if not set(located_aggregates(pb, stroke_bounds)) <= set(pb.located):
+        return type(pb)(scene_with_bounds(pb.scene, requested), pb.settings)
     new = copy.copy(pb)
     new.lbg, new.ubg = pb.lbg.copy(), pb.ubg.copy()
     new.blocks = list(pb.blocks)
@@ -64,9 +71,6 @@ def with_bounds(pb, bounds):
         start, n = rows[name]
         scale = pb.g_scale[name]
         if name in pb.stroke_bounds:
-            check_monotone(pb, pb.stroke_outer[name], f"with_bounds: [[constraints]] {name!r} "
-                           f"(min = {lo:.6g}, max = {hi:.6g})", find_constraint(pb, name).expr.source,
-                           lo / scale, hi / scale)
             new.stroke_bounds[name] = (lo, hi)
         else:
             i = _block_of(pb, name)

@@ -5,8 +5,29 @@ Variables w = (z, t, a): the design scaled to [0, 1], the epigraph variable t of
 objective, and each stroke aggregate scaled by its start value.  Parameters: the fixed scene
 parameters, the sample points, and how each slot follows its extremum to first order in the
 design.  Rows: the epigraph of the peak, each per-sample constraint and margin at every
-sample point, each aggregate and the dead-centre guard at the stroke's ends and the slots,
-each stroke constraint once (see :mod:`.problem` for the formulation).
+sample point, each aggregate and the dead-centre guard at the stroke's ends and the slots (a
+located extreme's at every point), each stroke constraint once (see :mod:`.problem` for the
+formulation).
+
+A stroke aggregate max(e) (min(e)) is held in one of two ways:
+
+* an epigraph, e(s_j) <= a at the ends and the slots, where every bound on it limits a max from
+  above or a min from below (the optimum then pushes a down onto the largest e(s_j): exact);
+* its *located* extreme otherwise (an equality such as max(y) - min(y) == H, a lower bound on
+  a stroke, an objective that wants a max large): e(s_j) <= a at every point, and a = e(s_d)
+  at the designated point s_d, the point where e is largest at the reference design (after an
+  exchange, a slot on the continuous extreme, following it to first order in the design).  At
+  a fixed active set a is then a smooth function of the design, exact to first and second
+  order at the reference design (the slot's tracking is the extreme's own), and the
+  continuous check certifies it as for a peak.  The designation is a matter of row bounds
+  (:func:`row_bounds`): the designated row is an equality, rows that tie it within ``TIE`` of
+  the aggregate's scale are free (the two ends of a full turn are one point: the same row
+  twice would be degenerate, and phase 1 tightens rows, which a tie cannot meet).
+  :func:`designation` finds the point when the NLP's parameters are made for a reference
+  design; the build's own bounds are the plain epigraph's.
+
+``start(e)`` and ``end(e)`` are e at the stroke's first and last point (base points 0 and
+grid - 1), put into the expressions that use them; their variable in w is fixed at 0.
 
 The functions take the problem (``pb``: a :class:`~optdesign.design.problem.DesignProblem`,
 which imports this module; hence no annotation) and read or set its attributes.
@@ -18,14 +39,17 @@ import math
 import casadi as ca
 import numpy as np
 
-from .aggregates import aggregate_start, check_monotone, outer_start, outer_value, quadrature, rms_panels
+from .aggregates import aggregate_start, located_aggregates, outer_start, outer_value, quadrature, rms_panels
 from .bounds import numeric_bounds
 from .cases import case_nlp, needs_mx
+
+TIE = 1e-3  # points within this (times the aggregate's scale) of a located extreme tie it
 
 
 def build_nlp(pb):
     """Build the NLP and its solver.  Sets on ``pb``: rms_panels (rms objective),
-    objective_scale (expression objective), n_points, a_scale, the rows (g_blocks: (name,
+    objective_scale (expression objective), n_points, a_scale, located (indices of the
+    aggregates held at their located extreme), the rows (g_blocks: (name,
     kind, first row, rows); g_points, g_scale, lbg, ubg), stroke_bounds, stroke_outer,
     sparse_rows, nw, n_t, the variable bounds lbw, ubw, the sample points base_points and
     initial_slots, solver, solver_options and _nlp_dict."""
@@ -69,6 +93,15 @@ def build_nlp(pb):
     every = np.arange(pb.n_points)
     sparse = np.r_[0, nb - 1, np.arange(nb, pb.n_points)]
     pb.g_points, pb.g_scale, pb.stroke_outer = {}, {}, {}
+    # the aggregates that no epigraph can hold: at their located extreme (see the module's doc)
+    pb.stroke_bounds = {}   # name -> (lower, upper) in physical units
+    for c, _ in pb.stroke_constraints:
+        pb.stroke_bounds[c.name] = numeric_bounds(pb.mech.resolved, c)
+    pb.located = located_aggregates(pb, pb.stroke_bounds)
+    pb._designations = pb._built.setdefault("designations", {})  # s_points -> designation()
+    # each aggregate's value in the expressions: its variable, or (start/end) its row's value
+    a = [Q[ag.index, 0 if ag.func == "start" else nb - 1] if ag.func in ("start", "end") else a[i]
+         for i, ag in enumerate(pb.aggregates)]
 
     def add(name, kind, expr, lo, hi, scale=1.0, points=None):
         pb.g_scale[name] = scale
@@ -96,7 +129,6 @@ def build_nlp(pb):
         f = ca.dot(ca.DM(weights), (vals.T / pb.f_ref) ** 2)
     elif pb.objective_kind == "expression":
         pb.objective_scale = max(abs(float(outer_start(pb, pb.objective_expr))), 1e-12)
-        check_monotone(pb, pb.objective_expr, "[objective] minimise", pb.objective_text, -math.inf, 0.0)
         f = outer_value(pb, pb.objective_expr, a, p) / pb.objective_scale
     if pb.scene.cases:  # the other cases' epigraphs, cycle constraints, an objective over time (design/cases.py)
         f = case_nlp(pb, Q, p, t, None if pb.objective_kind in ("rms_time",) else f, add, every)
@@ -109,35 +141,40 @@ def build_nlp(pb):
         else:
             add(b.name, b.kind, Q[b.index, :].T / b.scale, b.lower / b.scale, b.upper / b.scale, b.scale, every)
     for i, ag in enumerate(pb.aggregates):
-        diff = Q[ag.index, sparse].T / ag.scale - a_hat[i]
+        if ag.func in ("start", "end"):
+            continue
+        points = every if i in pb.located else sparse  # a located extreme: rows at every point
         lo, hi = (-math.inf, 0.0) if ag.func == "max" else (0.0, math.inf)
-        add(ag.name, "aggregate", diff, lo, hi, points=sparse)
-    pb.stroke_bounds = {}   # name -> (lower, upper) in physical units
+        add(ag.name, "aggregate", Q[ag.index, points].T / ag.scale - a_hat[i], lo, hi, points=points)
     for c, outer in pb.stroke_constraints:
         scale = max(abs(float(outer_start(pb, outer))), 1e-12)
-        pb.stroke_bounds[c.name] = numeric_bounds(pb.mech.resolved, c)
         lo, hi = (v / scale for v in pb.stroke_bounds[c.name])
-        check_monotone(pb, outer, f"[[constraints]] {c.name!r}", c.expr.source, lo, hi)
         pb.stroke_outer[c.name] = outer
         add(c.name, "stroke constraint", outer_value(pb, outer, a, p) / scale, lo, hi, scale)
     add("dead centre", "dead centre", pb.k_sign * Q[pb.k_row, sparse].T / pb.k_ref, st.dead_centre_margin,
         math.inf, points=sparse)
     # the quantity rows imposed only at the stroke's ends and the slots
-    pb.sparse_rows = frozenset([ag.index for ag in pb.aggregates] + [pb.k_row])
+    pb.sparse_rows = frozenset([ag.index for i, ag in enumerate(pb.aggregates)
+                                if ag.func in ("max", "min") and i not in pb.located] + [pb.k_row])
     w = ca.vertcat(z, t, a_hat)
     pb.nw = int(w.numel())
     pb.n_t = int(t.numel())
     nlp = {"x": w, "p": ca.vertcat(fixed, s_pts, x_ref, ca.vec(G)), "f": f, "g": ca.vertcat(*g)}
     opts = ipopt_options(st, pb.objective_kind)
     pb._nlp_dict = nlp
+    # the NLP's functions and derivatives from the disk cache of compiled code when it has them
+    # (model/compiled.py); the same numbers as CasADi's virtual machine
     pb.solver = ca.nlpsol("design", "ipopt", nlp, opts)
     pb.solver_options = opts  # IPOPT options (the warm solver and the benchmark reuse them)
     pb.lbg, pb.ubg = np.array(lbg), np.array(ubg)
-    # an aggregate keeps the sign it has at the start design: this keeps outer expressions
-    # such as max(L)/min(L) regular and monotone (a min(...) cannot run to zero or below)
+    # an epigraph's aggregate keeps the sign it has at the start design: this keeps outer
+    # expressions such as max(L)/min(L) regular and monotone (a min(...) cannot run to zero or
+    # below); a located extreme or an end value is a value of the stroke, free of any such bound
     a_start = np.array([aggregate_start(pb, ag) for ag in pb.aggregates])
-    a_lo = np.where(a_start > 0, 1e-3 * a_start, -np.inf)
-    a_hi = np.where(a_start < 0, 1e-3 * a_start, np.inf)
+    free = np.array([i in pb.located for i in range(len(pb.aggregates))], bool)
+    ends = np.array([ag.func in ("start", "end") for ag in pb.aggregates], bool)
+    a_lo = np.where(ends, 0.0, np.where((a_start > 0) & ~free, 1e-3 * a_start, -np.inf))
+    a_hi = np.where(ends, 0.0, np.where((a_start < 0) & ~free, 1e-3 * a_start, np.inf))
     pb.lbw = np.r_[np.where(np.isfinite(pb.lower), 0.0, -np.inf), np.zeros(pb.n_t), a_lo / pb.a_scale]
     pb.ubw = np.r_[np.where(np.isfinite(pb.upper), 1.0, np.inf), np.full(pb.n_t, np.inf), a_hi / pb.a_scale]
     base = np.linspace(pb.s_grid[0], pb.s_grid[-1], st.grid)
@@ -194,11 +231,15 @@ def row_bounds(pb, s_points):
 
     A slot on a base point (put there for a block imposed only at the ends and the slots)
     repeats the rows of every block that is imposed at that base point: those copies are
-    left free, since a repeated row makes the constraint Jacobian rank-deficient."""
+    left free, since a repeated row makes the constraint Jacobian rank-deficient.  A located
+    extreme's designated row is an equality and its ties are free (:func:`designation`, as
+    made by the last :meth:`~.problem.DesignProblem.nlp_parameters` for these points; at the
+    start design if there was none)."""
     nb = len(pb.base_points)
+    s_points = np.asarray(s_points, float)
     on_base = {j: int(np.argmin(np.abs(pb.base_points - s_points[j]))) for j in range(nb, pb.n_points)
                if np.min(np.abs(pb.base_points - s_points[j])) <= 1e-9}
-    if not on_base:
+    if not on_base and not pb.located:
         return pb.lbg, pb.ubg
     lbg, ubg = pb.lbg.copy(), pb.ubg.copy()
     for name, _, start, n in pb.g_blocks:
@@ -209,4 +250,34 @@ def row_bounds(pb, s_points):
         for i, point in enumerate(points):
             if point in on_base and on_base[point] in imposed:
                 lbg[start + i], ubg[start + i] = -math.inf, math.inf
+    if pb.located:
+        key = s_points.tobytes()
+        if key not in pb._designations:
+            designation(pb, pb.mech.parameter_values[pb.fixed_index], s_points, pb.start)
+        starts = {name: start for name, _, start, _ in pb.g_blocks}
+        for i, (best, ties) in pb._designations[key].items():
+            start = starts[pb.aggregates[i].name]
+            lbg[start + ties], ubg[start + ties] = -math.inf, math.inf
+            lbg[start + best] = ubg[start + best] = 0.0
     return lbg, ubg
+
+
+def designation(pb, fixed, s_points, x_ref) -> dict:
+    """Where each located extreme is held at the design ``x_ref``: {aggregate index: (the point
+    where its quantity is largest (max) or smallest (min), the other points within ``TIE`` of
+    its scale of that value)}; the first of equal values is the designated one (a base point
+    before a slot on it).  Kept for :func:`row_bounds` (the last one made for these points)."""
+    s_points = np.asarray(s_points, float)
+    q = pb.evaluate_grid(x_ref, fixed, s_points)
+    out = {}
+    for i in pb.located:
+        ag = pb.aggregates[i]
+        sign = 1.0 if ag.func == "max" else -1.0
+        v = np.where(np.isfinite(q[ag.index]), sign * q[ag.index], -np.inf)
+        best = int(np.argmax(v))
+        ties = np.flatnonzero(v >= v[best] - TIE * ag.scale)
+        out[i] = (best, ties[ties != best])
+    if len(pb._designations) > 64:  # only the last few matter
+        pb._designations.clear()
+    pb._designations[s_points.tobytes()] = out
+    return out

@@ -12,9 +12,12 @@ Formulation (what makes it fast and regular):
   the continuous stroke (refined by Newton, :mod:`optdesign.kinematics.peaks`) agree within ``peak_tol``.
 * Per-sample constraints (transmission angle, any expression) and assembly margins live on the
   same points and are checked on the continuous stroke in the same way.
-* A stroke aggregate max(e)/min(e) in a constraint or objective becomes an epigraph variable a
-  with e(s_j) <= a (or >= a), valid when the outer expression is monotone in a in the direction
-  that the bound makes conservative; this is checked at the start and an error explains otherwise.
+* A stroke aggregate max(e)/min(e) in a constraint or objective becomes a variable a with
+  e(s_j) <= a (or >= a): an epigraph where the bound makes it conservative (the outer
+  expression is monotone in a in that direction at the start design), else the *located*
+  extreme a = e(s_d) at a designated slot that the exchange puts on the continuous extreme
+  (an equality max(y) - min(y) == H, a lower bound on a stroke: exact at a fixed active set,
+  see :mod:`.nlp`); start(e)/end(e) are e at the stroke's ends.
   Its rows, and the dead-centre guard's (the drive coordinate keeps moving: sigma*k(s)/k_ref >=
   margin), are imposed only at the stroke's ends and the slots, where their extrema mostly are;
   the exchange puts a slot wherever one of them is exceeded, on a base point too.
@@ -122,10 +125,14 @@ class DesignProblem:
         return self.z_offset + self.z_scale * np.asarray(z, float)
 
     def nlp_parameters(self, fixed, s_points, x_ref=None, tracking=None):
-        """The NLP's parameter vector: fixed parameters, sample points, tracking of the points."""
+        """The NLP's parameter vector: fixed parameters, sample points, tracking of the points.
+        Where each located extreme is held at ``x_ref`` is noted for :meth:`row_bounds`
+        (:func:`.nlp.designation`)."""
         nd = len(self.design_names)
         x_ref = self.start if x_ref is None else x_ref
         tracking = np.zeros((self.n_points, nd)) if tracking is None else tracking
+        if self.located:
+            nlp.designation(self, fixed, s_points, x_ref)
         return np.r_[fixed, s_points, x_ref, tracking.ravel(order="F")]
 
     # --- the model and the per-sample quantities (built by rows.build_quantities) ---

@@ -41,10 +41,12 @@ class Block:
 
 @dataclass
 class Aggregate:
-    """A one-argument max/min over the stroke, replaced by an epigraph variable."""
+    """A value per stroke, replaced by a variable of the NLP: a one-argument max/min over the
+    stroke (an epigraph, or its located extreme: see :mod:`.nlp`), or the value at the stroke's
+    start or end."""
 
     name: str
-    func: str          # 'max' or 'min'
+    func: str          # 'max', 'min', 'start' or 'end'
     inner: Expression
     index: int = -1    # row of its inner expression in the per-sample vector
     scale: float = 1.0
@@ -89,8 +91,8 @@ def build_quantities(pb):
         if not pb.aggregates:
             raise SceneError(
                 f"{scene.path}: [objective] minimise = {pb.objective_text!r}: expected peak(NAME), "
-                "rms(NAME) or an expression over the stroke with max(...)/min(...), e.g. "
-                "\"max(y(T)) - min(y(T))\""
+                "rms(NAME) or an expression over the stroke with max(...)/min(...)/start(...)/end(...), "
+                "e.g. \"max(y(T)) - min(y(T))\""
             )
     pb.stroke_constraints = []
     for c in scene.constraints:
@@ -130,12 +132,12 @@ def build_quantities(pb):
 
 
 def lift(pb, expr: Expression, where):
-    """Replace one-argument max/min calls by epigraph variables (appended to
+    """Replace one-argument max/min calls and start/end values by variables (appended to
     ``pb.aggregates``); return the outer tree."""
 
     def walk(node):
         if isinstance(node, Call):
-            if node.func in ("max", "min") and len(node.args) == 1:
+            if (node.func in ("max", "min") and len(node.args) == 1) or node.func in ("start", "end"):
                 name = f"__aggregate_{len(pb.aggregates)}"
                 inner = Expression(f"{node.func}(...) in {where}", node.args[0])
                 pb.aggregates.append(Aggregate(name, node.func, inner))

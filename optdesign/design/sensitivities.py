@@ -42,8 +42,12 @@ def sensitivities(pb: DesignProblem, sol: Solution, factor: float) -> dict:
 
 
 def constraint_report(pb: DesignProblem, sol: Solution, factor: float) -> dict:
-    """Each named constraint: its extreme values over the continuous stroke, its bounds, and
-    its multiplier as dJ*/d(active bound) in physical units (0 when inactive)."""
+    """Each named constraint: its extreme values over the continuous stroke (min and max, each
+    located and refined, active or not: :meth:`~.certify.ContinuousCheck.extremes`), its bounds,
+    and its multiplier as dJ*/d(active bound) in physical units (0 when inactive).  ``value``
+    is the extreme at the active bound, else the one on the bounded side (the min when both
+    sides are bounded); a stroke constraint's value is its expression with every max(...)/min(...)
+    at its continuous extreme."""
     out = {}
     for name, kind, start, n in pb.g_blocks:
         if kind in ("peak", "aggregate"):
@@ -64,7 +68,8 @@ def constraint_report(pb: DesignProblem, sol: Solution, factor: float) -> dict:
                 lo, hi = [None if v is None else pb.k_sign * v / pb.k_ref for v in (lo, hi)]
                 lo, hi = (hi, lo) if pb.k_sign < 0 else (lo, hi)
             entry.update({"min": lo, "max": hi})
-            entry["value"] = hi if lo is None or (entry["active"] == "upper") else lo
+            upper_side = entry["active"] == "upper" or (entry["active"] is None and entry["lower"] is None)
+            entry["value"] = hi if lo is None or (upper_side and hi is not None) else lo
         out[name] = entry
     for j, name in enumerate(pb.design_names):
         lam = float(_active(sol.lam_x[j:j + 1], sol.w[j:j + 1], pb.lbw[j:j + 1], pb.ubw[j:j + 1])[0])

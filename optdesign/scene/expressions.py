@@ -13,7 +13,9 @@ Names are parameters, the sweep variable, ``pi`` and ``deg`` (pi/180).  ``25 deg
 Functions: ``sin cos tan asin acos atan atan2 sqrt abs exp log min max`` and the geometric
 measures ``length(P, Q)``, ``angle(P, Q, R)`` (at Q, between Q->P and Q->R, 0..pi), ``x(P)``,
 ``y(P)``, whose arguments are point names.  ``min`` and ``max`` with one argument are taken over
-the whole stroke (an aggregate); with two or more, element by element.
+the whole stroke (an aggregate); with two or more, element by element.  ``start(e)`` and
+``end(e)`` are e at the stroke's first and last sample (the sweep's ``from`` and ``to``): one
+value per stroke, like an aggregate.
 
 Evaluation works on scalars and on rows of samples alike (CasADi operations are element-wise),
 so the same tree gives a value per sample or, through the aggregates, one value per stroke.
@@ -49,7 +51,8 @@ UNARY = {
 }
 GEOMETRIC = {"length": 2, "angle": 3, "x": 1, "y": 1}
 AGGREGATES = ("min", "max")
-FUNCTIONS = sorted(set(UNARY) | set(GEOMETRIC) | {"atan2"} | set(AGGREGATES))
+STROKE_ENDS = ("start", "end")  # the value at the sweep's from / to: one value per stroke too
+FUNCTIONS = sorted(set(UNARY) | set(GEOMETRIC) | {"atan2"} | set(AGGREGATES) | set(STROKE_ENDS))
 
 
 # --- syntax tree ---------------------------------------------------------------------------
@@ -99,7 +102,8 @@ class Expression:
 
     @property
     def is_aggregate(self) -> bool:
-        """True when the expression holds a one-argument ``min``/``max`` over the stroke."""
+        """True when the expression holds a one-argument ``min``/``max`` over the stroke, or a
+        ``start``/``end`` value (one value per stroke)."""
         return _has_aggregate(self.tree)
 
     @property
@@ -112,7 +116,8 @@ class Expression:
 
         def walk(node):
             if _is_aggregate_call(node):
-                out.append((node.func, node.args[0]))
+                if node.func in AGGREGATES:  # (start/end: a value at a stroke end, no extreme)
+                    out.append((node.func, node.args[0]))
             else:
                 for child in _children(node):
                     walk(child)
@@ -148,7 +153,8 @@ def _collect(node, points):
 
 
 def _is_aggregate_call(node):
-    return isinstance(node, Call) and node.func in AGGREGATES and len(node.args) == 1
+    """A value per stroke: a one-argument ``min``/``max``, or ``start``/``end``."""
+    return isinstance(node, Call) and (node.func in STROKE_ENDS or (node.func in AGGREGATES and len(node.args) == 1))
 
 
 def _has_aggregate(node):
@@ -370,6 +376,13 @@ class _Parser:
             self._fail(f"{func}() takes 1 argument, found {n}")
         elif func == "atan2" and n != 2:
             self._fail(f"atan2() takes 2 arguments (y, x), found {n}")
+        elif func in STROKE_ENDS and n != 1:
+            self._fail(f"{func}() takes 1 argument (its value at the stroke's {'first' if func == 'start' else 'last'} "
+                       f"sample), found {n}")
+        if func in STROKE_ENDS or (func in AGGREGATES and n == 1):
+            if _has_aggregate(args[0]):
+                self._fail(f"{func}(...) over the stroke holds another value per stroke (min/max with one "
+                           "argument, start, end); they do not nest: write each over a per-sample expression")
 
 
 # --- evaluation ----------------------------------------------------------------------------
@@ -428,6 +441,11 @@ class _Evaluator:
             return UNARY[f](vals[0])
         if f == "atan2":
             return ca.atan2(vals[0], vals[1])
+        if f in STROKE_ENDS:  # the first or last sample of a row (the stroke's ends)
+            v = vals[0]
+            if isinstance(v, (int, float)):
+                return v
+            return v[:, 0] if f == "start" else v[:, v.shape[1] - 1]
         if len(vals) == 1:  # aggregate over the stroke
             return ca.mmax(vals[0]) if f == "max" else ca.mmin(vals[0])
         fold = ca.fmax if f == "max" else ca.fmin

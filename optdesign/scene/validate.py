@@ -282,9 +282,10 @@ class Validator:
                 varying = sorted(varying_names & {self.scene.sweep.name}) + sorted(varying_points)
                 if varying:
                     self._fail(where.at("expr"),
-                               f"{c.expr.source!r} mixes one value per stroke (min/max with one argument) "
-                               f"with values per sample ({', '.join(map(repr, varying))} outside min/max); "
-                               "expected every sweep-dependent part inside min(...) or max(...)",
+                               f"{c.expr.source!r} mixes one value per stroke (min/max with one argument, "
+                               f"start, end) with values per sample ({', '.join(map(repr, varying))} outside "
+                               "min/max, start and end); expected every sweep-dependent part inside "
+                               "min(...), max(...), start(...) or end(...)",
                                ExpressionError)
             bounds = []
             for key, attr in (("min", "lower"), ("max", "upper")):
@@ -306,8 +307,9 @@ class Validator:
         """Every name and point of ``expr`` must be known here; aggregates only where allowed."""
         if expr.is_aggregate and not aggregate:
             self._fail(where, f"{expr.source!r}: min() or max() with one argument is the extreme over "
-                              "the whole stroke, which only a [[constraints]] expr may use; for the "
-                              "smaller or larger of two values give two arguments, e.g. max(a, b)",
+                              "the whole stroke, and start() and end() the value at its first and last "
+                              "sample, which only a [[constraints]] expr may use; for the smaller or "
+                              "larger of two values give two arguments, e.g. max(a, b)",
                        ExpressionError)
         for name in sorted(expr.names()):
             if name not in names:

@@ -14,6 +14,7 @@ equation):
 * the drive load of the start design and of the optimum at 9 points of the stroke
   (``optdesign.analyse``) is the numpy model's to 1e-9 of the peak, and so are the
   per-sample constraint rows;
+* every constraint is reported by its true range over the stroke (the numpy dense extremes);
 * how many of the 20 starts reach the global optimum (within 1e-6) is printed with the
   statuses of the others (not asserted: the multistart is being improved).
 """
@@ -113,3 +114,25 @@ class SceneChecks:
         result, _ = optimum(self.path)
         assert result.success, (result.status, result.message)
         self._compare(dict(result.design))
+
+    def test_reported_constraint_ranges_are_the_dense_ones(self):
+        """Every constraint is reported by its values over the continuous stroke, active or not
+        (issue 14: an inactive per-sample constraint was reported by values short of its true
+        extremes, e.g. the dump truck's transmission angle 0.98148 rad against its 0.99110 rad
+        at theta = 5.9 deg): each per-sample constraint's min and max are the numpy model's
+        over DENSE samples with the extreme refined by a bounded scalar search (1e-9 of the
+        row's scale), each length ratio is max/min of the numpy length (1e-9)."""
+        result, _ = optimum(self.path)
+        assert result.success, (result.status, result.message)
+        pb = self.ref.problem()
+        x = np.array([result.design[n] for n in pb.names])
+        for name, row, _, _ in pb.per_sample:
+            hi, _ = pb.stroke_extreme(x, row, +1)
+            lo, _ = pb.stroke_extreme(x, row, -1)
+            reported = result.constraints[name]
+            assert reported["max"] == pytest.approx(hi, abs=1e-9 * pb.row_scale[row]), (name, reported, hi)
+            assert reported["min"] == pytest.approx(-lo, abs=1e-9 * pb.row_scale[row]), (name, reported, -lo)
+        for name, row, _, _ in pb.ratios:
+            hi, _ = pb.stroke_extreme(x, row, +1)
+            lo, _ = pb.stroke_extreme(x, row, -1)
+            assert result.constraints[name]["value"] == pytest.approx(hi / -lo, rel=1e-9), name

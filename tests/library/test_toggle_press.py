@@ -1,13 +1,14 @@
 """problems/lib_toggle_press.toml against its independent numpy reference (ref_toggle_press.py).
 
 The scene states the press maker's requirement as written: a ram stroke max(y(C)) - min(y(C))
-of at least 60 mm.  optdesign's optimise refuses that today (a lower bound on a max - min is
-"not conservative", SceneError), so the optimisation test is a strict xfail that flips when
-issue 14 is fixed: it then asks what every library scene gets, the global optimum of the numpy
-reference (grid + polished SLSQP, 1e-6 relative) and a certified peak equal to the dense
-20,001-sample numpy peak (1e-8).  What runs today: optdesign's crank torque (analyse) against the
-numpy model at the start and at the reference's optimum (1e-9 of the peak), and the reference's
-optimum itself (feasible, stroke and crank-height bound active, below the start's peak).
+of at least 60 mm, which optimise holds at the located extremes of y(C) (a lower bound on a
+max - min is not an epigraph's; issue 14).  The optimisation test asks what every library
+scene gets: the global optimum of the numpy reference (grid + polished SLSQP, 1e-6 relative),
+a certified peak equal to the dense 20,001-sample numpy peak (1e-8), the constraints holding on
+the dense stroke, and the reported ram stroke equal to the numpy one.  Also: optdesign's crank
+torque (analyse) against the numpy model at the start and at the reference's optimum (1e-9 of
+the peak), and the reference's optimum itself (feasible, stroke and crank-height bound active,
+below the start's peak).
 """
 from __future__ import annotations
 
@@ -28,9 +29,6 @@ def reference():
     return ref.global_optimum("small")
 
 
-@pytest.mark.xfail(strict=True, reason="issue 14: optdesign.optimise raises SceneError on this scene: \"a lower "
-                   "bound on 'max(y(C)) - min(y(C))' is not conservative in its max(...) over the stroke\"; the "
-                   "minimum ram stroke cannot be stated as max - min >= H")
 def test_optimum_is_the_global_one():
     glob = reference()
     result, seconds = checks.optimum(ref.SCENE)
@@ -39,8 +37,11 @@ def test_optimum_is_the_global_one():
     assert result.success, (result.status, result.message)
     assert result.objective == pytest.approx(glob["peak"], rel=1e-6)
     assert ref.dense_peak(result.design, 20001) == pytest.approx(result.peak_certified, rel=1e-8)
-    _, viol, _, _ = rs.evaluate(ref.problem(), [result.design[n] for n in ref.DESIGN], 20001)
+    _, viol, ext, _ = rs.evaluate(ref.problem(), [result.design[n] for n in ref.DESIGN], 20001)
     assert viol <= 1e-7
+    stroke = ext[("y", "max")] - ext[("y", "min")]
+    assert result.constraints["ram stroke"]["value"] == pytest.approx(stroke, abs=1e-9)
+    assert stroke == pytest.approx(ref.data()["params"]["H"], abs=1e-8)  # active
 
 
 def test_drive_agrees_with_the_numpy_model():
