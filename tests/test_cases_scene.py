@@ -69,7 +69,6 @@ profile = { kind = "s-curve", speed = 0.1, acceleration = 0.05, deceleration = 0
 name = "test load"
 direction = "forward"
 set = { mL = "1.25*800" }
-weight = 0.5
 
 [duty]
 cycle = ["raise rated", { hold = 5, case = "raise rated" }, "lower rated", { dwell = 10 }, { case = "test load", repeat = 2 }]
@@ -229,7 +228,7 @@ def test_duty_steps():
 def test_case_keys_and_names():
     assert "[[cases]] 'raise rated', direction: expected 'forward' (from -> to) or 'reverse', found 'up'" in error(
         mutate('direction = "forward"\nset = { mL = 800 }\nprofile = "luff"', 'direction = "up"\nset = { mL = 800 }\nprofile = "luff"'))
-    assert "unknown key 'wieght'; did you mean 'weight'?" in error(mutate("weight = 0.5", "wieght = 0.5"))
+    assert "unknown key 'wieght'; did you mean 'weight'?" in error(mutate('set = { mL = "1.25*800" }', 'set = { mL = "1.25*800" }\nwieght = 0.5'))
     assert "the case name 'raise rated' is used twice" in error(mutate('name = "lower rated"', 'name = "raise rated"'))
     assert "[[cases]] 'raise rated', direction: missing key 'direction'" in error(
         mutate('direction = "forward"\nset = { mL = 800 }\nprofile = "luff"', 'set = { mL = 800 }\nprofile = "luff"'))
@@ -247,3 +246,8 @@ def test_python_objects_check_alone():
         Case("c", "forward", efficiency="sometimes")
     with pytest.raises(SceneError, match="a 'law' profile takes speed; found nothing"):
         Profile("p", "law")
+
+
+def test_a_weight_beside_a_duty_cycle():
+    msg = error(mutate('set = { mL = "1.25*800" }', 'set = { mL = "1.25*800" }\nweight = 0.5'))  # beside [duty]
+    assert "[[cases]] 'test load', weight: a weight is the case's share of the cycle without [duty]" in msg

@@ -266,3 +266,14 @@ def test_rms_sweep_is_the_rms_over_the_sweep():
     named = DesignProblem(loads(text.replace('minimise = "rms(drive)"', 'minimise = "rms_sweep(drive)"'), "x"))
     assert named.objective_kind == plain.objective_kind == "rms"
     assert named.rms(named.start) == plain.rms(plain.start)
+
+
+def test_case_weights_share_the_cycle_without_duty():
+    """Without [duty] the cycle runs each case `weight` times: its time and integrals scale."""
+    text = YOKE.replace("SAMPLES", "41")
+    text = text[:text.index("[duty]")]
+    plain = analyse(loads(text)).cases
+    weighted = analyse(loads(text.replace('name = "cam"\n', 'name = "cam"\nweight = 2.5\n'))).cases
+    cam = plain.cases["cam"]
+    assert weighted.duty["cycle_time"] == pytest.approx(plain.duty["cycle_time"] + 1.5 * cam.duration, rel=1e-12)
+    assert weighted.duty["energy"] == pytest.approx(plain.duty["energy"] + 1.5 * cam.integrals["energy"], rel=1e-12)

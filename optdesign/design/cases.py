@@ -205,26 +205,48 @@ def case_constraint_rows(pb, rows, Block):
     if getattr(pb, "case_rows", None) is None:
         pb.case_rows = {}
     motor = _motor(pb)
+    per_sample = []   # (constraint, case, expression, lower, upper)
     for cm in models:
         out = case_outputs(pb, cm)
         if motor is not None:
-            for name, key, limit in (("motor peak torque", "motor_torque", motor["peak_torque"]),
-                                     ("motor speed", "motor_speed", motor["max_speed"])):
-                pb.blocks.append(Block(f"{name} in case {cm.name!r}", "constraint", len(rows), -limit, limit, 1.0))
-                rows.append(out[key])
+            per_sample.append(("motor peak torque", cm.name, out["motor_torque"], -motor["peak_torque"], motor["peak_torque"]))
+            per_sample.append(("motor speed", cm.name, out["motor_speed"], -motor["max_speed"], motor["max_speed"]))
             if "motor_torque" not in pb.case_rows.setdefault(cm.name, {}):  # for the cycle constraint
                 pb.case_rows[cm.name]["motor_torque"] = len(rows)
                 rows.append(out["motor_torque"])
         if "rod_buckling" in out:
-            pb.blocks.append(Block(f"rod buckling in case {cm.name!r}", "constraint", len(rows), -math.inf, 1.0, 1.0))
-            rows.append(out["rod_buckling"])
+            per_sample.append(("rod buckling", cm.name, out["rod_buckling"], -math.inf, 1.0))
         pb.case_rows.setdefault(cm.name, {})["hold_load"] = len(rows)
         rows.append(out["hold_load"])
         if "q" not in pb.case_rows[cm.name]:
             pb.case_rows[cm.name]["q"] = len(rows)
             rows.append(pb.mech.q)
+    for name, cases, expr, lo, hi in _distinct(pb, per_sample):
+        which = f"case {cases[0]!r}" if len(cases) == 1 else "cases " + ", ".join(map(repr, cases))
+        pb.blocks.append(Block(f"{name} in {which}", "constraint", len(rows), lo, hi, 1.0))
+        rows.append(expr)
     if motor is not None:
         pb.cycle_constraints.append(("motor rated torque", "motor_torque", motor["rated_torque"]))
+
+
+def _distinct(pb, per_sample):
+    """The per-sample constraints with the cases whose rows are the same merged into one (the
+    motor speed of cases that differ only in their payload: the same row twice would make the
+    constraint Jacobian rank-deficient).  Same = equal on the scene's samples at the start
+    design, to 1e-12 of their size.  [(name, [cases], expression, lower, upper)]"""
+    if not per_sample:
+        return []
+    f = pb.mech.function("case_constraints", {f"c{j}": e for j, (_, _, e, _, _) in enumerate(per_sample)})
+    values = [np.asarray(v, float).ravel() for v in f.map(len(pb.s_grid))(pb.s_grid[None, :], pb.mech.parameter_values)]
+    out = []
+    for j, (name, case, expr, lo, hi) in enumerate(per_sample):
+        scale = max(float(np.max(np.abs(values[j]))), 1e-300)
+        same = next((o for o in out if o[0] == name and np.max(np.abs(values[o[5]] - values[j])) <= 1e-12 * scale), None)
+        if same is not None:
+            same[1].append(case)
+        else:
+            out.append([name, [case], expr, lo, hi, j])
+    return [tuple(o[:5]) for o in out]
 
 
 # --- the cycle in time ----------------------------------------------------------------------
@@ -237,8 +259,32 @@ def case_grid(mech) -> np.ndarray:
     return grid if stroke[-1] > stroke[0] else grid[::-1]
 
 
+def on_case_break(pb, s) -> bool:
+    """True when ``s`` is (within 1e-6 of the stroke) a phase boundary of a case's profile, where
+    a case's load kinks or jumps: an extreme there is a one-sided one, at a sweep value that is
+    the same for every design, not a stationary point to follow."""
+    if not pb.scene.cases:
+        return False
+    if getattr(pb, "_case_breaks", None) is None:
+        r = pb.mech.resolved
+        breaks = [case_profile(pb.scene, c, r.start, r.stop, r.values) for c in pb.scene.cases]
+        pb._case_breaks = np.concatenate([np.zeros(0)] + [b.breakpoints() for b in breaks if b is not None])
+    span = abs(pb.s_grid[-1] - pb.s_grid[0])
+    return bool(pb._case_breaks.size) and float(np.min(np.abs(pb._case_breaks - s))) <= 1e-6 * span
+
+
+def at_points(pb):
+    """The quantity rows at the NLP's sample points, for an MX NLP: an rms objective's map, or
+    (load cases' cycle in an SX scene) the map expanded to SX, whose derivatives are sparse and
+    cheap (crane_luffing_drive: the constraint Jacobian 0.10 s -> 0.01 s per evaluation)."""
+    mapped = pb.quantity.map(pb.n_points)
+    return mapped.expand() if pb.scene.cases and pb.mech.sym is ca.SX else mapped
+
+
+
 def needs_mx(pb) -> bool:
-    """True when the NLP holds the cycle's integrals (mapped over many samples: MX)."""
+    """True when the NLP holds the cycle's integrals: mapped over many samples, in MX (inlined
+    into SX, crane_luffing_drive's build took 55 s and its constraint Jacobian 69 ms)."""
     return pb.objective_kind in ("rms_time", "mix") or bool(getattr(pb, "cycle_constraints", ()))
 
 
@@ -261,10 +307,10 @@ def _time_plan(pb):
     return pb._time_plan
 
 
-def _steps(pb):
+def _cycle(pb):
     from ..model.duty import DutyCycle
 
-    return DutyCycle(pb.scene, case_models(pb)).steps
+    return DutyCycle(pb.scene, case_models(pb))
 
 
 def cycle_integrals(pb, p, quantities):
@@ -273,8 +319,14 @@ def cycle_integrals(pb, p, quantities):
     plan = _time_plan(pb)
     values, durations = {}, {}
     for name, (nodes, weights, speed_or_T) in plan.items():
-        Q = pb.quantity.map(len(nodes))(ca.DM(nodes).T, p)
-        rows = pb.case_rows[name]
+        # only the rows this case's integrals need, at its samples
+        needed = [k for k in dict.fromkeys(list(quantities) + ["hold_load", "q"]) if k in pb.case_rows[name]]
+        f = pb.mech.function(f"cycle_rows_{len(values)}", {k: pb.rows[pb.case_rows[name][k]] for k in needed})
+        mapped = f.map(len(nodes))
+        if pb.mech.sym is ca.SX:  # expanded: sparse, cheap derivatives (see at_points)
+            mapped = mapped.expand()
+        Q = ca.vertcat(*mapped(ca.DM(nodes).T, p))
+        rows = {k: j for j, k in enumerate(needed)}
         if weights is None:    # constant drive speed: the trapezoid rule in time, t = |q - q0| / v
             dt = ca.fabs(Q[rows["q"], 1:] - Q[rows["q"], :-1]) / speed_or_T
             w = ca.horzcat(dt, 0) / 2 + ca.horzcat(0, dt) / 2
@@ -285,11 +337,13 @@ def cycle_integrals(pb, p, quantities):
         values[name]["hold"] = Q[rows["hold_load"], 0], Q[rows["hold_load"], -1]
     T, sums = 0, {k: 0 for k in quantities}
     models = {cm.name: cm for cm in case_models(pb)}
-    for st in _steps(pb):
+    cycle = _cycle(pb)
+    for st in cycle.steps:
         if st.kind == "case":
-            T = T + st.repeat * durations[st.case]
+            n = cycle.count(st)
+            T = T + n * durations[st.case]
             for k in quantities:
-                sums[k] = sums[k] + st.repeat * values[st.case][k]
+                sums[k] = sums[k] + n * values[st.case][k]
             continue
         duration = pb.mech.resolved.constant(st.duration, f"[duty] cycle[{st.index}]")
         T = T + duration
@@ -323,6 +377,10 @@ def case_nlp(pb, Q, p, t, f, add, every):
                         {k for _, k, _ in getattr(pb, "cycle_constraints", ())})
     if not quantities:
         return f
+    # an MX NLP: the start screening (design/starts.py) ranks such a problem's starts by a
+    # quadrature of its objective quantity over the sweep, with this many panels
+    if not hasattr(pb, "rms_panels"):
+        pb.rms_panels = pb.settings.rms_panels
     T, sums = cycle_integrals(pb, p, quantities)
     for name, key, limit in pb.cycle_constraints:
         rms = ca.sqrt(sums[key] / T)

@@ -41,7 +41,7 @@ import numpy as np
 
 from .aggregates import aggregate_start, located_aggregates, outer_start, outer_value, quadrature, rms_panels
 from .bounds import numeric_bounds
-from .cases import case_nlp, needs_mx
+from .cases import at_points, case_nlp, needs_mx
 
 TIE = 1e-3  # points within this (times the aggregate's scale) of a located extreme tie it
 
@@ -80,7 +80,7 @@ def build_nlp(pb):
     moved = s_pts[nb:] + ca.mtimes(G[nb:, :], x - x_ref)
     s_eff = ca.vertcat(s_pts[:nb], ca.fmin(ca.fmax(moved, pb.s_grid[0]), pb.s_grid[-1]))
     if sym is ca.MX:
-        Q = pb.quantity.map(pb.n_points)(s_eff.T, p)  # rows x points
+        Q = at_points(pb)(s_eff.T, p)  # rows x points
     else:
         Q = ca.horzcat(*[pb.quantity(s_eff[j], p) for j in range(pb.n_points)])
     g, lbg, ubg, pb.g_blocks = [], [], [], []

@@ -48,7 +48,7 @@ from ..model.reduction import ReducedModel
 from ..scene import Scene
 from . import aggregates, nlp, rows
 from . import bounds as bounds_  # (with_bounds' argument is named bounds)
-from .cases import case_grid
+from .cases import case_grid, on_case_break
 from .rows import Block
 
 
@@ -167,6 +167,8 @@ class DesignProblem:
     def tracking_gradient(self, s, x, fixed, row):
         """ds*/dx of the extremum of ``row`` at sweep value s and design x (0 where the row's
         curvature in s vanishes: no extremum to follow)."""
+        if on_case_break(self, s):  # a load case's profile kinks there: the extreme stays put (design/cases.py)
+            return np.zeros(len(self.design_names))
         p = self.full_parameters(x, fixed)
         out = self.quantity_tracking(s, p)
         d2v = float(out[0][row])

@@ -38,6 +38,7 @@ import casadi as ca
 import numpy as np
 
 from ..errors import SceneError
+from ..scene.expressions import evaluate
 from .profiles import tanh_sinh
 from .vectorised import VectorisedSX
 from .train import gear_factor_at_rest, motor_numbers
@@ -222,12 +223,21 @@ class DutyCycle:
 
     def __init__(self, scene, cases):
         self.scene, self.cases = scene, {c.name: c for c in cases}
+        self.shares = {}   # without [duty]: each case's weight, its share of the cycle
         if scene.duty is not None:
             self.steps = scene.duty.steps
         else:
             from ..scene.cases import DutyStep
 
             self.steps = tuple(DutyStep("case", c.name, index=i) for i, c in enumerate(scene.cases))
+            values = scene.parameter_values()
+            self.shares = {c.name: float(evaluate(c.weight, values, {}, f"[[cases]] {c.name}.weight"))
+                           for c in scene.cases if c.weight is not None}
+
+    def count(self, step) -> float:
+        """How many times a case step runs in the cycle: its repeat count, times the case's
+        weight without [duty]."""
+        return step.repeat * self.shares.get(step.case, 1.0)
 
     def evaluate(self, results, evaluated, p_values, mech=None) -> dict:
         """The cycle's time, RMS over time of the drive load (and of the motor's load torque),
@@ -244,7 +254,7 @@ class DutyCycle:
         for st in self.steps:
             if st.kind == "case":
                 r = results[st.case]
-                n = st.repeat
+                n = self.count(st)
                 T += n * r.duration
                 drive_sq += n * r.integrals["drive_squared"]
                 energy += n * r.integrals["energy"]
@@ -252,7 +262,8 @@ class DutyCycle:
                 if ratio is not None:
                     motor += n * np.array([r.integrals[k] for k in ("motor_load_squared", "motor_load_acceleration",
                                                                     "motor_acceleration_squared")])
-                steps.append({"kind": "case", "case": st.case, "repeat": n, "time": n * r.duration})
+                steps.append({"kind": "case", "case": st.case, "repeat": int(n) if n == int(n) else n,
+                              "time": n * r.duration})
                 continue
             duration = float(mech.resolved.constant(st.duration, f"[duty] cycle[{st.index}]"))
             T += duration
@@ -283,8 +294,6 @@ class DutyCycle:
         if mech.scene.gearbox is None:
             return None
         env = mech.resolved.environment(np.asarray(p_values, float))
-        from ..scene.expressions import evaluate
-
         return float(evaluate(mech.scene.gearbox.ratio, env, {}, "[gearbox] ratio"))
 
 
@@ -314,8 +323,10 @@ def motor_report(scene, values, results, duty, ratio) -> dict:
             a, b, c2 = (duty["integrals"][k] for k in ("motor_load_squared", "motor_load_acceleration",
                                                         "motor_acceleration_squared"))
             entry["rms"] = math.sqrt(max(a + 2 * J * b + J * J * c2, 0.0) / duty["cycle_time"])
-        entry["fits"] = bool(peak <= num["peak_torque"] and speed <= num["max_speed"]
-                             and entry.get("rms", 0.0) <= num["rated_torque"])
+        # within 1e-7 of a limit counts as on it (an optimum puts the design there to IPOPT's tolerance)
+        slack = 1 + 1e-7
+        entry["fits"] = bool(peak <= num["peak_torque"] * slack and speed <= num["max_speed"] * slack
+                             and entry.get("rms", 0.0) <= num["rated_torque"] * slack)
         motors[m.name] = entry
     fitting = sorted((e["rated_torque"], name) for name, e in motors.items() if e["fits"])
     return {"motors": motors, "smallest_fitting": fitting[0][1] if fitting else None}

@@ -169,7 +169,7 @@ def _duty_figure(cr, units):
         if step["kind"] == "case":
             c = cr.cases[step["case"]]
             order = np.argsort(c.columns["t"], kind="stable")
-            for _ in range(step["repeat"]):
+            for _ in range(math.ceil(step["repeat"])):   # a weight's fraction drawn as a whole stroke
                 ax.plot(t0 + c.columns["t"][order], c.columns[key][order], color="C0")
                 t0 += c.duration
         else:

@@ -35,7 +35,8 @@ class Case:
     the drive delivers power, eta while it takes power back), 'driving' (1/eta throughout) or
     'braking' (eta throughout); ``profile`` is a profile's name, a :class:`Profile`, or None
     (the drive's constant [drive] speed and acceleration, mirrored for 'reverse');
-    ``weight`` (>= 0, absent: 1) weighs the case in a weighted objective."""
+    ``weight`` (>= 0, absent: 1) is the case's share of the duty cycle when the scene has no
+    [duty]: the cycle runs each case ``weight`` times (0.5: every other cycle)."""
 
     name: str
     direction: str

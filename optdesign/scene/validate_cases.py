@@ -116,6 +116,9 @@ class DriveSizingValidator:
             elif case.profile is not None:
                 self._profile(case.profile, values)
             if case.weight is not None:
+                if sc.duty is not None:
+                    self.fail(where.at("weight"), "a weight is the case's share of the cycle without [duty]; "
+                                                  "with [duty], repeat the case in its cycle instead")
                 self.positive(where.at("weight"), case.weight, "a weight", strict=False)
 
     def case_values(self, case):
