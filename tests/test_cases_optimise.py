@@ -269,3 +269,58 @@ def test_the_smallest_motor_of_a_catalogue_that_fits():
     assert cat.chosen == "small"
     assert not cat.results["tiny"].success and cat.results["small"].success
     assert cat.best.objective == pytest.approx(fits["small"], rel=2e-4)
+
+
+def test_a_constraint_that_holds_in_one_case():
+    """The empty lowering's drive torque kept above -L (its braking torque limited), in that case
+    alone: the counterweight that balances the two cases would exceed it, so the optimum moves
+    to where the constraint is active, as a dense scan over the feasible counterweights says."""
+    paths = motion()
+    free = optimise(scene("peak(drive)", efficiency=0.9), starts=3)
+    th, thd, thdd, d = paths["empty down"]
+    lowest = float(np.min(drive_torque(th, thd, thdd, 0.0, free.design["mc"], eta=0.9, direction=d)))
+    limit = 0.8 * lowest                      # tighter than at the free optimum (a negative torque)
+    extra = f'\n[[constraints]]\nname = "braking torque"\nexpr = "drive"\nmin = {limit}\ncase = "empty down"\n'
+    result = optimise(scene("peak(drive)", efficiency=0.9, extra=extra), starts=3)
+    assert result.success
+
+    def worst(mc):
+        low = np.min(drive_torque(th, thd, thdd, 0.0, mc, eta=0.9, direction=d))
+        if low < limit:
+            return math.inf
+        return max(np.max(np.abs(drive_torque(t1, t2, t3, CASE_MASS[c], mc, eta=0.9, direction=dd)))
+                   for c, (t1, t2, t3, dd) in paths.items())
+    best, value, step = scan(worst, 0.0, 60.0, n=241)
+    assert result.objective == pytest.approx(value, rel=1e-5)
+    assert result.design["mc"] == pytest.approx(best, abs=2 * step)
+    entry = result.constraints["braking torque in case 'empty down'"]
+    assert entry["active"] == "lower" and entry["value"] == pytest.approx(limit, rel=1e-6)
+    from optdesign.report.design_cases import cases_summary
+
+    assert "active braking torque in case 'empty down': case 'empty down'" in cases_summary(result)
+
+
+def test_case_constraint_errors():
+    from optdesign.errors import SceneError
+
+    def error(extra):
+        with pytest.raises(SceneError) as info:
+            scene("peak(drive)", extra=extra)
+        return str(info.value)
+
+    assert "[[constraints]] 'c', case: no case 'empty dwn'; did you mean 'empty down'?" in error(
+        '\n[[constraints]]\nname = "c"\nexpr = "drive"\nmax = 1\ncase = "empty dwn"\n')
+    assert "a case column (drive) in a value per stroke" in error(
+        '\n[[constraints]]\nname = "c"\nexpr = "max(drive)"\nmax = 1\n')
+    assert "'motor_torque' needs exactly one [[motors]] entry" in error(
+        '\n[[constraints]]\nname = "c"\nexpr = "motor_torque"\nmax = 1\n')
+
+
+def test_analyse_reports_a_case_constraint_in_its_case():
+    from optdesign.model.analysis import analyse
+
+    extra = '\n[[constraints]]\nname = "braking torque"\nexpr = "drive/1000 + 0*theta"\nmin = -1\ncase = "empty down"\n'
+    cases = analyse(scene("peak(drive)", efficiency=0.9, extra=extra)).cases.cases
+    assert set(cases["empty down"].constraints) == {"braking torque"} and not cases["loaded up"].constraints
+    c = cases["empty down"]
+    assert np.allclose(c.constraints["braking torque"], c.columns["drive"] / 1000, rtol=1e-14, atol=0)

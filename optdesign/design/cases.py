@@ -41,6 +41,7 @@ from ..model.duty import time_weights
 from ..model.profiles import case_profile
 from ..model.train import gear_factor_at_rest, motor_numbers
 from ..scene.expressions import evaluate
+from .bounds import numeric_bounds
 
 _TERM = re.compile(r"^\s*(?:(\d+\.?\d*(?:[eE][+-]?\d+)?|\.\d+)\s*\*\s*)?(peak|rms_time)\s*\(\s*([A-Za-z_]\w*)"
                    r"\s*(?:,\s*(?:\"([^\"]+)\"|'([^']+)'|([^)]+?)))?\s*\)\s*$")
@@ -117,6 +118,21 @@ def case_outputs(pb, cm) -> dict:
     exprs = ca.substitute([out[k] for k in names], [p], [cm.case_parameters(p)]) if cm.case.overrides else \
         [out[k] for k in names]
     return dict(zip(names, exprs))
+
+
+def case_constraints(pb, cm) -> dict:
+    """The scene's constraints of case ``cm`` (:meth:`CaseModel.constraints`) as rows of (s, p),
+    p the scene's vector (the case's parameters put in)."""
+    out = cm.outputs()
+    motor = _motor(pb)
+    if motor is not None:
+        out["motor_torque"] = out["motor_load_torque"] + motor["inertia"] * out["motor_acceleration"]
+    exprs = cm.constraints(out)
+    if not exprs or not cm.case.overrides:
+        return exprs
+    names = list(exprs)
+    p = pb.mech.p
+    return dict(zip(names, ca.substitute([exprs[k] for k in names], [p], [cm.case_parameters(p)])))
 
 
 def case_objective_rows(pb, rows, Block, k_ref) -> bool:
@@ -208,6 +224,10 @@ def case_constraint_rows(pb, rows, Block):
     per_sample = []   # (constraint, case, expression, lower, upper)
     for cm in models:
         out = case_outputs(pb, cm)
+        for name, expr in case_constraints(pb, cm).items():   # the scene's, per case
+            c = next(c for c in pb.scene.constraints if c.name == name)
+            lo, hi = numeric_bounds(pb.mech.resolved, c)
+            per_sample.append((name, cm.name, expr, lo, hi))
         if motor is not None:
             per_sample.append(("motor peak torque", cm.name, out["motor_torque"], -motor["peak_torque"], motor["peak_torque"]))
             per_sample.append(("motor speed", cm.name, out["motor_speed"], -motor["max_speed"], motor["max_speed"]))
@@ -237,7 +257,8 @@ def _distinct(pb, per_sample):
     if not per_sample:
         return []
     f = pb.mech.function("case_constraints", {f"c{j}": e for j, (_, _, e, _, _) in enumerate(per_sample)})
-    values = [np.asarray(v, float).ravel() for v in f.map(len(pb.s_grid))(pb.s_grid[None, :], pb.mech.parameter_values)]
+    mapped = f.map(len(pb.s_grid))(pb.s_grid[None, :], pb.mech.parameter_values)
+    values = [np.asarray(v, float).ravel() for v in (mapped if isinstance(mapped, (list, tuple)) else [mapped])]
     out = []
     for j, (name, case, expr, lo, hi) in enumerate(per_sample):
         scale = max(float(np.max(np.abs(values[j]))), 1e-300)

@@ -23,6 +23,7 @@ import numpy as np
 from ..errors import SceneError
 from ..model.mapped import MappedFunction
 from ..scene.expressions import Call, Expression, Name, parse
+from ..scene.cases import is_case_constraint
 from .bounds import numeric_bounds
 from .cases import case_constraint_rows, case_objective_rows
 
@@ -96,6 +97,8 @@ def build_quantities(pb):
             )
     pb.stroke_constraints = []
     for c in scene.constraints:
+        if is_case_constraint(scene, c):  # per load case: design/cases.py
+            continue
         if c.expr.is_aggregate:
             pb.stroke_constraints.append((c, lift(pb, c.expr, c.name)))
         else:

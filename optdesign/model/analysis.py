@@ -13,6 +13,7 @@ from ..scene.arguments import scene_argument
 from ..scene.expressions import evaluate
 from .certified import PEAKS, CertifiedExtremes
 from .mapped import MappedFunction
+from ..scene.cases import is_case_constraint
 from .cases import CaseAnalysis
 from .finite import check_columns, check_values
 from .reduction import ReducedModel
@@ -73,7 +74,8 @@ class Analysis:
         for body, ratios in self.model.body_ratios().items():
             for name, expr in ratios.items():
                 outs[f"{body}:{name}"] = expr
-        self.per_sample = [c for c in scene.constraints if not c.expr.is_aggregate]
+        self.per_sample = [c for c in scene.constraints if not c.expr.is_aggregate
+                           and not is_case_constraint(scene, c)]   # those per load case: model/cases.py
         self.per_stroke = [c for c in scene.constraints if c.expr.is_aggregate]
         for c in self.per_sample:
             outs[f"constraint:{c.name}"] = self.mech.value(c.expr, f"[[constraints]] {c.name}")

@@ -17,13 +17,13 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from ..scene.cases import Case, case_values
+from ..scene.cases import CASE_COLUMNS, Case, case_values
 from ..scene.expressions import evaluate
 from .duty import PEAK_KEYS, CaseTimes, DutyCycle, case_integrals, motor_report
 from .mapped import MappedFunction
 from .profiles import check_law, constant_motion, case_profile
 from .reduction import ReducedModel
-from .train import cylinder_outputs, cylinder_sizing, gear_outputs
+from .train import cylinder_outputs, cylinder_sizing, gear_outputs, motor_numbers
 
 
 class CaseModel:
@@ -62,6 +62,17 @@ class CaseModel:
         if mech.scene.cylinder is not None:
             out.update(cylinder_outputs(mech, ca.fmax(out["drive"], 0.0)))
         return out
+
+    def constraints(self, outputs) -> dict:
+        """The scene's constraints that hold in this case and use its columns (or name it), as
+        expressions of (s, p): each expr with the case's columns ``outputs`` as names."""
+        from ..scene.cases import is_case_constraint
+
+        env = dict(self.mech.env)
+        env.update({k: v for k, v in outputs.items() if k in CASE_COLUMNS})
+        return {c.name: evaluate(c.expr, env, self.mech.points, f"[[constraints]] {c.name}")
+                for c in self.mech.scene.constraints
+                if is_case_constraint(self.mech.scene, c) and c.case in (None, self.name)}
 
     def static_load(self):
         """The ideal (eta = 1) static reduced load Q_q (T_Su or F_Su) at (s, p), or 0: a hold's
@@ -117,6 +128,7 @@ class CaseResult:
     duration: float
     integrals: dict = field(default_factory=dict)
     on_samples: np.ndarray | None = None   # which of the case's samples are the scene's
+    constraints: dict = field(default_factory=dict)   # name -> values of the constraints per case
 
 
 class CaseAnalysis:
@@ -127,8 +139,13 @@ class CaseAnalysis:
         self.s_values = np.asarray(s_values, float)
         self.cases = [CaseModel(mech, c) for c in mech.scene.cases]
         self.functions = []
+        motor = motor_numbers(mech.scene.motors[0], mech.resolved.values) if len(mech.scene.motors) == 1 else None
         for cm in self.cases:
             outs = cm.outputs()
+            if motor is not None:
+                outs["motor_torque"] = outs["motor_load_torque"] + motor["inertia"] * outs["motor_acceleration"]
+            for name, expr in cm.constraints(outs).items():
+                outs[f"constraint:{name}"] = expr + 0 * mech.s
             outs["q"], outs["k"] = mech.q, mech.ds(mech.q)
             outs["hold_load"] = cm.static_load() + 0 * mech.s
             self.functions.append((list(outs), MappedFunction(mech.function(f"case_{len(self.functions)}", outs))))
@@ -149,6 +166,7 @@ class CaseAnalysis:
             times = CaseTimes.of(cm, nodes, values)
             values["t"] = times.t
             hold = values.pop("hold_load")
+            constraints = {k.split(":", 1)[1]: values.pop(k) for k in list(values) if k.startswith("constraint:")}
             ends = {"start": hold[np.argmin(np.abs(nodes - cm.begins_at(np.sign(values["k"][0]))))],
                     "end": hold[np.argmax(np.abs(nodes - cm.begins_at(np.sign(values["k"][0]))))]}
             columns = {"s": nodes}
@@ -164,7 +182,7 @@ class CaseAnalysis:
                                                             else f"inline {cm.profile.shape.kind}")
             results[cm.name] = CaseResult(cm.name, cm.case.direction, profile, cm.case.efficiency,
                                           {k: cm.values[k] for k in cm.case.overrides}, columns, peaks, peak_at,
-                                          times.duration, integrals, on_sample)
+                                          times.duration, integrals, on_sample, constraints)
             evaluated[cm.name] = {"hold": ends, "on_sample": on_sample}
         duty = self.duty.evaluate(results, evaluated, p_values, self.mech)
         env = self.mech.resolved.environment(np.asarray(p_values, float))

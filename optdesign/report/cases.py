@@ -45,7 +45,9 @@ def cases_json(result) -> dict:
             "duration": c.duration, "peaks": c.peaks, "peak_at": c.peak_at,
             "integrals": {k: v for k, v in c.integrals.items() if not k.startswith("motor_")},
             "samples": [{k: c.columns[k][i] for k in names} | {"scene_sample": bool(c.on_samples[i])}
+                        | ({"constraints": {k: v[i] for k, v in c.constraints.items()}} if c.constraints else {})
                         for i in range(n)],
+            "constraints": {k: {"min": float(np.min(v)), "max": float(np.max(v))} for k, v in c.constraints.items()},
         }
     out = {"cases": cases, "governing": cr.governing,
            "duty": {k: v for k, v in cr.duty.items() if k != "integrals"}}
@@ -79,6 +81,9 @@ def cases_table(result) -> str:
                      f"stroke time {c.duration:.6g} s")
         for key, value in c.peaks.items():
             lines.append(f"  peak |{key}| = {value:.8g} {units.get(key, '')} at {sweep} = {c.peak_at[key]['s']:.8g}")
+        for key, v in c.constraints.items():
+            lines.append(f"  constraint {key!r}: min {np.min(v):.8g} at {sweep} = {c.columns['s'][np.argmin(v)]:.8g}, "
+                         f"max {np.max(v):.8g} at {sweep} = {c.columns['s'][np.argmax(v)]:.8g}")
         if c.integrals:
             lines.append(f"  RMS over its time {c.integrals['rms_time']:.8g} {units['drive']}, energy "
                          f"{c.integrals['energy']:.8g} J (driving {c.integrals['energy_driving']:.8g} J)")

@@ -9,7 +9,7 @@ import re
 
 import numpy as np
 
-_IN_CASE = re.compile(r"^(?P<what>.*) in case '(?P<case>.*)'$")
+_IN_CASE = re.compile(r"^(?P<what>.*?) in cases? '(?P<case>[^']*)'(?P<more>(, '[^']*')*)$")
 _COLUMN = {"motor peak torque": "motor_torque", "motor speed": "motor_speed", "rod buckling": "rod_buckling"}
 
 
@@ -33,13 +33,21 @@ def governing(result, cases) -> dict:
         hit = _IN_CASE.match(name)
         if not hit or not c.get("active"):
             continue
-        column = _COLUMN.get(hit["what"])
-        case = cases.cases.get(hit["case"])
-        if column is None or case is None or column not in case.columns:
-            continue
-        i = int(np.argmax(np.abs(case.columns[column])))
-        out["constraints"][name] = {"case": hit["case"], "s": float(case.columns["s"][i]),
-                                    "value": float(case.columns[column][i])}
+        which = [hit["case"]] + re.findall(r"'([^']*)'", hit["more"] or "")
+        best = None
+        for case_name in which:   # cases merged into one row: the one where it is most extreme
+            case = cases.cases.get(case_name)
+            if case is None:
+                continue
+            column = case.columns.get(_COLUMN.get(hit["what"])) if hit["what"] in _COLUMN else case.constraints.get(hit["what"])
+            if column is None:
+                continue
+            bound = c["upper"] if c["active"] == "upper" else c["lower"]
+            i = int(np.argmin(np.abs(column - bound))) if bound is not None else int(np.argmax(np.abs(column)))
+            if best is None or abs(column[i] - bound) < abs(best[2] - bound):
+                best = (case_name, float(case.columns["s"][i]), float(column[i]))
+        if best is not None:
+            out["constraints"][name] = {"case": best[0], "s": best[1], "value": best[2]}
     return out
 
 

@@ -21,6 +21,18 @@ from .values import check_label, parse_optional, parse_required, set_field
 from .where import Where, fail, near_miss, show
 
 DIRECTIONS = {"forward": 1, "reverse": -1}
+# a case's per-sample columns that a [[constraints]] expr may use in a scene with [[cases]]
+CASE_COLUMNS = ("drive", "power", "static_load", "inertia_term", "velocity_term", "drive_speed",
+                "drive_acceleration", "motor_speed", "motor_acceleration", "motor_load_torque", "motor_torque",
+                "rod_buckling")
+
+
+def is_case_constraint(scene, constraint) -> bool:
+    """True when ``constraint`` is evaluated per load case: it names a case, or uses a case's
+    columns (a scene with [[cases]])."""
+    if not scene.cases:
+        return False
+    return constraint.case is not None or bool(constraint.expr.names() & set(CASE_COLUMNS))
 FLOWS = ("auto", "driving", "braking")
 CASE_KEYS = ("name", "set", "direction", "efficiency", "profile", "weight")
 

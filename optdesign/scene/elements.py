@@ -214,16 +214,21 @@ class Simulation:
 @dataclass(frozen=True)
 class Constraint:
     """A named ``lower <= expr <= upper`` (TOML ``min``/``max``), per sample or, with an
-    aggregate (one-argument min/max), per stroke."""
+    aggregate (one-argument min/max), per stroke.  In a scene with [[cases]] a per-sample
+    constraint may use a case's columns (``drive``, ``motor_torque``, ...: see
+    :data:`optdesign.scene.cases.CASE_COLUMNS`) and hold in every case or in ``case`` alone."""
 
     name: str
     expr: Expression
     lower: Expression | None = None
     upper: Expression | None = None
+    case: str | None = None   # with [[cases]]: the one case it holds in (absent: every case)
 
     def __post_init__(self):
         where = Where("constraints", str(self.name))
         check_label(self.name, where, "constraint")
+        if self.case is not None:
+            check_label(self.case, where.at("case"), "case")
         set_field(self, "expr", parse_required(self.expr, where.at("expr"), "the constrained quantity, e.g. \"angle(D, B, A)\""))
         set_field(self, "lower", parse_optional(self.lower, where.at("min")))
         set_field(self, "upper", parse_optional(self.upper, where.at("max")))

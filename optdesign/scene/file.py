@@ -37,7 +37,7 @@ CONSTRUCTION_KEYS = {
 }
 SWEEP_KEYS = ("name", "from", "to", "samples", "rate", "acceleration")
 BODY_KEYS = ("name", "frame", "mass", "com", "inertia", "force", "torque")
-CONSTRAINT_KEYS = ("name", "expr", "min", "max")
+CONSTRAINT_KEYS = ("name", "expr", "min", "max", "case")
 SIMULATION_KEYS = ("start", "speed", "t_end", "samples", "integrator", "tolerance")
 
 
@@ -282,7 +282,7 @@ class _Reader:
                     b.get("force"), b.get("torque"))
 
     def constraint(self, c):
-        return Constraint(c["name"], c["expr"], c.get("min"), c.get("max"))
+        return Constraint(c["name"], c["expr"], c.get("min"), c.get("max"), c.get("case"))
 
     def gravity(self, data):
         self.check_keys(Where("gravity"), data, ("g",))

@@ -16,7 +16,7 @@ from .elements import (DRIVE_PINS, LAW_NAMES, Body, Constraint, Drive, Gravity, 
                        Simulation, Sweep)
 from .expressions import constant_value
 from .points import CONSTRUCTIONS, Loop
-from .validate_cases import DriveSizingValidator
+from .validate_cases import DriveSizingValidator, case_columns
 from .values import RESERVED
 from .where import Where, fail, near_miss, show
 
@@ -276,7 +276,7 @@ class Validator:
         for c in self.scene.constraints:
             where = Where("constraints", c.name)
             self._check_unique(where, "constraint", c.name, seen)
-            self._check_expression(where.at("expr"), c.expr, names, built, aggregate=True)
+            self._check_expression(where.at("expr"), c.expr, names | case_columns(self.scene), built, aggregate=True)
             if c.expr.is_aggregate:
                 varying_names, varying_points = c.expr.outside_aggregates()
                 varying = sorted(varying_names & {self.scene.sweep.name}) + sorted(varying_points)

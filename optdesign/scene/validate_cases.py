@@ -10,7 +10,7 @@ case; a gear ratio <= 0 (also as a design variable's lower bound); a motor or cy
 """
 from __future__ import annotations
 
-from .cases import Case, Duty, case_values
+from .cases import CASE_COLUMNS, Case, Duty, case_values, is_case_constraint
 from .expressions import constant_value
 from .profiles import Profile, profile_shape
 from .train import MOTOR_UNITS, Cylinder, Gearbox, Motor
@@ -49,6 +49,7 @@ class DriveSizingValidator:
             self.profiles[p.name] = p
             self._profile(p, self.values)
         self._cases()
+        self._case_constraints()
         self._duty()
         self._gearbox()
         self._motors()
@@ -120,6 +121,34 @@ class DriveSizingValidator:
                     self.fail(where.at("weight"), "a weight is the case's share of the cycle without [duty]; "
                                                   "with [duty], repeat the case in its cycle instead")
                 self.positive(where.at("weight"), case.weight, "a weight", strict=False)
+
+    def _case_constraints(self):
+        """A constraint per case: its case exists; a case column only in a per-sample
+        constraint, and only where the scene has what makes it (a gearbox, one motor, a rod)."""
+        sc = self.scene
+        names = [c.name for c in sc.cases]
+        needs = {"motor_speed": sc.gearbox is not None, "motor_acceleration": sc.gearbox is not None,
+                 "motor_load_torque": sc.gearbox is not None, "motor_torque": len(sc.motors) == 1,
+                 "rod_buckling": sc.cylinder is not None and sc.cylinder.rod is not None}
+        why = {"motor_torque": "exactly one [[motors]] entry (a catalogue's motors bring their own limits)",
+               "rod_buckling": "a [cylinder] with its rod"}
+        for c in sc.constraints:
+            where = Where("constraints", c.name)
+            if c.case is not None and c.case not in names:
+                self.fail(where.at("case"), f"no case {c.case!r}" + (near_miss(c.case, names) or
+                                                                    f"; cases: {', '.join(names) or 'none'}"))
+            if not is_case_constraint(sc, c):
+                continue
+            used = sorted(c.expr.names() & set(CASE_COLUMNS))
+            if c.expr.is_aggregate and used:
+                self.fail(where.at("expr"), f"{c.expr.source!r}: a case column ({', '.join(used)}) in a value per "
+                                            "stroke; a case's column holds per sample: write it without max/min")
+            for name in used:
+                if name in self.params:
+                    self.fail(where.at("expr"), f"{name!r} is a parameter and a case column; rename the parameter")
+                if not needs.get(name, True):
+                    self.fail(where.at("expr"), f"{c.expr.source!r}: {name!r} needs "
+                                                f"{why.get(name, 'a [gearbox]')}")
 
     def case_values(self, case):
         """The parameter values of ``case``: its overrides (evaluated with the scene's values)
@@ -209,3 +238,9 @@ class DriveSizingValidator:
                  for k in ("rod", "bore") if getattr(c, k) is not None}
         if len(sizes) == 2 and not sizes["rod"] < sizes["bore"]:
             self.fail(where.at("rod"), f"the rod ({sizes['rod']:g} m) must be thinner than the bore ({sizes['bore']:g} m)")
+
+
+def case_columns(scene) -> set:
+    """The case columns a [[constraints]] expr may use: with [[cases]], those of
+    :data:`.cases.CASE_COLUMNS`; none without."""
+    return set(CASE_COLUMNS) if scene.cases else set()
