@@ -260,3 +260,44 @@ def test_cylinder_sizes_from_pressure_peak_force_and_speed():
     retract = max(float(np.max(-c.columns["drive_speed"])) for c in res.cases.values())
     assert cyl["pump_flow"] == pytest.approx(max(math.pi * bore**2 / 4 * extend,
                                                  math.pi * (bore**2 - d**2) / 4 * retract), rel=1e-14)
+
+
+def test_rod_buckling_as_a_constraint_of_optimise():
+    """A longer lever b lowers the cylinder force but lengthens the cylinder, and Euler's load
+    falls with the square of the length: with a thin rod the least peak force lies where the
+    buckling constraint is active.  Against a dense scan of b with the jib's force by virtual
+    work (F dx = (m l^2 theta'' + m g l cos theta) dtheta, x the cylinder length)."""
+    from optdesign.design import optimise
+
+    text = JIB.replace("b = 2.4", "b = { value = 2.0, min = 1.0, max = 3.5 }").replace("d_rod = 0.06", "d_rod = 0.088")
+    down = '[[cases]]\nname = "luff down"\ndirection = "reverse"\nset = { mC = 3000 }\n'
+    assert down in text
+    sc = loads(text.replace(down, "") + '\n[objective]\nminimise = "peak(drive)"\n')
+    assert sc.cylinder is not None and [c.name for c in sc.cases] == ["luff up"]
+    result = optimise(sc, starts=3)
+    assert result.success
+    e, psi, l, m, g = 1.6, math.radians(-60), 4.0, 5000.0, 9.81
+    E, S, d = 210e9, 3.5, 0.088
+    th0, th1 = math.radians(-10), math.radians(60)
+    L = th1 - th0
+    xa = 0.1**2 / (2 * 0.05)
+    x = np.linspace(0, L, 20001)
+    x = np.sort(np.r_[x, xa, L - xa])
+    th = th0 + x
+    thdd = np.where(x < xa, 0.05, np.where(x > L - xa, -0.05, 0.0))
+
+    def peak_and_buckling(b):
+        length = np.sqrt(e**2 + b**2 - 2 * e * b * np.cos(th - psi))
+        dx = e * b * np.sin(th - psi) / length
+        F = (m * l**2 * thdd + m * g * l * np.cos(th)) / dx
+        full = max(length[0], length[-1])
+        util = np.max(F) * S * full**2 * 64 / (math.pi**3 * E * d**4)
+        return np.max(np.abs(F)), util
+
+    bs = np.linspace(1.0, 3.5, 2501)
+    feasible = [(peak_and_buckling(b)[0], b) for b in bs if peak_and_buckling(b)[1] <= 1.0]
+    best, b_best = min(feasible)
+    assert result.objective == pytest.approx(best, rel=2e-4)
+    assert result.design["b"] == pytest.approx(b_best, abs=2e-3)
+    entry = result.constraints["rod buckling in case 'luff up'"]
+    assert entry["active"] == "upper" and entry["value"] == pytest.approx(1.0, rel=1e-6)

@@ -31,8 +31,11 @@ def summary(result) -> str:
     if result.success:
         lines.append("design:")
         lines += [f"  {k} = {v:.9g}" for k, v in result.design.items()]
-        lines.append(f"objective = {result.objective:.9g} (certified over the continuous stroke; "
-                     f"{result.objective_sampled:.9g} on the scene's samples)")
+        if result.objective_kind in ("rms_time", "mix"):  # load cases over time (report/design_cases.py)
+            lines.append(f"objective = {result.objective:.9g} (the RMS over the duty cycle's time on the cases' samples)")
+        else:
+            lines.append(f"objective = {result.objective:.9g} (certified over the continuous stroke; "
+                         f"{result.objective_sampled:.9g} on the scene's samples)")
         if result.peak_certified is not None:
             lines.append(f"peak |drive| certified = {result.peak_certified:.9g}, sampled = {result.peak_sampled:.9g}")
         lines.append("constraints (value, bounds, multiplier = d objective / d active bound):")
