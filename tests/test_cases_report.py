@@ -59,7 +59,7 @@ def test_duty_in_json(document):
 
 
 def test_table_has_columns_per_case_and_the_governing_cases(scene_file, capsys):
-    assert cli.main(["analyse", str(scene_file)]) == 0
+    assert cli.main(["analyse", str(scene_file), "--table"]) == 0
     text = capsys.readouterr().out
     header = next(line for line in text.splitlines() if "drive[up]" in line)
     for name in ("up", "down", "cam", "steady"):

@@ -24,6 +24,9 @@ def add_arguments(p):
     p.epilog = EPILOG
     add_scene_arguments(p)
     p.add_argument("--plot", metavar="DIR", help="write figures (PNG) into DIR")
+    p.add_argument("--table", action="store_true", help="print the table over every sample (after which the "
+                   "peaks and constraints in SI); without it, the summary in the scene's units")
+    p.add_argument("--csv", metavar="FILE", help="write every sample as CSV, each header 'name [unit]'")
 
 
 def run(args):
@@ -36,4 +39,20 @@ def run(args):
     if args.plot:
         for path in report.analysis_figures(result, args.plot, label="--plot"):
             print(f"wrote {path}", file=sys.stderr)
-    emit(args, lambda: report.analysis_json(result), lambda: report.analysis_table_chunks(result))
+    if args.csv:
+        from ..report.checks import csv_text
+        from ..report.output import write_atomic
+
+        print(f"wrote {write_atomic(args.csv, csv_text(result))}", file=sys.stderr)
+    emit(args, lambda: report.analysis_json(result),
+         lambda: report.analysis_table_chunks(result) if args.table else summary_chunks(report, result))
+
+
+def summary_chunks(report, result):
+    """The summary in the scene's units (report/checks.py), then the peaks and constraints in SI."""
+    from ..report.checks import summary_lines
+
+    yield "\n".join(summary_lines(result)) + "\n\nin SI, over the continuous stroke:"
+    for chunk in report.analysis_peaks_chunks(result):   # (the violations are in the summary already)
+        yield "\n".join(line for line in chunk.split("\n") if not line.startswith("violated: "))
+    yield "\n(every sample: --table; as CSV with units: --csv FILE; as JSON: --json)"

@@ -19,6 +19,9 @@ def add_arguments(p):
     p.add_argument("--frames", type=whole_number(2), default=36, help="frames over the stroke, >= 2 (default 36)")
     p.add_argument("--fps", type=whole_number(1), default=12, help="frames per second (default 12)")
     p.add_argument("--no-mp4", action="store_true", help="write the GIF only, even where ffmpeg is available")
+    p.add_argument("--frame", metavar="FRACTION", type=float,
+                   help="write one frame alone, at this fraction of the stroke (0 = start, 1 = end), as the PNG "
+                        "--out names (e.g. for a document)")
 
 
 def run(args):
@@ -28,16 +31,21 @@ def run(args):
     from ..model.analysis import analyse
     from ..report.animate import animate, ffmpeg_available
 
-    gif = Path(args.out or default_file(args, "-animation.gif"))
-    if gif.suffix.lower() != ".gif":
+    still = args.frame is not None
+    gif = Path(args.out or default_file(args, "-frame.png" if still else "-animation.gif"))
+    if still and (gif.suffix.lower() != ".png" or not 0 <= args.frame <= 1):
+        raise OptdesignError(f"--frame {args.frame} --out {gif}: expected a fraction of the stroke in 0 .. 1 and a "
+                             "file name ending in .png")
+    if not still and gif.suffix.lower() != ".gif":
         raise OptdesignError(f"--out {gif}: expected a file name ending in .gif (the MP4 is written beside it)")
     scene = scene_with_design(args)
     analysis = analyse(scene, args.samples) if scene.drive is not None else None
-    paths = [gif] + ([] if args.no_mp4 else [gif.with_suffix(".mp4")])
-    written = animate(scene, paths, frames=args.frames, fps=args.fps, analysis=analysis)
+    paths = [gif] + ([] if args.no_mp4 or still else [gif.with_suffix(".mp4")])
+    written = animate(scene, paths, frames=args.frames, fps=args.fps, analysis=analysis,
+                      at=[args.frame] if still else None)
     for path in written:
         print(f"wrote {path}", file=sys.stderr)
-    if not args.no_mp4 and not ffmpeg_available():
+    if not args.no_mp4 and not still and not ffmpeg_available():
         print("no MP4: ffmpeg is not on PATH (the GIF holds the same frames)", file=sys.stderr)
     if args.json:
         import json
@@ -45,4 +53,5 @@ def run(args):
         print(json.dumps({"kind": "animation", "file": scene.path, "files": [str(p) for p in written],
                           "frames": args.frames, "fps": args.fps}))
     else:
-        print(f"{scene.title}: {args.frames} frames over the stroke -> {', '.join(map(str, written))}")
+        what = f"the frame at {args.frame:g} of the stroke" if still else f"{args.frames} frames over the stroke"
+        print(f"{scene.title}: {what} -> {', '.join(map(str, written))}")

@@ -17,7 +17,7 @@ def add_arguments(p):
     p.add_argument("--seed", type=whole_number(0), default=0, help="seed of the random starts, >= 0 (default 0)")
     p.add_argument("--workers", type=workers, default=os.cpu_count() or 1,
                    help="processes that share the starts (default: the machine's cores; 1 = in this process)")
-    p.add_argument("--out", metavar="DIR", help="results folder (default results/<scene name>)")
+    p.add_argument("--out", metavar="DIR", help="results folder (default optdesign-results/<scene name>)")
     p.add_argument("--no-animation", action="store_true",
                    help="leave the optimum's animation (animation.gif, .mp4) out of the results folder")
 
@@ -28,7 +28,7 @@ def run(args):
     from ..report import design as design_report
     from ..design import optimise
 
-    folder = Path(args.out or Path("results") / Path(args.scene).stem)
+    folder = Path(args.out or Path("optdesign-results") / Path(args.scene).stem)
     results_folder(folder, "--out", design_report.FILES)
     scene = load_scene(args)
     bar = progress_bar("starts")

@@ -24,6 +24,8 @@ def add_arguments(p):
     p.add_argument("--t-end", type=real_number(above=0.0), default=None, dest="t_end",
                    help="end time [s], > 0 (default: the scene's)")
     p.add_argument("--plot", metavar="DIR", help="write figures (PNG) of q, its rate and the drive load over time into DIR")
+    p.add_argument("--table", action="store_true", help="print the table over every output sample before the "
+                   "summary (default: the summary alone)")
 
 
 def run(args):
@@ -38,4 +40,8 @@ def run(args):
     if args.plot:
         for path in figures(result, args.plot, label="--plot"):
             print(f"wrote {path}", file=sys.stderr)
-    _emit(args, lambda: simulation_json(result), lambda: summary_chunks(result))
+    def summary_alone():
+        *_, last = summary_chunks(result)   # the rows, then the summary: keep the summary
+        return last.lstrip("\n") + "\n(every output sample: --table; as JSON: --json)"
+
+    _emit(args, lambda: simulation_json(result), lambda: summary_chunks(result) if args.table else summary_alone())

@@ -56,7 +56,8 @@ def add_arguments(p):
     p.add_argument("--chain", type=_whole_number(1), default=25, help="at most this many cases per warm-started chain (default 25)")
     p.add_argument("--workers", type=_whole_number(1), default=None, help="processes on this machine (default: its cores; 1 = in process)")
     p.add_argument("--scheduler", metavar="ADDRESS", help="run on a Dask cluster, e.g. tcp://127.0.0.1:8786")
-    p.add_argument("--out", metavar="DIR", help="results folder (default results/<scene name>_study)")
+    p.add_argument("--out", metavar="DIR", help="results folder (default optdesign-results/<scene>_study-<axes>-<digest>: one folder per "
+                   "study, named from the scene and the study's axes)")
     p.add_argument("--restart", action="store_true", help="forget the cases finished by an earlier run in DIR")
     p.add_argument("--no-figures", action="store_true", help="write no figures")
     p.add_argument("--json", action="store_true", help="print the run's summary and rows as JSON")
@@ -115,7 +116,7 @@ def run(args):
     axes = [parse_axis(kind, text) for kind, text in args.axes]
     study = Study(scene, axes, mode=args.mode, starts=args.starts, seed=args.seed, warm=not args.no_warm,
                   warm_starts=args.warm_starts, chain=args.chain)
-    out = args.out or f"results/{study.default_folder().name}"
+    out = args.out or study.default_folder()
     try:
         result = study.run(out=out, workers=args.workers, scheduler=args.scheduler,
                            progress=cli.progress_bar("cases"), restart=args.restart, figures=not args.no_figures)

@@ -67,3 +67,16 @@ class OptimisationResult:
     starts: tuple
     timings: dict = field(default_factory=dict)
     settings: SolverSettings = field(default_factory=SolverSettings)
+
+    def __repr__(self):
+        state = "optimum" if self.success else f"failed ({self.status})"
+        value = "" if self.objective is None else f" {self.objective:.7g}"
+        design = ", ".join(f"{k}={v:.5g}" for k, v in self.design.items())
+        return (f"OptimisationResult({self.scene.path!r}: {state}{value}, design {design}, "
+                f"{self.starts_at_best}/{self.starts_total} starts at the best)")
+
+    def to_dict(self) -> dict:
+        """Plain data in SI (numbers, lists, dicts: ready for json.dumps)."""
+        from ..scene.plain import result_dict
+
+        return result_dict(self, "optimisation")

@@ -50,6 +50,16 @@ class SimulationResult:
     def t_stop(self) -> float:
         return float(self.t[-1])
 
+    def __repr__(self):
+        return (f"SimulationResult({self.scene.path!r}: {len(self.t)} samples, t = 0 .. {self.t_stop:.6g} s, "
+                f"stop {self.stop!r}, {self.integrator})")
+
+    def to_dict(self) -> dict:
+        """Plain data in SI (numbers, lists, dicts: ready for json.dumps)."""
+        from ..scene.plain import result_dict
+
+        return result_dict(self, "simulation")
+
     def event_times(self, kind: str | None = None) -> np.ndarray:
         """The times of the events (of one ``kind``)."""
         return np.array([e["t"] for e in self.events if kind is None or e["kind"] == kind])

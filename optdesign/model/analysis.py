@@ -58,6 +58,18 @@ class AnalysisResult:
     def drive_kind(self):
         return self.scene.drive.kind
 
+    def __repr__(self):
+        unit = "N m" if self.drive_kind == "rotary" else "N"
+        peak = f", peak |drive| {self.peaks['drive']:.6g} {unit}" if "drive" in self.peaks else ""
+        return (f"AnalysisResult({self.scene.path!r}: {len(self.columns['s'])} samples{peak}, "
+                f"{len(self.constraints)} constraints)")
+
+    def to_dict(self) -> dict:
+        """Plain data in SI (numbers, lists, dicts: ready for json.dumps)."""
+        from ..scene.plain import result_dict
+
+        return result_dict(self, "analysis")
+
 
 class Analysis:
     """The compiled stroke evaluation of one scene (a class under :func:`analyse`)."""

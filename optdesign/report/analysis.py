@@ -2,14 +2,14 @@
 seed's names and SI units of each column."""
 from __future__ import annotations
 
-import textwrap
 from pathlib import Path
 
 import numpy as np
 
 from .cases import FIGURES as CASE_FIGURES
 from .cases import cases_figures, cases_json, cases_table
-from .output import SCHEMA, Rows, new_figure, save_figure, table_chunks
+from .checks import violation_text, violations, violations_json
+from .output import SCHEMA, Rows, table_chunks
 
 UNITS = {
     "rotary": {"q": "rad", "reduced_inertia": "kg m^2", "reduced_inertia_dq": "kg m^2/rad",
@@ -92,6 +92,7 @@ def analysis_json(result) -> dict:
         "constraints": {k: v for k, v in result.constraints.items() if not np.ndim(v)},
         "constraints_sampled": result.constraints_sampled,
         "constraint_extremes": result.constraint_extremes,
+        "violations": violations_json(result),   # violated scene constraints: how far, where (report/checks.py)
         "samples": samples,
         **cases_json(result),   # with [[cases]]: cases, governing, duty, drive_train (report/cases.py)
     }
@@ -108,6 +109,11 @@ def analysis_table_chunks(result):
         if np.ndim(v):
             cols[name.replace(" ", "_")] = v
     yield from table_chunks(cols, ordered(result.columns) + [c for c in cols if c not in result.columns])
+    yield from analysis_peaks_chunks(result)
+
+
+def analysis_peaks_chunks(result):
+    """The lines after the table (peaks, constraints, violations, cases), also printed alone."""
     lines = [""]
     sweep = result.scene.sweep.name
     for k, v in result.peaks.items():
@@ -128,6 +134,7 @@ def analysis_table_chunks(result):
     lines.append(f"(peaks and extremes over the continuous stroke, located between the samples where "
                  f"they lie there; the drive load at every {sweep} is the load at the drive speed and "
                  "acceleration given in [drive])")
+    lines += [f"violated: {violation_text(result, v)}" for v in violations(result)]   # report/checks.py
     yield "\n" + "\n".join(lines)
     yield cases_table(result)   # with [[cases]] (report/cases.py)
 
@@ -144,46 +151,16 @@ def analysis_figures(result, folder, label="folder") -> list:
 
 
 def _analysis_figures(result, folder) -> list:
-    kind = result.drive_kind
-    cols, names, units = result.columns, SEED_NAMES[kind], UNITS[kind]
-    q = cols["q"]
-    qlabel = "crank angle alpha [rad]" if kind == "rotary" else "actuator length x [m]"
+    """drive.png, reduced_inertia.png and constraints.png over the sweep in the scene's units, bounds
+    shaded and violations red (report/stroke_plots.py), and the cases' figures."""
+    from .stroke_plots import inertia_figure, stroke_figure
+
     folder = Path(folder)
-    written = []
-
-    fig, ax = new_figure(figsize=(7, 4))
-    for key in ("static_load", "inertia_term", "velocity_term", "drive"):
-        if key in cols:
-            ax.plot(q, cols[key], lw=2.2 if key == "drive" else 1.2, label=f"{names[key]} ({key})")
-    ax.set_xlabel(qlabel)
-    ax.set_ylabel(f"[{units['drive']}]")
-    ax.set_title(f"{textwrap.fill(result.scene.title, 80)}\ndrive load and its components", fontsize=10)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-    written.append(folder / "drive.png")
-    save_figure(fig, written[-1])
-
-    if "reduced_inertia" in cols:
-        fig, ax = new_figure(figsize=(7, 4))
-        ax.plot(q, cols["reduced_inertia"], label=f"{names['reduced_inertia']} [{units['reduced_inertia']}]")
-        ax2 = ax.twinx()
-        ax2.plot(q, cols["reduced_inertia_dq"], "C1--", label=f"{names['reduced_inertia_dq']} [{units['reduced_inertia_dq']}]")
-        ax.set_xlabel(qlabel)
-        ax.set_title("reduced inertia and its derivative")
-        fig.legend(loc="upper right", fontsize=8)
-        ax.grid(alpha=0.3)
-        written.append(folder / "reduced_inertia.png")
-        save_figure(fig, written[-1])
-
-    per_sample = {k: v for k, v in result.constraints.items() if np.ndim(v)}
-    if per_sample:
-        fig, ax = new_figure(figsize=(7, 3.5))
-        for k, v in per_sample.items():
-            ax.plot(q, v, label=k)
-        ax.set_xlabel(qlabel)
-        ax.set_title("constraints over the stroke")
-        ax.legend(fontsize=8)
-        ax.grid(alpha=0.3)
-        written.append(folder / "constraints.png")
-        save_figure(fig, written[-1])
+    written = [stroke_figure([("", result)], folder / "drive.png", components=True, constraints=False,
+                             title=f"{result.scene.title}\ndrive load and its components")]
+    if "reduced_inertia" in result.columns:
+        written.append(inertia_figure(result, folder / "reduced_inertia.png"))
+    if any(np.ndim(v) for v in result.constraints.values()):
+        written.append(stroke_figure([("", result)], folder / "constraints.png", drive=False,
+                                     title=f"{result.scene.title}\nconstraints over the stroke"))
     return written + cases_figures(result, folder)

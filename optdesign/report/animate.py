@@ -50,9 +50,11 @@ def transmission(scene, geometry, analysis, s):
     return "transmission angle (actuator to its pins' motion)", 90.0 - np.degrees(np.arccos(c)), "deg", None
 
 
-def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None) -> list:
+def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None, at=None) -> list:
     """Write the animation of ``scene`` to every path in ``paths`` (.gif always; .mp4 only where
-    ffmpeg is available: others are skipped); returns the paths written.  ``analysis``: an
+    ffmpeg is available: others are skipped; .png: the first frame alone); returns the paths
+    written.  ``at``: fractions of the stroke (0 its start, 1 its end) to draw instead of
+    ``frames`` evenly spread ones (a still: ``at=[0.6]`` with a .png path).  ``analysis``: an
     :class:`~optdesign.model.analysis.AnalysisResult` of the same scene (made here if None and
     the scene has a drive)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -63,7 +65,8 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None) 
     top = topology(scene)
     dense = geometry.frames(geometry.stroke(max(frames, 61)))
     ctx = context(top, dense)
-    s = geometry.stroke(frames)
+    s = geometry.stroke(frames) if at is None else geometry.resolved.start + np.asarray(at, float) * (
+        geometry.resolved.stop - geometry.resolved.start)
     shots = geometry.frames(s)
     if analysis is None and scene.drive is not None:
         from ..model.analysis import analyse
@@ -71,6 +74,8 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None) 
         analysis = analyse(scene)
     factor, unit = sweep_scale(scene)
     trans = transmission(scene, geometry, analysis, s)
+    curve_s = analysis.columns["s"] if analysis is not None else geometry.stroke(121)
+    curve = transmission(scene, geometry, analysis, curve_s) if trans is not None else None
     box = limits([ctx])
     aspect = (box[3] - box[2]) / max(box[1] - box[0], 1e-12)
     side = analysis is not None or trans is not None
@@ -99,15 +104,14 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None) 
     if trans is not None:
         ax = fig.add_subplot(grid[1, 1])
         label, values, tunit, bounds = trans
-        x = s * factor
-        ax.plot(x, values, color="#2ca02c", lw=1.6)
+        ax.plot(curve_s * factor, curve[1], color="#2ca02c", lw=1.6)
         if bounds:
             bound_lines(ax, *bounds)
         ax.set_ylabel(textwrap.fill(f"{label} [{tunit}]", 32), fontsize=8)
         ax.grid(alpha=0.3)
         ax.tick_params(labelsize=7)
         (dot,) = ax.plot([], [], "o", color="black", ms=6)
-        line = ax.axvline(x[0], color="black", lw=0.8, alpha=0.6)
+        line = ax.axvline(s[0] * factor, color="black", lw=0.8, alpha=0.6)
         markers.append((dot, line, values))
     for ax in fig.axes[1:]:
         ax.set_xlabel(f"{scene.sweep.name} [{unit}]" if unit else scene.sweep.name, fontsize=8)
@@ -158,7 +162,11 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None) 
     written = []
     for path in paths:
         path = Path(path)
-        if path.suffix.lower() == ".mp4":
+        if path.suffix.lower() == ".png":
+            from PIL import Image
+
+            _write(path, lambda tmp: Image.fromarray(np.ascontiguousarray(images[0][..., :3])).save(tmp, format="PNG"))
+        elif path.suffix.lower() == ".mp4":
             if not ffmpeg_available():
                 continue
             _write(path, lambda tmp: write_mp4(images, tmp, fps))

@@ -151,7 +151,7 @@ def slider_block(ax, p, angle, w, z=4):
     ax.add_patch(Polygon(corners, closed=True, facecolor="#f4d58d", edgecolor="black", lw=0.9, zorder=z))
 
 
-def cylinder(ax, p, q, lengths, w, z=3, stroke=True, alpha=1.0):
+def cylinder(ax, p, q, lengths, w, z=3, stroke=True, alpha=1.0, ctx=None):
     """A linear drive from its base pin ``p`` (barrel) to its rod eye ``q`` (rod); ``lengths``
     (shortest, longest over the stroke) size the barrel and mark the stroke."""
     from matplotlib.patches import Polygon
@@ -178,6 +178,8 @@ def cylinder(ax, p, q, lengths, w, z=3, stroke=True, alpha=1.0):
     if stroke and lengths and lmax > lmin * (1 + 1e-6):
         off = -n * 1.9 * w
         a, b = p + u * lmin + off, p + u * lmax + off
+        if ctx is not None:   # the stroke's mark and its text stay inside the view
+            ctx.extra += [a - n * 2.5 * w, b - n * 2.5 * w]
         ax.annotate("", a, b, arrowprops=dict(arrowstyle="<->", color="#7a4f01", lw=0.8, shrinkA=0, shrinkB=0),
                     zorder=z + 0.2)
         for e in (a, b):
@@ -256,7 +258,7 @@ def draw_mechanism(ax, top, frame, ctx: Context, labels="joints", loads=True, ma
     if top.drive is not None:
         kind, (a, b) = top.drive
         if kind == "linear":
-            cylinder(ax, frame.points[a][0], frame.points[b][0], ctx.lengths, w, stroke=stroke)
+            cylinder(ax, frame.points[a][0], frame.points[b][0], ctx.lengths, w, stroke=stroke, ctx=ctx)
     for point, key, _ in top.sliders:
         slider_block(ax, frame.points[point][0], frame.guides[key][1][0], w)
     for name in top.ground:

@@ -79,7 +79,7 @@ def preview_figure(scene, paths, fractions="0,0.25,0.5,0.75,1", samples=201, tit
     fig = Figure(figsize=(panel * cols, rows * float(np.clip(panel * aspect + 0.8, 2.8, 7.0)) + 1.3),
                  layout="constrained")
     FigureCanvasAgg(fig)
-    grid = fig.add_gridspec(rows + 1, cols, height_ratios=[1] * rows + [0.12])
+    grid = fig.add_gridspec(rows + 1, cols, height_ratios=[1] * rows + [0.06])
     for k, i in enumerate(picks):
         ax = fig.add_subplot(grid[k // cols, k % cols])
         frame = frames.at(i)

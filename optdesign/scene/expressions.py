@@ -296,6 +296,10 @@ class _Parser:
             if tok == "deg":
                 self._fail("'deg' after something other than a number: write '25 deg' for a "
                            "literal angle, or 'name*deg'")
+            if self._peek()[0] == "name" and self.tokens[self.i - 1][0] == "num":  # "15 t": a unit
+                from .unit_hints import hint
+
+                self._fail(hint(self.tokens[self.i - 1][1], " ".join(t for _, t in self.tokens[self.i:])))
             self._fail(f"unexpected {tok!r} after a complete expression (a missing operator?)")
         return node
 

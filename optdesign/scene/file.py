@@ -97,6 +97,10 @@ def _syntax_error(exc, text, path):
         name = f"{key.group(1)!r} " if key else ""
         hint = (f": {name}is defined twice in the same table; every key, point and parameter "
                 "name must be unique, so rename or remove one of them")
+    if not hint and line and line <= len(text.splitlines()):  # mP = 15 t: a number with a unit
+        from .unit_hints import toml_hint
+
+        hint = toml_hint(text.splitlines()[line - 1])
     exc2 = SceneError(f"{head}: TOML syntax error: {message}{hint}")
     exc2.where, exc2.detail, exc2.path, exc2.line = None, f"TOML syntax error: {message}{hint}", path, line
     return exc2

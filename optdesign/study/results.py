@@ -29,6 +29,21 @@ class StudyResult:
     paths: list
     notes: tuple = ()        # what opening the journal found and did (a torn last line cut, damaged lines moved)
 
+    def __repr__(self):
+        state = "complete" if self.complete else "incomplete"
+        return (f"StudyResult({str(self.folder)!r}: {len(self.rows)} cases ({self.computed} computed now, "
+                f"{self.reused} from the journal), {state})")
+
+    def to_dict(self) -> dict:
+        """Plain data (numbers, lists, dicts: ready for json.dumps); the study by its scene."""
+        from ..scene.plain import plain, result_dict
+
+        out = result_dict(self, "study", skip=("study",))
+        scene = getattr(self.study, "scene", None)
+        if scene is not None:
+            out.update(title=scene.title, file=scene.path)
+        return plain(out)
+
     def column(self, name):
         """A column as a float array (missing values as nan)."""
         import numpy as np

@@ -204,12 +204,22 @@ class Study:
                     None if x_warm is None else tuple(x_warm))
 
     def default_folder(self) -> Path:
+        """``optdesign-results/<scene>_study-<axes>-<digest>`` under the current directory: named
+        from the scene and the study's axes, with a digest of the scene, the mode, the axes'
+        values and the run settings, so that two different studies never share a folder while
+        the same study, run again, resumes in its own."""
+        import re
+
         stem = Path(self.scene.path).stem if self.scene.path not in ("", "<python>") else "scene"
-        return Path("results") / f"{stem}_study"
+        axes = "-".join(re.sub(r"[^A-Za-z0-9_.=]+", "_", a.label) for a in self.axes)[:60] or "cases"
+        content = {"scene": scene_digest(self.scene), "mode": self.mode, "run": self._run_settings(),
+                   "axes": [dataclasses.asdict(a) for a in self.axes]}
+        digest = hashlib.sha256(json.dumps(content, sort_keys=True, default=str).encode()).hexdigest()[:8]
+        return Path("optdesign-results") / f"{stem}_study-{axes}-{digest}"
 
     def run(self, out=None, workers: int | None = None, scheduler=None, progress=None,
             restart: bool = False, figures: bool = True) -> "StudyResult":
-        """Run (or resume) the study into folder ``out`` (default ``results/<scene>_study``).
+        """Run (or resume) the study into folder ``out`` (default :meth:`default_folder`).
 
         ``workers``: processes on this machine (default: its cores; 1 runs in this process);
         ``scheduler``: a Dask scheduler address, or a ``distributed.Client``, to run there

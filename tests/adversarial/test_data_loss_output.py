@@ -43,7 +43,7 @@ def test_analyse_streams_many_rows_in_small_writes_with_the_same_bytes(monkeypat
     monkeypatch.setattr(model_analysis, "analyse", lambda scene, samples: big_analysis)
     out = Recorder()
     monkeypatch.setattr(sys, "stdout", out)
-    assert main(["analyse", str(JIB), "--samples", "20000"] + (["--json"] if json_flag else [])) == 0
+    assert main(["analyse", str(JIB), "--samples", "20000", "--table"] + (["--json"] if json_flag else [])) == 0
     text = out.getvalue()
     assert len(out.sizes) > 10 and max(out.sizes) < 1_000_000          # rows in pieces, not one write
     if json_flag:
@@ -99,7 +99,7 @@ def test_a_full_disk_on_standard_output_is_an_error_saying_the_output_is_incompl
 
 
 def test_a_reader_that_stops_reading_ends_the_command_quietly():
-    proc = subprocess.Popen([sys.executable, "-m", "optdesign", "analyse", str(JIB), "--samples", "200000"],
+    proc = subprocess.Popen([sys.executable, "-m", "optdesign", "analyse", str(JIB), "--samples", "200000", "--table"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=ROOT)
     first = proc.stdout.readline()
     proc.stdout.close()                                  # `| head -1`
@@ -109,7 +109,7 @@ def test_a_reader_that_stops_reading_ends_the_command_quietly():
 
 
 def test_the_command_prints_the_peaks_after_the_rows():
-    code, out, err = cli("analyse", JIB, "--samples", "3000")
+    code, out, err = cli("analyse", JIB, "--samples", "3000", "--table")
     assert code == 0, err
     lines = out.splitlines()
     assert len(lines) > 3002 and lines[3002].startswith("peak |drive| = ")
