@@ -196,11 +196,6 @@ class MotionProfile:
                 out.append((s_lo, s_hi, self.s_begin + self.sigma * np.asarray(inner)))
         return out
 
-    def speed_function(self, mech) -> ca.Function:
-        """(s, p) -> (sd, sdd, V^2) in ``mech``'s graphs (p: the case's parameters)."""
-        sd, sdd, V2, _ = self.graphs(mech.s, lambda e: mech.value(e, "[profiles] speed"))
-        return mech.function("profile", {"sd": sd, "sdd": sdd, "V2": V2})
-
     def times(self, s_values) -> np.ndarray:
         """The time at each sweep value (at s_begin: 0)."""
         s_values = np.asarray(s_values, float)
