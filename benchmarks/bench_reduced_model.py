@@ -27,6 +27,12 @@ CasADi's common-subexpression elimination (Function option ``cse``), (iii) ``map
 2)``, (iv) the graph compiled by CasADi's JIT (C code generation and ``gcc -O2``; compile time
 reported as build), (v) the same graph in MX instead of SX.
 
+What ``Analysis`` evaluates is the graph compiled into blocks (optdesign/model/blocked.py) and kept
+in the disk cache of compiled Functions (optdesign/model/compiled.py).  The script uses a cache
+folder of its own, empty at the start: the first build compiles (the *cold* run: its compile time
+is reported), the builds after it load the library (*warm*: what every later run of the same
+scene does), and the ratio to numpy is the warm evaluation's.
+
 Not a test (pytest collects only tests/); writes ``results/bench.md`` atomically.
 """
 from __future__ import annotations
@@ -34,6 +40,7 @@ from __future__ import annotations
 import argparse
 import datetime
 import gc
+import json
 import tempfile
 import os
 import platform
@@ -53,6 +60,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from optdesign.model.analysis import Analysis  # noqa: E402
+from optdesign.model import compiled as compiled_cache  # noqa: E402
+from optdesign.model.blocked import BlockedFunction, stroke_evaluator  # noqa: E402
 from benchmarks.benchfile import cpu_model, git_state, write_section  # noqa: E402
 from optdesign.scene.file import load  # noqa: E402
 
@@ -192,16 +201,22 @@ def _vm(func: ca.Function, s_row, p):
     return (lambda: func(s_row, p), lambda res: as_dict(func, res))
 
 
-def median_times(funcs: dict, repeats: int) -> dict:
-    """Median wall time of each callable, all interleaved in the same loop (one warm-up each)."""
+def median_times(funcs: dict, repeats: int, cpu: dict | None = None) -> dict:
+    """Median wall time of each callable, all interleaved in the same loop (one warm-up each);
+    with ``cpu``, the median CPU time of this thread too (what a loaded machine's waiting for a
+    core leaves out), written into it."""
     for f in funcs.values():
         f()
     times = {k: [] for k in funcs}
+    cpu_times = {k: [] for k in funcs}
     for _ in range(repeats):
         for k, f in funcs.items():
-            t0 = time.perf_counter()
+            c0, t0 = time.thread_time(), time.perf_counter()
             f()
             times[k].append(time.perf_counter() - t0)
+            cpu_times[k].append(time.thread_time() - c0)
+    if cpu is not None:
+        cpu.update({k: statistics.median(v) for k, v in cpu_times.items()})
     return {k: statistics.median(v) for k, v in times.items()}
 
 
@@ -254,7 +269,7 @@ def mx_function(scene, names):
 def command_time(repeats: int):
     """Median wall time of the whole command (subprocess, output discarded) and of the bare
     interpreter start-up with ``import optdesign.cli.main`` (the floor)."""
-    exe = shutil.which("optdesign")
+    exe = shutil.which("optdesign")   # (the cache folder of the run: os.environ, inherited)
     cmd = [exe] + COMMAND[1:] if exe else [sys.executable, "-m", "optdesign"] + COMMAND[1:]
     floor_cmd = [sys.executable, "-c", "import optdesign.cli.main, casadi, numpy"]
     times = {"command": [], "import floor": []}
@@ -286,7 +301,23 @@ def main(argv=None):
     scene = load(SCENE)
     values, motion = scene_inputs(scene)
 
-    # ours: one-time build (median of 3 fresh builds), then the evaluation
+    # the disk cache of compiled Functions: a folder of this run's own, empty; the first build
+    # compiles and waits for it (cold), the later ones load the library (warm)
+    cache = tempfile.mkdtemp(prefix="bench_cache_")
+    os.environ.pop("OPTDESIGN_NO_COMPILE", None)
+    os.environ["OPTDESIGN_CACHE_DIR"] = cache
+    os.environ["OPTDESIGN_COMPILE"] = "wait"
+    t0 = time.perf_counter()
+    cold = Analysis(scene, samples=n)
+    cold_build = time.perf_counter() - t0
+    metas = [json.loads(m.read_text()) for m in Path(cache).glob("*.json")]
+    cold_info = {"build": cold_build, "compiled": isinstance(cold.vectorised, BlockedFunction),
+                 "compile": sum(m["compile_s"] for m in metas), "generate": sum(m["generate_s"] for m in metas),
+                 "flags": " ".join(metas[0]["flags"]) if metas else "", "compiler": metas[0]["compiler"]["version"] if metas else ""}
+    del cold
+    os.environ["OPTDESIGN_COMPILE"] = "background"   # the default: what a later run does
+
+    # ours: one-time build (median of 3 fresh builds, warm), then the evaluation
     builds = []
     for _ in range(3):
         t0 = time.perf_counter()
@@ -331,8 +362,13 @@ def main(argv=None):
     for label, f in (("all outputs, cse", f_full_cse), ("model columns only, cse", f_model_cse)):
         t0 = time.perf_counter()
         vec = VectorisedSX(f)
-        options[f"{label}, instruction list run by numpy (no compiler)"] = (
+        options[f"{label}, instruction list run by numpy (no compiler: the fallback)"] = (
             lambda vec=vec: vec(s_row, p), lambda res: res, f.n_instructions(), time.perf_counter() - t0)
+    if compiled_cache.compiler() is not None:
+        t0 = time.perf_counter()
+        blocks = stroke_evaluator(f_model_cse, wait=True)
+        options["model columns only, cse, compiled blocks from the disk cache (compile time as build)"] = (
+            lambda: blocks(theta, p), lambda res: res, f_model_cse.n_instructions(), time.perf_counter() - t0)
     have_gcc = shutil.which("gcc") is not None
     jit_dir = tempfile.mkdtemp(prefix="bench_jit_")
     if have_gcc and not args.no_jit:
@@ -354,7 +390,7 @@ def main(argv=None):
     breakdown = median_times({
         "check_assembly": lambda: analysis.mech.check_assembly(theta, p),
         "check_dead_centre": lambda: analysis.model.check_dead_centre(theta, p),
-        "per-stroke constraints": lambda: analysis._per_stroke(p),
+        "per-stroke constraints": lambda: analysis._per_stroke(p, theta),
     }, 3)
     # the VM's fixed cost per sample: a one-instruction Function mapped over the same samples
     s1, p1 = ca.SX.sym("s"), ca.SX.sym("p", p.size)
@@ -370,7 +406,8 @@ def main(argv=None):
     }
     for label, (f, _, _, _) in options.items():
         funcs[label] = f
-    med = median_times(funcs, args.repeats)
+    cpu = {}
+    med = median_times(funcs, args.repeats, cpu)
     # CasADi deletes its JIT files when the compiled Functions go; then the folder
     options_table = {label: (n_instr, extra) for label, (_, _, n_instr, extra) in options.items()}
     options.clear()
@@ -380,9 +417,10 @@ def main(argv=None):
     shutil.rmtree(jit_dir, ignore_errors=True)
     cmd_times, cmd_text = command_time(args.command_repeats)
     load_end = os.getloadavg()
+    shutil.rmtree(cache, ignore_errors=True)
 
     text = report(args, n, git, started, load_start, load_end, build, builds, analysis, worst, med,
-                  options_table, cmd_times, cmd_text, have_gcc, breakdown, vm_floor)
+                  options_table, cmd_times, cmd_text, have_gcc, breakdown, vm_floor, cold_info, cpu)
     write_section("reduced_model", text, args.out)
     print(text)
     print(f"wrote {args.out}", file=sys.stderr)
@@ -392,9 +430,20 @@ def fmt_ms(t):
     return f"{1e3 * t:.3g}"
 
 
+def goal(wall_ratio, cpu_ratio) -> str:
+    """<= 1x: met when both the wall-time and the CPU-time ratio say so."""
+    if wall_ratio <= 1 and cpu_ratio <= 1:
+        return "met"
+    if cpu_ratio <= 1:
+        return "met in CPU time, not in wall time (the machine's load: see the header)"
+    return "NOT met"
+
+
 def report(args, n, git, started, load_start, load_end, build, builds, analysis, worst, med, options,
-           cmd_times, cmd_text, have_gcc, breakdown, vm_floor) -> str:
+           cmd_times, cmd_text, have_gcc, breakdown, vm_floor, cold, cpu) -> str:
     numpy_t = med["numpy"]
+    how = ("the graph compiled into blocks of samples, loaded from the disk cache" if isinstance(analysis.vectorised, BlockedFunction)
+           else "the SX graph's instructions run by numpy: no compiler here")
     ratio = med["mapped"] / numpy_t
     lines = [
         "# Benchmark: the reduced model of the level-luffing crane (issue 3)",
@@ -403,7 +452,7 @@ def report(args, n, git, started, load_start, load_end, build, builds, analysis,
         f"{platform.machine()}, {cpu_model()}, nproc {os.cpu_count()}, load average (1, 5, 15 min) at the start "
         f"{', '.join(f'{v:.2f}' for v in load_start)} and at the end {', '.join(f'{v:.2f}' for v in load_end)} "
         f"(the machine may be shared: times are medians of {args.repeats} calls, ours and numpy interleaved in "
-        f"one loop); Python {platform.python_version()}, casadi {ca.__version__}, numpy {np.__version__}; {git}.",
+        f"one loop; CPU = the median CPU time of the calling thread, which leaves out waiting for a core); Python {platform.python_version()}, casadi {ca.__version__}, numpy {np.__version__}; {git}.",
         "",
         f"Scene `problems/level_luffing_crane.toml` (jib, beak, connector, cylinder barrel and rod, payload; "
         f"four-bar closed by a dyad; linear drive, eta = 0.9) over **{n} samples** of the jib angle. "
@@ -418,15 +467,19 @@ def report(args, n, git, started, load_start, load_end, build, builds, analysis,
         "",
         "| what | median [ms] | ours / numpy | goal |",
         "|---|---|---|---|",
-        f"| numpy closed form (10 columns) | {fmt_ms(numpy_t)} | 1 | |",
-        f"| ours: `Analysis.vectorised(s, p)`, what `run()` evaluates (all {analysis.function.n_out()} outputs, the SX graph's instructions run by numpy) | "
-        f"{fmt_ms(med['vectorised'])} | **{med['vectorised'] / numpy_t:.3g}x** | <= 1x: {'met' if med['vectorised'] <= numpy_t else 'NOT met'} |",
+        f"| numpy closed form (10 columns) | {fmt_ms(numpy_t)} (CPU {fmt_ms(cpu['numpy'])}) | 1 | |",
+        f"| ours, warm: `Analysis.vectorised(s, p)`, what `run()` evaluates (all {analysis.function.n_out()} outputs, {how}) | "
+        f"{fmt_ms(med['vectorised'])} (CPU {fmt_ms(cpu['vectorised'])}) | **{med['vectorised'] / numpy_t:.3g}x** (CPU time: "
+        f"{cpu['vectorised'] / cpu['numpy']:.3g}x) | <= 1x: {goal(med['vectorised'] / numpy_t, cpu['vectorised'] / cpu['numpy'])} |",
         f"| ours: `Analysis.mapped(s, p)` (the same Function through CasADi's SX VM, serial) | {fmt_ms(med['mapped'])} | "
         f"{ratio:.3g}x | |",
         f"| ours: `Analysis.run()` (mapped + assembly and dead-centre checks + per-stroke constraint) | {fmt_ms(med['run'])} | "
         f"{med['run'] / numpy_t:.3g}x | |",
-        f"| ours: one-time build `Analysis(scene, samples={n})` (median of {len(builds)}) | {fmt_ms(build)} | | |",
-        f"| whole command `{cmd_text}` (scene's 201 samples, subprocess, median of {args.command_repeats}) | "
+        f"| ours: one-time build `Analysis(scene, samples={n})`, warm (the library loaded; median of {len(builds)}) | {fmt_ms(build)} | | |",
+        f"| ours: the cold first build (cache empty, waiting for the compiler) | {fmt_ms(cold['build'])} | | |",
+        f"| of which generating the C and compiling it ({cold['compiler']}, `{cold['flags']}`) | "
+        f"{fmt_ms(cold['generate'] + cold['compile'])} | | (reported) |",
+        f"| whole command `{cmd_text}` (scene's 201 samples, subprocess, warm cache, median of {args.command_repeats}) | "
         f"{fmt_ms(cmd_times['command'])} | | < 2000 ms: {'met' if cmd_times['command'] < 2 else 'NOT met'} |",
         f"| of which the floor: `python -c 'import optdesign.cli.main, casadi, numpy'` | {fmt_ms(cmd_times['import floor'])} | | |",
         "",
@@ -434,14 +487,14 @@ def report(args, n, git, started, load_start, load_end, build, builds, analysis,
         f"{AGREE_RTOL:g} before timing); build = extra one-time cost on top of the `Analysis` build "
         "(compilation for the JIT rows):",
         "",
-        "| option | instructions per sample | build [ms] | median [ms] | / numpy |",
-        "|---|---|---|---|---|",
+        "| option | instructions per sample | build [ms] | median [ms] | / numpy | CPU time / numpy's |",
+        "|---|---|---|---|---|---|",
     ]
     for label, (n_instr, extra) in options.items():
         lines.append(f"| {label} | {n_instr} | {fmt_ms(extra) if extra else '-'} | {fmt_ms(med[label])} | "
-                     f"{med[label] / numpy_t:.3g}x |")
+                     f"{med[label] / numpy_t:.3g}x | {cpu[label] / cpu['numpy']:.3g}x |")
     if not have_gcc or args.no_jit:
-        lines.append("| JIT rows skipped | (no gcc found, or --no-jit) | | | |")
+        lines.append("| JIT rows skipped | (no gcc found, or --no-jit) | | | | |")
     lines += ["", "Where `run()` spends its time besides the mapped evaluation (each builds its own Function and "
               "map on every call; medians of 3): "
               + ", ".join(f"{k} {fmt_ms(v)} ms" for k, v in breakdown.items()) + ".",
@@ -459,7 +512,13 @@ is left between ours and numpy is the instruction count: the AD graph has roughl
 operations of the hand-written closed form.
 CasADi builds every derivative (``jacobian`` per body, again for each ratio) as a new subgraph,
 so the same sub-expressions appear many times: ``cse`` removes the duplicates. Compiling the
-map with gcc removes the interpreter. ``thread`` with 2 workers helps only when the machine is
+map with gcc (CasADi's JIT) removes the interpreter but keeps one sample at a time through 977
+dependent scalar instructions; the compiled blocks (what ``Analysis`` uses) turn the loop inside
+out as numpy does, in C: each instruction is one loop over 64 samples, which gcc vectorises, the
+parameters' own work is done once per block, and the block's arrays stay in the cache, so the
+same instructions cost a fraction of numpy's per-call overhead and memory traffic.  They are
+compiled once per graph (seconds; in a background process unless asked to wait) and loaded from
+the disk cache by every later run. ``thread`` with 2 workers helps only when the machine is
 otherwise idle. The MX row is what a scene with a Newton loop pays.
 
 The recommendation, with its measured effect, is written in benchmarks/README.md."""

@@ -1,7 +1,7 @@
 """Every shipped optimisation scene: the multistart agrees, and the optimum is the global one.
 
 For each scene in problems/ with an [objective] (found by globbing, so scenes added later are
-covered too), ``optimise(scene, starts=20, seed=0)`` must succeed with at least 16 of its 20
+covered too), ``optimise(scene, starts=20, seed=0)`` must succeed with at least 18 of its 20
 starts within 0.1 % of the best value, and an INDEPENDENT search must confirm that value:
 
 * a coarse grid over the design box, evaluated in one vectorised CasADi call on a stroke of
@@ -353,21 +353,17 @@ def test_there_are_optimisation_scenes():
         assert expected in names, f"problems/{expected}.toml missing or without an [objective]"
 
 
-# Library machines (problems/lib_*.toml) on which the default multistart does not yet reach the
-# best from 16 of 20 starts, as measured on this commit (issue 14 is making the starts robust:
-# phase 1, space-filling starts).  Strict: a scene that starts passing must leave this list.
-BELOW_16_OF_20 = {
-    "lib_crank_luffing_jib": "12/20 (6 Restoration_Failed, 1 Infeasible_Problem_Detected, 1 Maximum_Iterations_Exceeded)",
-    "lib_dump_truck_hoist": "12/20 (8 at a local optimum 473,812 N)",
-    "lib_scissor_lift": "14/20 (3 at a local optimum, 2 Maximum_Iterations_Exceeded, 1 elsewhere)",
-    "lib_toggle_press": "1/20 (the stroke as max - min >= H now solves; the starts do not reach it)",
-    "lib_wheel_loader_arm": "11/20 (9 Infeasible_Problem_Detected from feasible regions)",
+# Library machines on which the default multistart does not yet reach the best from 18 of 20
+# starts, as measured on this commit.  Strict: a scene that starts passing must leave this list.
+BELOW_18_OF_20 = {
+    "lib_toggle_press": "5/20 (15 'Solve_Succeeded (exchange did not converge)': the exchange steps "
+                        "of the toggle's sharp ram-force peak do not settle)",
 }
 
 
 @pytest.mark.parametrize("path", [
-    pytest.param(p, marks=pytest.mark.xfail(strict=True, reason=f"issue 14: {BELOW_16_OF_20[p.stem]}"))
-    if p.stem in BELOW_16_OF_20 else p for p in SCENES], ids=IDS)
+    pytest.param(p, marks=pytest.mark.xfail(strict=True, reason=f"issue 14: {BELOW_18_OF_20[p.stem]}"))
+    if p.stem in BELOW_18_OF_20 else p for p in SCENES], ids=IDS)
 def test_multistart_reaches_the_best(path):
     result, seconds = optimum(path)
     assert result.success, f"{path.name}: {result.status}: {result.message}"
@@ -377,9 +373,11 @@ def test_multistart_reaches_the_best(path):
     statuses = [s.status for s in result.starts]
     print(f"\n{path.stem}: design {result.design}, objective {result.objective:.9g}, "
           f"{at_best}/20 at best, {seconds:.2f} s; statuses {sorted(set(statuses))}")
-    assert min(values) >= result.objective * (1 - 1e-12), "a start is better than the reported best"
+    # the reported best is the best start polished on its continuous extrema (the same optimum
+    # to IPOPT's tolerance), so a start may differ from it in the 11th digit, not more
+    assert min(values) >= result.objective * (1 - 1e-9), "a start is better than the reported best"
     assert at_best == result.starts_at_best, "starts_at_best disagrees with the start reports"
-    assert at_best >= 16, f"{path.name}: only {at_best} of 20 starts within 0.1 % of the best; {statuses}"
+    assert at_best >= 18, f"{path.name}: only {at_best} of 20 starts within 0.1 % of the best; {statuses}"
 
 
 @pytest.mark.parametrize("path", SCENES, ids=IDS)

@@ -1,6 +1,12 @@
-"""The front door of the design problem: :func:`optimise` builds the problem once, draws
-reproducible starts, solves each one (repairing it first if it does not assemble), in this
-process or in a pool of forked workers, and summarises the best certified optimum."""
+"""The front door of the design problem: :func:`optimise` builds the problem once, plans
+reproducible space-filling starts (:mod:`.starts`), makes each one feasible (:mod:`.phase1`,
+retrying from a fresh point when it cannot be), minimises the objective from there, in this
+process or in a pool of forked workers, and summarises the best certified optimum with the
+distinct local optima the starts found (:mod:`.clusters`).
+
+Every start is independent of the others: it begins from its own point with the NLP's initial
+sample points, and its retries come from its own share of the reserve, so the result is the
+same whatever the order of the starts or the number of workers."""
 from __future__ import annotations
 
 import multiprocessing
@@ -10,140 +16,257 @@ import numpy as np
 
 from ..scene import Scene
 from ..scene.arguments import optimise_arguments, scene_argument
+from .clusters import local_optima
+from .phase1 import Phase1
 from .problem import DesignProblem, SolverSettings
 from .repair import Repair
 from .results import OptimisationResult, StartReport
 from .sensitivities import constraint_report, objective_gradient_factor, objective_value, sensitivities
 from .solver import Solver
+from .starts import RETRIES, StartPlan, plan_starts
 
 
 def optimise(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSettings | None = None,
              progress=None, x_starts=None, workers: int = 1) -> OptimisationResult:
     """Minimise the scene's objective over its design variables (front door).
 
-    ``starts`` reproducible starts (the scene's start, then random points of the design box
-    drawn with ``seed``) or explicit ``x_starts``; ``progress(done, total)`` is called after
-    each start; ``workers`` > 1 solves the starts in that many forked processes (where the
-    platform can fork; the result for a given number of workers does not depend on timing)."""
+    ``starts`` local solves from reproducible starts (the scene's start, then the best of a
+    screened scrambled Sobol sample of the design box drawn with ``seed``) or from explicit
+    ``x_starts`` (retried from the seeded reserve if one cannot be made feasible);
+    ``progress(done, total)`` is called after each start; ``workers`` > 1 solves the starts
+    in that many forked processes (where the platform can fork; the result does not depend on
+    the number of workers)."""
     starts, seed, workers = optimise_arguments(scene_argument("optimise", scene), starts, seed, workers)
     t0 = time.perf_counter()
     problem = DesignProblem(scene, settings)
     solver, repair = Solver(problem), Repair(problem)
     t_build = time.perf_counter() - t0
-    xs = draw_starts(problem, starts, seed) if x_starts is None else np.atleast_2d(np.asarray(x_starts, float))
-    runs = solve_starts(solver, repair, xs, workers, progress)
+    plan = draw_plan(problem, starts, seed, x_starts=x_starts)
+    t_plan = time.perf_counter() - t0 - t_build
+    runs = solve_starts(solver, repair, plan, workers, progress)
     reports, solutions = [r for r, _ in runs], [s for _, s in runs]
-    return summarise(problem, solver, reports, solutions, {"build_s": t_build, "total_s": time.perf_counter() - t0})
+    return summarise(problem, solver, reports, solutions,
+                     {"build_s": t_build, "screen_s": t_plan, "total_s": time.perf_counter() - t0}, plan)
 
 
-def draw_starts(problem: DesignProblem, starts: int, seed: int) -> np.ndarray:
-    """The scene's own start, then uniform random points of the design box (reproducible)."""
-    rng = np.random.default_rng(seed)
-    lo = np.where(np.isfinite(problem.lower), problem.lower, problem.start - np.abs(problem.start) - 1)
-    hi = np.where(np.isfinite(problem.upper), problem.upper, problem.start + np.abs(problem.start) + 1)
-    rand = lo + (hi - lo) * rng.random((max(starts - 1, 0), len(lo)))
-    return np.vstack([problem.start[None, :], rand])[:starts]
+def draw_plan(problem: DesignProblem, starts: int, seed: int, fixed=None, x_starts=None) -> StartPlan:
+    """The starts (and their reserve for retries): planned from the seed, or the given ones
+    (then the reserve is screened only if a start needs a retry).  A single start is the
+    scene's own, with the reserve screened on demand too."""
+    if x_starts is None and starts > 1:
+        return plan_starts(problem, starts, seed, fixed)
+    points = problem.start[None, :] if x_starts is None else np.atleast_2d(np.asarray(x_starts, float))
+    return StartPlan(points, method="sobol" if x_starts is None else "given",
+                     plan_reserve=lambda: plan_starts(problem, len(points), seed, fixed))
 
 
-def solve_starts(solver: Solver, repair: Repair, xs, workers=1, progress=None) -> list:
-    """(StartReport, Solution) of every start, in order: in this process, or shared among
-    ``workers`` forked processes, worker w taking starts w, w + workers, ... in turn (each
-    worker's solver carries what it learned from one start to its next, as the serial loop
-    does, so a given number of workers always gives the same result)."""
-    n = len(xs)
+def draw_starts(problem: DesignProblem, starts: int, seed: int, fixed=None) -> np.ndarray:
+    """The planned start points (the scene's own start first): :func:`~.starts.plan_starts`."""
+    return plan_starts(problem, starts, seed, fixed).points
+
+
+def solve_starts(solver: Solver, repair: Repair, plan, workers=1, progress=None) -> list:
+    """(StartReport, Solution) of every start of ``plan`` (a :class:`StartPlan` or an array of
+    start points), in order: in this process, or shared among ``workers`` forked processes.
+    Each start is solved on its own (nothing passes between starts), so the result is the
+    same for any number of workers."""
+    if not isinstance(plan, StartPlan):
+        plan = StartPlan(plan, np.zeros((0, len(solver.pb.design_names))), 0, "given")
+    n = len(plan.points)
     workers = max(1, min(int(workers), n))
     if workers == 1 or "fork" not in multiprocessing.get_all_start_methods():
         runs = []
-        for i, x0 in enumerate(xs):
-            runs.append(solve_start(solver, repair, i, x0))
+        for i in range(n):
+            runs.append(solve_start(solver, repair, i, plan.points[i], retry=lambda k, i=i: plan.retry(i, k)))
             if progress is not None:
                 progress(i + 1, n)
         return runs
     global _FORKED
     ctx = multiprocessing.get_context("fork")
-    done_queue = ctx.SimpleQueue()
-    _FORKED = (solver, repair, xs, workers, done_queue)
+    _FORKED = (solver, repair, plan)
+    runs = {}
     try:
         with ctx.Pool(workers) as pool:
-            shares = pool.map_async(_solve_share, range(workers))
-            done = 0
-            while done < n:
-                shares.wait(0.01)
-                while not done_queue.empty():
-                    done_queue.get()
-                    done += 1
-                    if progress is not None:
-                        progress(done, n)
-                if shares.ready() and done_queue.empty():
-                    break
-            results = shares.get()  # a worker's exception is raised here
+            for i, run in pool.imap_unordered(_solve_one, range(n)):  # a worker's exception is raised here
+                runs[i] = run
+                if progress is not None:
+                    progress(len(runs), n)
     finally:
         _FORKED = None
-    runs = dict(item for share in results for item in share)
     return [runs[i] for i in range(n)]
 
 
-_FORKED = None  # what forked workers inherit: (solver, repair, starts, workers, done queue)
+_FORKED = None  # what forked workers inherit: (solver, repair, plan)
 
 
-def _solve_share(w):
-    solver, repair, xs, workers, done_queue = _FORKED
-    out = []
-    for i in range(w, len(xs), workers):
-        out.append((i, solve_start(solver, repair, i, xs[i])))
-        done_queue.put(i)
-    return out
+def _solve_one(i):
+    solver, repair, plan = _FORKED
+    return i, solve_start(solver, repair, i, plan.points[i], retry=lambda k: plan.retry(i, k))
 
 
-def solve_start(solver: Solver, repair: Repair, index, x0, fixed=None) -> tuple:
-    """One start: solve, repairing it first if it does not assemble.  (StartReport, Solution)"""
+def feasible_start(solver: Solver, repair: Repair, x0, fixed):
+    """Phase 1 from x0: (Phase1Result or None, repaired).  A start that does not assemble at
+    the NLP's sample points is first projected onto designs that do; None when that fails."""
+    pb = solver.pb
+    repaired = False
+    x0 = np.clip(np.asarray(x0, float), pb.lower, pb.upper)
+    s_pts = np.r_[pb.base_points, pb.initial_slots]
+    q = pb.evaluate_grid(x0, fixed, s_pts)
+    if not np.all(np.isfinite(q)):
+        fixed_x = repair(x0, fixed)
+        if fixed_x is None:
+            return None, False
+        x0, repaired = fixed_x, True
+    w0 = solver._initial_w(x0, fixed, s_pts)
+    if isinstance(w0, str):
+        return None, repaired
+    phase1 = pb._once("phase 1", lambda: Phase1(pb))
+    p = pb.nlp_parameters(fixed, s_pts, x0)
+    lbg, ubg = pb.row_bounds(s_pts)
+    return phase1(w0, p, lbg, ubg), repaired
+
+
+def solve_start(solver: Solver, repair: Repair, index, x0, fixed=None, retry=None) -> tuple:
+    """One start: phase 1 (a design feasible at the sample points, repairing the point first if
+    it does not assemble), then the objective phase from the feasible design.  While phase 1
+    cannot make the point feasible, or the objective phase fails, the start is retried from
+    ``retry(k)`` (k = 0, 1, ...: fresh points; None when spent).  (StartReport, Solution)"""
     pb = solver.pb
     t0 = time.perf_counter()
     fixed_v = solver.fixed_values(fixed)
-    repaired = False
-    start = dict(zip(pb.design_names, map(float, x0)))
-    q = pb.evaluate_grid(np.clip(x0, pb.lower, pb.upper), fixed_v, np.r_[pb.base_points, pb.initial_slots])
-    if not np.all(np.isfinite(q)):
-        fixed_x = repair(np.asarray(x0, float), fixed_v)
-        if fixed_x is None:
-            return StartReport(index, start, "skipped: does not assemble and could not be repaired", False,
-                               None, False, 0, 0, time.perf_counter() - t0), None
-        x0, repaired = fixed_x, True
-    sol = solver.solve(x0, fixed_v)
-    if isinstance(sol, str):
-        if repaired:
-            sol = "skipped: the repaired start still does not assemble at the sample points"
-        return StartReport(index, start, sol, False, None, repaired, 0, 0, time.perf_counter() - t0), None
-    objective = objective_value(pb, sol) if sol.success else None
-    report = StartReport(index, start, sol.status, sol.success, objective, repaired, sol.iterations,
-                         sol.exchanges, time.perf_counter() - t0)
-    return report, sol
+    names = pb.design_names
+    start = dict(zip(names, map(float, x0)))
+    tried, least, failed, point = [], None, None, np.asarray(x0, float)
+    for k in range(RETRIES + 1):
+        if k:
+            point = None if retry is None else retry(k - 1)
+            if point is None:
+                break
+        ph1, repaired = feasible_start(solver, repair, point, fixed_v)
+        entry = {"start": dict(zip(names, map(float, point))), "repaired": repaired}
+        tried.append(entry)
+        if ph1 is None:
+            entry.update({"phase1": "does not assemble and could not be repaired", "violation": None})
+            continue
+        entry.update({"phase1": ph1.status, "violation": ph1.violation, "phase1_iterations": ph1.iterations})
+        if least is None or ph1.violation < least.violation:
+            least = ph1
+        if not ph1.feasible:
+            continue
+        sol = solver.solve(ph1.x, fixed_v)
+        entry["status"] = sol if isinstance(sol, str) else sol.status
+        if not isinstance(sol, str) and sol.success:
+            report = StartReport(index, start, sol.status, True, objective_value(pb, sol), repaired, sol.iterations,
+                                 sol.exchanges, time.perf_counter() - t0, tuple(tried), dict(zip(names, map(float, ph1.x))),
+                                 dict(zip(names, map(float, np.clip(sol.x, pb.lower, pb.upper)))),
+                                 _phase1_iterations(tried), 0.0)
+            return report, sol
+        failed = (sol, ph1, repaired)
+    repaired_any = any(e["repaired"] for e in tried)
+    if failed is not None:  # phase 1 succeeded somewhere, the objective phase failed from there
+        sol, ph1, _ = failed
+        status = sol if isinstance(sol, str) else sol.status
+        its, exchanges, end = (0, 0, None) if isinstance(sol, str) else (
+            sol.iterations, sol.exchanges, dict(zip(names, map(float, np.clip(sol.x, pb.lower, pb.upper)))))
+        return StartReport(index, start, status, False, None, repaired_any, its, exchanges, time.perf_counter() - t0,
+                           tuple(tried), dict(zip(names, map(float, ph1.x))), end, _phase1_iterations(tried), 0.0), None
+    status = ("phase 1 failed: no point assembles" if least is None else
+              f"phase 1 failed: least violation {least.violation:.3g} (scaled) after {len(tried)} points")
+    return StartReport(index, start, status, False, None, repaired_any, 0, 0, time.perf_counter() - t0, tuple(tried),
+                       None if least is None else dict(zip(names, map(float, least.x))), None,
+                       _phase1_iterations(tried), None if least is None else least.violation), None
 
 
-def summarise(problem, solver, reports, solutions, timings) -> OptimisationResult:
+def _phase1_iterations(tried) -> int:
+    return sum(e.get("phase1_iterations", 0) for e in tried)
+
+
+def summarise(problem, solver, reports, solutions, timings, plan=None, fixed=None) -> OptimisationResult:
     """The result of the starts: the best certified optimum (and how many starts reached it
-    within 1e-3), its constraints and sensitivities; or why none converged."""
+    within 1e-3), the distinct local optima, its constraints and sensitivities; or why none
+    converged (with the least-violating design when phase 1 failed from every start)."""
     pb = problem
+    optima = local_optima(pb, reports, solutions)
+    index_of = {s: j for j, o in enumerate(optima) for s in o.starts}
+    reports = [_with_optimum(r, index_of.get(r.index)) for r in reports]
+    starts_info = plan.as_dict() if plan is not None else {"method": "given", "screened": 0, "reserve": None}
     good = [(r.objective, i) for i, r in enumerate(reports) if r.success and r.objective is not None]
     if not good:
-        statuses = sorted({r.status for r in reports})
-        return OptimisationResult(
-            pb.scene, {}, None, None, pb.objective_kind, None, None, False, "; ".join(statuses),
-            "No start converged to a feasible design. Try more starts (--starts), widen the bounds, "
-            "relax the constraints, or check the start with `optdesign analyse`.",
-            {}, {}, len(reports), 0, tuple(reports), timings, pb.settings)
+        return _no_optimum(pb, reports, timings, starts_info)
     best_value, best = min(good)
     at_best = sum(1 for v, _ in good if abs(v - best_value) <= 1e-3 * max(abs(best_value), 1e-300))
-    sol = solutions[best]
+    # the best start's solution with its sample points on the continuous extrema (its
+    # multipliers are then the continuous problem's); the same optimum to the tolerances
+    sol = solver.polish(solutions[best], fixed)
+    best_value = objective_value(pb, sol)
     factor = objective_gradient_factor(pb, sol)
     peak_key = (pb.objective_text, "abs")
     peak_c = abs(sol.certified[peak_key]) if peak_key in sol.certified else None
     peak_s = abs(sol.sampled[peak_key]) if peak_key in sol.sampled else None
+    n = len(reports)
+    message = ("local optimum: IPOPT converged and the continuous check agrees (1 start: "
+               "a local optimum, run more starts to search for a better one)" if n == 1 else
+               "optimal: the best of the starts' local optima; IPOPT converged and the continuous check agrees")
     return OptimisationResult(
         scene=pb.scene, design=dict(zip(pb.design_names, map(float, np.clip(sol.x, pb.lower, pb.upper)))),
         objective=best_value, objective_sampled=objective_value(pb, sol, certified=False),
         objective_kind=pb.objective_kind, peak_certified=peak_c, peak_sampled=peak_s,
-        success=True, status=sol.status, message="optimal: IPOPT converged and the continuous check agrees",
+        success=True, status=sol.status, message=message,
         constraints=constraint_report(pb, sol, factor), sensitivities=sensitivities(pb, sol, factor),
-        starts_total=len(reports), starts_at_best=at_best, starts=tuple(reports), timings=timings,
-        settings=pb.settings)
+        starts_total=n, starts_at_best=at_best, starts=tuple(reports), timings=timings,
+        settings=pb.settings, optima=optima, start_plan=starts_info)
+
+
+def _with_optimum(report, j):
+    import dataclasses
+
+    return dataclasses.replace(report, optimum=j)
+
+
+def _no_optimum(pb, reports, timings, starts_info) -> OptimisationResult:
+    """No start converged: 'infeasible' (with the least-violating design and what it violates)
+    when phase 1 failed from every start, else the statuses of the failed objective phases."""
+    phase1_failed = all(r.status.startswith("phase 1 failed") for r in reports)
+    statuses = sorted({r.status for r in reports})
+    if phase1_failed:
+        least = min((r for r in reports if r.violation is not None), key=lambda r: r.violation, default=None)
+        violated = {} if least is None else violated_constraints(pb, least.feasible_start)
+        where = ("no start point assembled" if least is None else
+                 f"the least-violating design {least.feasible_start} violates "
+                 + "; ".join(f"{k} by {v:.4g}" for k, v in violated.items()))
+        return OptimisationResult(
+            pb.scene, {}, None, None, pb.objective_kind, None, None, False, "infeasible",
+            f"Phase 1 (minimise the constraint violation) failed from every start and its retries: {where}. "
+            "Relax those constraints or widen the bounds, or try more starts (--starts).",
+            {}, {}, len(reports), 0, tuple(reports), timings, pb.settings,
+            least_violating=None if least is None else {"design": least.feasible_start, "violated": violated},
+            start_plan=starts_info)
+    return OptimisationResult(
+        pb.scene, {}, None, None, pb.objective_kind, None, None, False, "; ".join(statuses),
+        "No start converged to a feasible design. Try more starts (--starts), widen the bounds, "
+        "relax the constraints, or check the start with `optdesign analyse`.",
+        {}, {}, len(reports), 0, tuple(reports), timings, pb.settings, start_plan=starts_info)
+
+
+def violated_constraints(pb, design: dict) -> dict:
+    """Each block violated at ``design`` on the NLP's initial sample points: its worst
+    violation in physical units (a margin: how far the construction is from assembling)."""
+    x = np.array([design[n] for n in pb.design_names])
+    fixed = pb.mech.parameter_values[pb.fixed_index]
+    s_pts = np.r_[pb.base_points, pb.initial_slots]
+    phase1 = pb._once("phase 1", lambda: Phase1(pb))
+    w = Solver(pb)._initial_w(x, fixed, s_pts)
+    if isinstance(w, str):
+        return {"assembly": float("inf")}
+    g = np.asarray(phase1.g(w, pb.nlp_parameters(fixed, s_pts, x))).ravel()
+    lbg, ubg = pb.row_bounds(s_pts)
+    out = {}
+    for name, kind, start, n in pb.g_blocks:
+        if kind == "peak":
+            continue
+        sl = slice(start, start + n)
+        v = float(np.max(np.maximum(np.maximum(lbg[sl] - g[sl], g[sl] - ubg[sl]), 0.0), initial=0.0))
+        if v > 1e-7:
+            label = {"aggregate": "stroke extreme", "dead centre": "dead centre (the drive stops moving)"}.get(kind, name)
+            out[label] = v * pb.g_scale.get(name, 1.0)
+    return out

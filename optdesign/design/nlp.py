@@ -39,6 +39,7 @@ import math
 import casadi as ca
 import numpy as np
 
+from ..model import compiled
 from .aggregates import aggregate_start, located_aggregates, outer_start, outer_value, quadrature, rms_panels
 from .bounds import numeric_bounds
 from .cases import at_points, case_nlp, needs_mx
@@ -164,7 +165,8 @@ def build_nlp(pb):
     pb._nlp_dict = nlp
     # the NLP's functions and derivatives from the disk cache of compiled code when it has them
     # (model/compiled.py); the same numbers as CasADi's virtual machine
-    pb.solver = ca.nlpsol("design", "ipopt", nlp, opts)
+    pb._nlp_function = ca.Function("nlp", [nlp["x"], nlp["p"]], [nlp["f"], nlp["g"]], ["x", "p"], ["f", "g"])
+    pb.solver = compiled.solver("design", "ipopt", pb._nlp_function, opts)
     pb.solver_options = opts  # IPOPT options (the warm solver and the benchmark reuse them)
     pb.lbg, pb.ubg = np.array(lbg), np.array(ubg)
     # an epigraph's aggregate keeps the sign it has at the start design: this keeps outer
@@ -223,7 +225,7 @@ def warm_solver(pb):
                                       "ipopt.mu_init": 1e-6, **{f"ipopt.warm_start_{k}": 1e-8 for k in (
                                           "bound_push", "bound_frac", "slack_bound_push", "slack_bound_frac",
                                           "mult_bound_push")}})
-    return ca.nlpsol("design_warm", "ipopt", pb._nlp_dict, warm)
+    return compiled.solver("design_warm", "ipopt", pb._nlp_function, warm)
 
 
 def row_bounds(pb, s_points):

@@ -15,14 +15,20 @@ class StartReport:
     """What one start did."""
 
     index: int
-    start: dict
-    status: str            # IPOPT's return status, or 'skipped: ...'
+    start: dict            # the point the start was drawn at
+    status: str            # IPOPT's return status, 'phase 1 failed: ...' or 'skipped: ...'
     success: bool          # IPOPT converged and the continuous check agreed
     objective: float | None
-    repaired: bool
-    iterations: int
+    repaired: bool         # a point did not assemble and was projected onto designs that do
+    iterations: int        # IPOPT iterations of the objective phase
     exchanges: int
     time_s: float
+    tried: tuple = ()      # every point tried (the start, then retries): its phase 1's status and violation
+    feasible_start: dict | None = None  # the design phase 1 gave (the least-violating one if it failed)
+    end: dict | None = None             # where the objective phase ended
+    phase1_iterations: int = 0
+    violation: float | None = None      # phase 1's remaining violation (scaled; 0 when feasible)
+    optimum: int | None = None          # index of the local optimum it reached in OptimisationResult.optima
 
 
 @dataclass(frozen=True)
@@ -67,6 +73,9 @@ class OptimisationResult:
     starts: tuple
     timings: dict = field(default_factory=dict)
     settings: SolverSettings = field(default_factory=SolverSettings)
+    optima: tuple = ()               # distinct local optima (clusters.LocalOptimum), best first
+    least_violating: dict | None = None  # when infeasible: {design, violated: {constraint: amount}}
+    start_plan: dict = field(default_factory=dict)  # how the starts were drawn: method, candidates screened
 
     def __repr__(self):
         state = "optimum" if self.success else f"failed ({self.status})"

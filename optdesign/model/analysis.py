@@ -16,8 +16,8 @@ from .mapped import MappedFunction
 from ..scene.cases import is_case_constraint
 from .cases import CaseAnalysis
 from .finite import check_columns, check_values
+from .blocked import stroke_evaluator
 from .reduction import ReducedModel
-from .vectorised import VectorisedSX
 
 
 @dataclass(frozen=True)
@@ -38,7 +38,6 @@ class AnalysisResult:
     min_sampled, max_sampled}); ``constraints_sampled`` the per-stroke constraints on the
     samples only.  Without certification (``Analysis(..., certify=False)``) the certified
     entries equal the sampled ones."""
-
 
     scene: Scene
     columns: dict
@@ -94,10 +93,9 @@ class Analysis:
         self.names = list(outs)
         self.function = self.mech.function("reduced_model", outs)
         self.mapped = self.function.map(len(self.s_values))
-        try:  # numpy over the whole stroke, instruction by instruction (SX graphs only)
-            self.vectorised = VectorisedSX(self.function)
-        except NotImplementedError:
-            self.vectorised = None
+        # over the whole stroke: compiled blocks from the disk cache, else numpy instruction by
+        # instruction (SX graphs only; model/blocked.py)
+        self.vectorised = stroke_evaluator(self.function)
         self._points = None
         self.certified = CertifiedExtremes(self) if certify else None
         self.case_analysis = CaseAnalysis(self.mech, self.s_values) if scene.cases else None

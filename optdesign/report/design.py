@@ -20,14 +20,15 @@ def optimisation_json(result) -> dict:
         "starts_total": result.starts_total, "starts_at_best": result.starts_at_best,
         "constraints": result.constraints, "sensitivities": result.sensitivities,
         "starts": [dataclasses.asdict(s) for s in result.starts],
+        "optima": [o.as_dict() for o in result.optima], "least_violating": result.least_violating,
+        "start_plan": result.start_plan,
         "timings": result.timings, "settings": dataclasses.asdict(result.settings),
         **cases_json(result),   # with [[cases]]: governing case, duty cycle, drive train (report/design_cases.py)
     }
 
 
 def summary(result) -> str:
-    lines = [f"{result.scene.title}", f"minimise {result.scene.objective.minimise}: "
-             + ("OPTIMAL" if result.success else "FAILED") + f" ({result.status})", result.message]
+    lines = [f"{result.scene.title}", f"minimise {result.scene.objective.minimise}: {headline(result)}", result.message]
     if result.success:
         lines.append("design:")
         lines += [f"  {k} = {v:.9g}" for k, v in result.design.items()]
@@ -46,14 +47,64 @@ def summary(result) -> str:
             lines.append("sensitivities d objective / d parameter:")
             lines += [f"  {k}: {v:.6g}" for k, v in result.sensitivities.items()]
         lines += [cases_summary(result)] if result.scene.cases else []   # report/design_cases.py
-    lines.append(f"starts: {result.starts_at_best} of {result.starts_total} reached the best value within 0.1 %")
-    for s in result.starts:
-        obj = "-" if s.objective is None else f"{s.objective:.9g}"
-        lines.append(f"  start {s.index:2d}: {s.status}{' (repaired)' if s.repaired else ''}, objective {obj}, "
-                     f"{s.iterations} iterations, {s.exchanges} exchanges, {s.time_s * 1e3:.1f} ms")
+    lines += starts_lines(result)
     lines.append(f"time: {result.timings.get('total_s', float('nan')):.3f} s "
                  f"(build {result.timings.get('build_s', float('nan')):.3f} s)")
     return "\n".join(lines)
+
+
+def headline(result) -> str:
+    """What the run found, in one phrase: never a plain OPTIMAL for a single start (a local
+    optimum), nor a failure where phase 1 found no feasible design (infeasible)."""
+    if not result.success:
+        return "INFEASIBLE (no start could be made feasible)" if result.status == "infeasible" else f"FAILED ({result.status})"
+    if result.starts_total == 1:
+        return f"local optimum (1 start; {result.status})"
+    reached = len(result.optima[0].starts) if result.optima else result.starts_at_best
+    return f"OPTIMAL (best of {result.starts_total} starts, reached by {reached}; {result.status})"
+
+
+def starts_lines(result) -> list:
+    """The starts: how many reached the best, the distinct local optima, each start's path."""
+    from ..design.clusters import DESIGN_TOL, VALUE_REL, few
+
+    n = result.starts_total
+    lines = [f"starts: {result.starts_at_best} of {n} reached the best value within 0.1 %"]
+    if result.success and result.optima:
+        best = len(result.optima[0].starts)
+        if few(best, n):
+            lines.append(f"best reached by {best} of {n} starts: run more starts (--starts) to search for a better one")
+        lines.append(f"local optima ({len(result.optima)} distinct: objective within {VALUE_REL:g} relative, "
+                     f"design within {DESIGN_TOL:g} of each range):")
+        for j, o in enumerate(result.optima[:10]):
+            design = ", ".join(f"{k} = {v:.6g}" for k, v in o.design.items())
+            lines.append(f"  #{j + 1}: {o.value:.9g} from {len(o.starts)} start{'s' if len(o.starts) > 1 else ''} "
+                         f"({_indices(o.starts)}): {design}")
+        if len(result.optima) > 10:
+            lines.append(f"  ... and {len(result.optima) - 10} more (result.json: optima)")
+    if result.least_violating:
+        lv = result.least_violating
+        lines.append("least-violating design: " + ", ".join(f"{k} = {v:.6g}" for k, v in lv["design"].items()))
+        lines += [f"  violates {k} by {v:.6g}" for k, v in lv["violated"].items()]
+    plan = result.start_plan or {}
+    if plan.get("method") == "given":
+        lines.append("starts given (retries from screened candidates)")
+    elif plan.get("screened"):
+        lines.append(f"starts drawn: the scene's start, then the best of {plan['screened']} screened "
+                     f"candidates ({plan.get('method')})")
+    for s in result.starts:
+        obj = "-" if s.objective is None else f"{s.objective:.9g}"
+        where = "" if s.optimum is None else f" (optimum #{s.optimum + 1})"
+        retries = f", {len(s.tried) - 1} retr{'ies' if len(s.tried) > 2 else 'y'}" if len(s.tried) > 1 else ""
+        phase1 = f", phase 1 {s.phase1_iterations} iterations" if s.phase1_iterations else ""
+        lines.append(f"  start {s.index:2d}: {s.status}{' (repaired)' if s.repaired else ''}, objective {obj}{where}"
+                     f"{retries}{phase1}, {s.iterations} iterations, {s.exchanges} exchanges, {s.time_s * 1e3:.1f} ms")
+    return lines
+
+
+def _indices(starts) -> str:
+    shown = ", ".join(map(str, starts[:8]))
+    return f"starts {shown}" + (", ..." if len(starts) > 8 else "")
 
 
 def _fmt(v):

@@ -99,6 +99,13 @@ class Validator:
         if p.value.names():
             self._fail(where.at("value"), f"a design variable's start must be a number, found {p.value.source!r} "
                                           "(which depends on other parameters)")
+        if (p.lower is None) != (p.upper is None):
+            # the optimiser searches the box between the bounds: with one side open the
+            # objective can push the variable to infinity (an unbounded problem)
+            given, missing = ("min", "max") if p.upper is None else ("max", "min")
+            self._fail(where.at(given), f"design variable {p.name!r} has {given} but no {missing}: give both "
+                                        f"bounds (the optimiser searches the box between them; with one side open "
+                                        f"the objective can push {p.name} to {'+' if missing == 'max' else '-'}infinity)")
         if not lo < hi:
             self._fail(where.at("min"), f"min {_exact(lo)} must be below max {_exact(hi)}")
         # a few ulps of slack: a value computed to land on a bound (a study grid's end, 0.1*3)
@@ -346,6 +353,7 @@ class Validator:
                 near_miss(ref, self.scene.point_names()) or
                 (f"; points built so far: {', '.join(built)}" if built else "; no point is built before this"))
         self._fail(where, src + detail, cls)
+
 
 def _exact(x) -> str:
     """A number in full precision (the shortest text that reads back as the same float), so

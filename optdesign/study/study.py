@@ -63,9 +63,10 @@ class Study:
 
     ``axes``: a list of :class:`Axis` (from :func:`grid`, :func:`values`, :func:`together`,
     :func:`pareto`) or a dict {parameter: values}.  ``starts``/``seed``: the cold starts of an
-    optimisation case (the scene's start, then random points: :func:`optimise.draw_starts`);
-    ``warm``: chain the cases along the last axis, each starting from the previous optimum and
-    ``warm_starts - 1`` cold starts; ``chain``: cases per chain at most; ``settings``: a
+    optimisation case (the scene's start, then the best screened space-filling points:
+    :func:`~optdesign.design.starts.plan_starts`); ``warm``: chain the cases along the last axis,
+    each starting from the previous optimum and ``warm_starts - 1`` cold starts (falling back to
+    the cold starts when that fails); ``chain``: cases per chain at most; ``settings``: a
     :class:`~optdesign.design.problem.SolverSettings`."""
 
     scene: object

@@ -185,6 +185,20 @@ def run_task(task: Task) -> dict:
     return {"row": row, "x": x, "time_s": time.perf_counter() - t0}
 
 
+def run_batch(tasks: list) -> list:
+    """Consecutive cases of one chain, in order, in one call (one Dask task for several cases):
+    each case after the first is warm-started from the optimum of the one before it, exactly as
+    the client would start it from the journal (None after a failed case), so a batch gives the
+    numbers of the cases run one by one.  Returns their outputs in order."""
+    outs = []
+    for i, task in enumerate(tasks):
+        if i:
+            x = outs[-1]["x"]
+            task = dataclasses.replace(task, x_warm=None if x is None else tuple(x))
+        outs.append(run_task(task))
+    return outs
+
+
 def _leaf_values(names, scene, default):
     """Values of the leaf parameters ``names`` in ``scene`` (or ``default`` when no override)."""
     if scene is None:
@@ -198,31 +212,43 @@ def _leaf_values(names, scene, default):
 def _optimise(task: Task, model, scene):
     import numpy as np
 
-    from ..design.multistart import draw_starts, solve_start, summarise
+    from ..design.multistart import draw_plan, solve_start, summarise
     from ..design.solver import Solver
+    from ..design.starts import StartPlan, plan_starts
 
     problem, repair = model
-    # a fresh Solver per case: a Solver carries what it learned from one start to the next
-    # (the sample points that certified the last optimum), so reusing one across cases would
-    # make a case's numbers depend on which cases ran before it in the same process
+    # a fresh Solver per case (a Solver passes nothing from one start to the next, so this
+    # only keeps its buffers to one case)
     solver = Solver(problem)
     fixed = _leaf_values(problem.fixed_names, scene, solver.fixed_values())
     t0 = time.perf_counter()
+
+    def run(plan):
+        runs = [solve_start(solver, repair, i, x0, fixed, retry=lambda k, i=i: plan.retry(i, k))
+                for i, x0 in enumerate(plan.points)]
+        reports, solutions = [r for r, _ in runs], [s for _, s in runs]
+        return summarise(problem, solver, reports, solutions, {"total_s": time.perf_counter() - t0}, plan, fixed), reports
+
+    fallback = None
     if task.x_warm is None:
-        xs = draw_starts(problem, task.starts, task.seed)
+        result, reports = run(draw_plan(problem, task.starts, task.seed, fixed))
     else:
-        cold = draw_starts(problem, max(task.warm_starts - 1, 0), task.seed)
-        xs = np.vstack([np.asarray(task.x_warm, float)[None, :], cold])[:max(task.warm_starts, 1)]
-    reports, solutions = [], []
-    for i, x0 in enumerate(xs):
-        report, sol = solve_start(solver, repair, i, x0, fixed)
-        reports.append(report)
-        solutions.append(sol)
-    result = summarise(problem, solver, reports, solutions, {"total_s": time.perf_counter() - t0})
+        n = max(task.warm_starts, 1)
+        cold = plan_starts(problem, n - 1, task.seed, fixed).points if n > 1 else np.zeros((0, len(problem.design_names)))
+        points = np.vstack([np.asarray(task.x_warm, float)[None, :], cold])
+        plan = StartPlan(points, method="warm", plan_reserve=lambda: plan_starts(problem, n, task.seed, fixed))
+        result, reports = run(plan)
+        fallback = False
+        if not result.success:
+            # a warm start (the previous case's optimum) that fails says nothing about this case:
+            # a cold multistart decides before the case is reported infeasible
+            result, more = run(draw_plan(problem, task.starts, task.seed, fixed))
+            reports, fallback = reports + more, True
     row = {"status": result.status, "success": result.success, "objective": result.objective,
            "objective_sampled": result.objective_sampled, "peak_certified": result.peak_certified,
            "starts_total": result.starts_total, "starts_at_best": result.starts_at_best,
            "warm": task.x_warm is not None, "iterations": sum(r.iterations for r in reports)}
+    row["cold_fallback"] = bool(fallback)  # in every row: a partial table has the same columns
     if not result.success:
         return row, None
     row.update({f"design:{k}": v for k, v in result.design.items()})

@@ -1,0 +1,119 @@
+"""Phase 1: from a start, a design that satisfies every constraint at the NLP's sample points,
+before the objective is minimised from it.
+
+An elastic NLP on the design NLP's own rows (the same CasADi graph, so the same exact first
+and second derivatives): every row except the epigraph of the peak gets two nonnegative
+elastic variables, ``lbg <= g(w) + e_lo - e_hi <= ubg``, and IPOPT minimises
+
+    sum(e_lo + e_hi) + rho |z - z0|^2
+
+over the design z (its box kept), the stroke aggregates and the elastics.  The problem is
+feasible from any design that assembles (the elastics absorb every violation), so IPOPT does
+not end in its restoration phase or declare the problem infeasible; the L1 penalty is exact
+(the small proximal term keeps the result near the start, so that space-filling starts stay
+spread, and its multipliers stay far below 1), so a start from which a feasible design is
+reachable ends with zero elastics.  Assembly margins, the transmission angle, stroke
+constraints and the dead-centre guard are all rows, and all are included.  The rows' bounds
+are tightened by ``INTERIOR`` (scaled) where the row's range allows it, so that the objective
+phase starts strictly inside rather than on a boundary where a line search step can leave
+the designs that assemble.
+
+A start that does not assemble at the sample points (NaN rows) is first projected onto designs
+that do (:class:`~optdesign.design.repair.Repair`).  A start from which phase 1 ends with
+nonzero elastics is a local minimum of the violation: the multistart retries it from a fresh
+point (:mod:`.starts`), and reports the problem infeasible only when every start failed.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+RHO = 1e-2          # proximal weight on the scaled design (|z| <= 1 per variable)
+INTERIOR = 1e-2     # rows' bounds tightened by this (scaled) in phase 1
+# the monotone barrier strategy from IPOPT's default mu_init: from the library's starts it
+# makes 100 % of the wheel loader's starts feasible where the adaptive one (the objective
+# phase's) leaves a third at a local minimum of the violation (benchmarks/bench_library.py)
+OPTIONS = {"ipopt.mu_strategy": "monotone", "ipopt.mu_init": 0.1}
+FEASIBLE = 1e-7     # a phase-1 design is feasible when no scaled row is violated by more
+
+
+@dataclass(frozen=True)
+class Phase1Result:
+    """What phase 1 did from one start: the design (physical units), its worst scaled
+    violation at the sample points, IPOPT's status and iterations (0 when the start was
+    feasible already and no solve was needed)."""
+
+    x: np.ndarray
+    violation: float
+    status: str
+    iterations: int
+
+    @property
+    def feasible(self) -> bool:
+        return self.violation <= FEASIBLE
+
+
+class Phase1:
+    """The elastic feasibility NLP of one design problem (built once, solved per start)."""
+
+    def __init__(self, pb):
+        self.pb = pb
+        nlp = pb._nlp_dict
+        sym = ca.MX if isinstance(nlp["x"], ca.MX) else ca.SX
+        nd, na = len(pb.design_names), len(pb.aggregates)
+        kinds = np.empty(len(pb.lbg), object)
+        for name, kind, start, n in pb.g_blocks:
+            kinds[start:start + n] = kind
+        self.rows = np.flatnonzero(kinds != "peak")
+        self.kinds = kinds
+        m = len(self.rows)
+        z, a = sym.sym("z", nd), sym.sym("a", na)
+        e_lo, e_hi = sym.sym("e_lo", m), sym.sym("e_hi", m)
+        p, z0 = sym.sym("p", nlp["p"].numel()), sym.sym("z0", nd)
+        g_all = ca.Function("phase1_rows", [nlp["x"], nlp["p"]], [nlp["g"]])
+        w = ca.vertcat(z, ca.DM.zeros(pb.n_t), a)
+        g = g_all(w, p)[self.rows.tolist()] + e_lo - e_hi
+        f = ca.sum1(e_lo) + ca.sum1(e_hi) + RHO * ca.sumsqr(z - z0)
+        opts = {k: v for k, v in pb.solver_options.items() if k != "ipopt.expect_infeasible_problem"}
+        opts.update({"ipopt.tol": 1e-9, "ipopt.constr_viol_tol": 1e-9, "ipopt.max_iter": 500})
+        opts.update(OPTIONS)
+        self.solver = ca.nlpsol("phase1", "ipopt", {"x": ca.vertcat(z, a, e_lo, e_hi), "p": ca.vertcat(p, z0),
+                                                  "f": f, "g": g}, opts)
+        self.g = ca.Function("phase1_check", [nlp["x"], nlp["p"]], [nlp["g"]])
+        self.nd, self.na, self.m = nd, na, m
+
+    def violation(self, w, p, lbg, ubg) -> float:
+        """Worst scaled violation of the checked rows at the NLP point w (inf if not finite)."""
+        g = np.asarray(self.g(w, p)).ravel()[self.rows]
+        with np.errstate(invalid="ignore"):
+            v = np.max(np.maximum(np.maximum(lbg[self.rows] - g, g - ubg[self.rows]), 0.0), initial=0.0)
+        return float(v) if np.all(np.isfinite(g)) else np.inf
+
+    def __call__(self, w0, p, lbg, ubg) -> Phase1Result:
+        """Phase 1 from the NLP point ``w0`` (design, t, aggregates) with NLP parameters ``p``
+        and row bounds (lbg, ubg)."""
+        pb, nd, na = self.pb, self.nd, self.na
+        z0 = np.asarray(w0[:nd], float)
+        start_violation = self.violation(w0, p, lbg, ubg)
+        if start_violation <= FEASIBLE:
+            return Phase1Result(pb.to_x(z0), start_violation, "feasible at the start", 0)
+        lo, hi = lbg[self.rows].copy(), ubg[self.rows].copy()
+        room = hi - lo > 4 * INTERIOR
+        lo = np.where(room & np.isfinite(lo), lo + INTERIOR, lo)
+        hi = np.where(room & np.isfinite(hi), hi - INTERIOR, hi)
+        g0 = np.asarray(self.g(w0, p)).ravel()[self.rows]
+        e_lo0 = np.where(np.isfinite(lo), np.maximum(lo - g0, 0.0), 0.0) + 1e-3
+        e_hi0 = np.where(np.isfinite(hi), np.maximum(g0 - hi, 0.0), 0.0) + 1e-3
+        a0 = np.asarray(w0[nd + pb.n_t:], float)
+        nw = nd + na + 2 * self.m
+        lbx = np.r_[pb.lbw[:nd], pb.lbw[nd + pb.n_t:], np.zeros(2 * self.m)]
+        ubx = np.r_[pb.ubw[:nd], pb.ubw[nd + pb.n_t:], np.full(2 * self.m, np.inf)]
+        res = self.solver(x0=np.r_[z0, a0, e_lo0, e_hi0][:nw], p=np.r_[p, z0], lbx=lbx, ubx=ubx, lbg=lo, ubg=hi)
+        stats = self.solver.stats()
+        x = np.asarray(res["x"]).ravel()
+        z = np.clip(x[:nd], pb.lbw[:nd], pb.ubw[:nd])
+        w = np.r_[z, w0[nd:nd + pb.n_t], x[nd:nd + na]]
+        return Phase1Result(pb.to_x(z), self.violation(w, p, lbg, ubg), stats["return_status"],
+                            int(stats.get("iter_count", 0)))

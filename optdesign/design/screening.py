@@ -1,0 +1,80 @@
+"""Screening many designs at once: the NLP's own rows and objective at thousands of candidate
+designs, evaluated with numpy one CasADi instruction at a time over all candidates.
+
+CasADi's virtual machine runs a Function's instruction list once per design; here the loop is
+turned inside out (as :mod:`optdesign.model.vectorised` does over the stroke): each instruction
+is one numpy operation over all designs, so the NLP's rows at 4096 designs cost about as much
+as a few hundred evaluations in the virtual machine.  Same graph, same operations, so the
+same numbers to round-off.  A Function that is not SX (or has an operation without a numpy
+counterpart) is expanded to SX first, else evaluated by CasADi's map.
+"""
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+from ..model.vectorised import BINARY, UNARY
+
+
+class ManyDesigns:
+    """A CasADi Function evaluated at many columns of its inputs: ``f(*inputs)`` with each
+    input an array (its nonzeros x columns; a 1-D array is the same for every column) gives
+    each output as an array (its entries x columns, dense, column-major)."""
+
+    def __init__(self, func: ca.Function):
+        self.func = func
+        self.program = None
+        try:
+            sx = func if func.is_a("SXFunction") else func.expand()
+            self.program = self._compile(sx)
+            self.func = sx
+        except (NotImplementedError, RuntimeError):
+            self.program = None
+        self._maps = {}
+
+    @staticmethod
+    def _compile(f):
+        program = []
+        for k in range(f.n_instructions()):
+            op, i, o = f.instruction_id(k), f.instruction_input(k), f.instruction_output(k)
+            if op == ca.OP_INPUT:
+                program.append((0, i[0], i[1], o[0]))
+            elif op == ca.OP_OUTPUT:
+                program.append((1, o[0], o[1], i[0]))
+            elif op == ca.OP_CONST:
+                program.append((2, float(f.instruction_constant(k)), None, o[0]))
+            elif op in BINARY:
+                program.append((3, BINARY[op], (i[0], i[1]), o[0]))
+            elif op in UNARY:
+                program.append((4, UNARY[op], i[0], o[0]))
+            else:
+                raise NotImplementedError(f"CasADi operation {op} has no numpy counterpart")
+        return program
+
+    def __call__(self, *inputs) -> list:
+        f = self.func
+        m = max((np.shape(a)[1] for a in inputs if np.ndim(a) == 2), default=1)
+        columns = [np.asarray(a, float) if np.ndim(a) == 2 else np.asarray(a, float).reshape(-1, 1)
+                   for a in inputs]
+        if self.program is None:
+            if m not in self._maps:
+                self._maps[m] = f.map(m)
+            return [np.asarray(o) for o in self._maps[m](*[np.broadcast_to(c, (c.shape[0], m)) for c in columns])]
+        outs = []
+        for j in range(f.n_out()):
+            outs.append(np.zeros((f.numel_out(j), m)))
+        where = [f.sparsity_out(j).find() for j in range(f.n_out())]
+        work = [None] * f.sz_w()
+        with np.errstate(all="ignore"):  # like CasADi's VM: nan/inf without warnings
+            for kind, a, b, c in self.program:
+                if kind == 3:
+                    work[c] = a(work[b[0]], work[b[1]])
+                elif kind == 4:
+                    work[c] = a(work[b])
+                elif kind == 2:
+                    work[c] = a
+                elif kind == 0:
+                    work[c] = columns[a][b]
+                else:
+                    outs[a][where[a][b]] = work[c]
+        return outs

@@ -1,0 +1,129 @@
+"""A study's cases on a Dask worker, computed in a helper process of that worker.
+
+A Dask worker runs its tasks in a thread of a process whose event loop, heartbeats, memory
+monitor and statistical profiler (every 10 ms) wake other threads all the time; each wake-up
+takes the GIL from the thread that computes.  CasADi holds the GIL through its calls, so the
+computing thread is stopped and handed the GIL back again and again, and on a busy machine each
+hand-over waits for a core: the cases of a study ran 1.3-1.9 times slower inside Dask workers
+than in the local process pool (median time per case, measured on the 2-core machine of
+results/bench.md, whatever the batch size).  So the task only forwards its batch to a helper
+process started by the worker (one per batch running at the same time, kept for the worker's
+life: it builds the scene's model once, as a pool worker does; :func:`prestart` starts them
+before the first batch) and waits on the pipe, which releases the GIL.
+
+The helper is a plain subprocess (Dask workers are daemonic processes, which multiprocessing
+does not let have children) speaking length-prefixed pickles over its stdin and a duplicate of
+its stdout; whatever the computation prints goes to stderr.  It exits when the worker goes
+(end of its input).  A case's numbers do not depend on where it runs (:mod:`.tasks`).
+"""
+from __future__ import annotations
+
+import os
+import pickle
+import struct
+import subprocess
+import sys
+import threading
+import traceback
+from pathlib import Path
+
+_IDLE = []                   # this worker's helpers not computing now
+_GUARD = threading.Lock()
+_HEADER = struct.Struct("<Q")
+
+
+def run_batch_in_helper(tasks: list) -> list:
+    """:func:`.tasks.run_batch` in a helper process of this worker (one per batch running at the
+    same time; each kept for the worker's life)."""
+    helper = _take()
+    try:
+        _send(helper.stdin, tasks)
+        kind, value = _receive(helper.stdout)
+    except (OSError, EOFError, pickle.UnpicklingError) as exc:
+        helper.kill()
+        raise RuntimeError(f"the study's helper process on this Dask worker stopped ({exc!r})") from exc
+    _give(helper)
+    if kind == "error":
+        raise RuntimeError(f"a case failed in the study's helper process:\n{value}")
+    return value
+
+
+def prestart(count: int) -> int:
+    """Have ``count`` helpers ready on this worker before its first batch (they start Python and
+    import CasADi and optdesign while the client prepares the study).  Returns how many run."""
+    with _GUARD:
+        _IDLE[:] = [h for h in _IDLE if h.poll() is None]
+        while len(_IDLE) < count:
+            _IDLE.append(_start())
+        return len(_IDLE)
+
+
+def _take():
+    with _GUARD:
+        while _IDLE:
+            helper = _IDLE.pop()
+            if helper.poll() is None:
+                return helper
+    return _start()
+
+
+def _give(helper):
+    with _GUARD:
+        _IDLE.append(helper)
+
+
+def _start():
+    env = dict(os.environ)
+    root = str(Path(__file__).resolve().parents[2])   # this optdesign, installed or not
+    env["PYTHONPATH"] = root + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+    # Dask starts its workers with MALLOC_TRIM_THRESHOLD_=65536 (memory back to the system at
+    # once): CasADi's and numpy's many small allocations then cost a case 20-25 % more
+    env.pop("MALLOC_TRIM_THRESHOLD_", None)
+    return subprocess.Popen([sys.executable, "-m", "optdesign.study.worker"], stdin=subprocess.PIPE,
+                            stdout=subprocess.PIPE, env=env)
+
+
+def _send(stream, value):
+    data = pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL)
+    stream.write(_HEADER.pack(len(data)) + data)
+    stream.flush()
+
+
+def _receive(stream):
+    header = stream.read(_HEADER.size)
+    if len(header) < _HEADER.size:
+        raise EOFError("end of stream")
+    size = _HEADER.unpack(header)[0]
+    data = stream.read(size)
+    if len(data) < size:
+        raise EOFError("end of stream")
+    return pickle.loads(data)
+
+
+def serve():
+    """The helper: batches in, outputs out, until its input ends."""
+    import signal
+
+    from .tasks import run_batch
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)   # Ctrl-C is the client's to handle (as in the pool)
+    from ..design import multistart, problem, repair   # noqa: F401  (what the first case needs,
+    from ..model import analysis   # noqa: F401          imported before it comes)
+    out = os.fdopen(os.dup(1), "wb")   # the answers' channel; prints of the computation go to stderr
+    os.dup2(2, 1)
+    sys.stdout = sys.stderr
+    inp = sys.stdin.buffer
+    while True:
+        try:
+            tasks = _receive(inp)
+        except EOFError:
+            return
+        try:
+            answer = ("ok", run_batch(tasks))
+        except BaseException:   # noqa: BLE001 - a bug: its traceback goes back to the worker
+            answer = ("error", traceback.format_exc())
+        _send(out, answer)
+
+
+if __name__ == "__main__":
+    serve()

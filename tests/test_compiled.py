@@ -1,0 +1,208 @@
+"""Compiled Functions cached on disk (optdesign/model/compiled.py, model/blocked.py): the same
+numbers as CasADi's virtual machine, a damaged cache entry found and rebuilt, the fallback
+without a compiler said once, the opt-out, the background compiler, and a key that another
+process (a study's worker) finds again.  Each test has its own cache folder."""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+import time
+import warnings
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from optdesign import load
+from optdesign.model import compiled
+from optdesign.model.analysis import Analysis
+from optdesign.model.blocked import BlockedFunction, stroke_evaluator
+from optdesign.model.vectorised import VectorisedSX
+
+ROOT = Path(__file__).resolve().parents[1]
+pytestmark = pytest.mark.skipif(compiled.shutil.which(os.environ.get("CC", "gcc")) is None,
+                                reason="no C compiler on this machine")
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch):
+    """A fresh cache folder, compiling on demand (wait), no memory of earlier warnings."""
+    monkeypatch.delenv("OPTDESIGN_NO_COMPILE", raising=False)
+    monkeypatch.setenv("OPTDESIGN_COMPILE", "wait")
+    monkeypatch.setenv("OPTDESIGN_CACHE_DIR", str(tmp_path / "cache"))
+    compiled._compiler.clear()
+    compiled._warned.clear()
+    yield tmp_path / "cache"
+    compiled._compiler.clear()
+    compiled._warned.clear()
+
+
+def small_function():
+    """Every kind of operation the blocked code writes, on a value that varies with s and on
+    parameters alone; NaN where sqrt(negative) (a design that does not assemble)."""
+    s, p = ca.SX.sym("s"), ca.SX.sym("p", 3)
+    a = ca.sqrt(p[0] - s**2) / (1 + ca.fabs(s)) + ca.atan2(s, p[1]) * ca.sign(s - 0.1)
+    b = ca.if_else(s <= p[2], ca.sin(s) * ca.cos(p[1]), 1 / (s + 2)) - 2 * p[2] ** 3
+    return ca.Function("small", [s, p], [a, b, p[0] * p[1]], ["s", "p"], ["a", "b", "c"], {"cse": True})
+
+
+def vm(func, s, p):
+    out = func.map(len(s))(s[None, :], p)
+    out = out if isinstance(out, (list, tuple)) else [out]
+    return {func.name_out(j): np.broadcast_to(np.asarray(o, float).ravel(), (len(s),)) for j, o in enumerate(out)}
+
+
+def assert_same(got: dict, expected: dict):
+    for name, value in expected.items():
+        mine = np.broadcast_to(np.asarray(got[name], float), value.shape)
+        finite = np.isfinite(value)
+        assert np.array_equal(finite, np.isfinite(mine)), name
+        scale = max(float(np.max(np.abs(value[finite]), initial=0.0)), 1e-300)
+        assert np.max(np.abs(mine[finite] - value[finite]), initial=0.0) <= 1e-15 * scale, name
+
+
+S = np.linspace(-1.5, 1.5, 1001)   # not a whole number of blocks; sqrt(1 - s^2) NaN outside |s| <= 1
+P = np.array([1.0, 0.7, 0.3])
+
+
+def test_small_function_compiled_equals_the_virtual_machine(cache):
+    f = small_function()
+    ev = stroke_evaluator(f)
+    assert isinstance(ev, BlockedFunction)
+    assert_same(ev(S, P), vm(f, S, P))
+    assert_same(ev(S[:5], P), vm(f, S[:5], P))          # fewer samples than a block
+    assert sorted(p.suffix for p in cache.glob("external-*") if p.suffix != ".lock") == [".json", ".so"]
+
+
+@pytest.mark.parametrize("scene", ["level_luffing_crane", "seed1_slider_crank"])
+def test_reduced_model_compiled_equals_the_virtual_machine(cache, scene):
+    analysis = Analysis(load(ROOT / "problems" / f"{scene}.toml"), samples=2001, certify=False)
+    assert isinstance(analysis.vectorised, BlockedFunction)
+    p = analysis.mech.parameter_values
+    assert_same(analysis.vectorised(analysis.s_values, p), vm(analysis.function, analysis.s_values, p))
+    # a second build finds the library in the cache (no compiler run: the folder is unchanged)
+    before = sorted(cache.iterdir())
+    again = Analysis(load(ROOT / "problems" / f"{scene}.toml"), samples=2001, certify=False)
+    assert isinstance(again.vectorised, BlockedFunction) and sorted(cache.iterdir()) == before
+
+
+def test_design_nlp_compiled_gives_the_same_optimum(cache, monkeypatch):
+    from optdesign.design.multistart import optimise
+    from optdesign.design.problem import SolverSettings
+
+    settings = SolverSettings(grid=5, slots=2)
+    scene = load(ROOT / "problems" / "seed1_jib.toml")
+    monkeypatch.setenv("OPTDESIGN_NO_COMPILE", "1")
+    reference = optimise(scene, starts=3, settings=settings)
+    monkeypatch.delenv("OPTDESIGN_NO_COMPILE")
+    result = optimise(scene, starts=3, settings=settings)
+    assert list(cache.glob("nlpsol-*.so")), "the NLP was not compiled"
+    assert result.objective == pytest.approx(reference.objective, rel=1e-12)
+    assert [s.iterations for s in result.starts] == [s.iterations for s in reference.starts]
+
+
+@pytest.mark.parametrize("damage", ["flipped bytes", "truncated", "bad record", "no record"])
+def test_a_damaged_entry_is_found_and_rebuilt(cache, damage):
+    f = small_function()
+    stroke_evaluator(f)
+    lib = next(cache.glob("external-*.so"))
+    meta = lib.with_suffix(".json")
+    data = bytearray(lib.read_bytes())
+    if damage == "flipped bytes":
+        mid = len(data) // 2
+        data[mid:mid + 64] = bytes(b ^ 0xFF for b in data[mid:mid + 64])
+        lib.write_bytes(bytes(data))
+    elif damage == "truncated":
+        lib.write_bytes(bytes(data[:len(data) // 3]))
+    elif damage == "bad record":
+        meta.write_text("{not json")
+    else:
+        meta.unlink()
+    key = lib.stem
+    assert compiled.lookup(key) is None               # found damaged (and removed)
+    ev = stroke_evaluator(f)                          # built again
+    assert isinstance(ev, BlockedFunction)
+    assert compiled.lookup(key) == lib
+    assert_same(ev(S, P), vm(f, S, P))
+
+
+def test_without_a_compiler_the_virtual_machine_is_used_and_said_once(cache, monkeypatch):
+    monkeypatch.setenv("CC", "no-such-compiler-here")
+    f = small_function()
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        first, second = stroke_evaluator(f), stroke_evaluator(f)
+    assert isinstance(first, VectorisedSX) and isinstance(second, VectorisedSX)
+    said = [w for w in seen if issubclass(w.category, compiled.CompileWarning)]
+    assert len(said) == 1 and "no C compiler" in str(said[0].message)
+    assert_same(first(S, P), vm(f, S, P))
+
+
+def test_a_failing_compiler_is_noted_and_said_once(cache, monkeypatch, tmp_path):
+    fake = tmp_path / "fakecc"
+    fake.write_text('#!/bin/sh\nif [ "$1" = "--version" ]; then echo "fakecc 1.0"; exit 0; fi\n'
+                    'echo "fakecc: out of order" >&2\nexit 1\n')
+    fake.chmod(0o755)
+    monkeypatch.setenv("CC", str(fake))
+    f = small_function()
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        first, second = stroke_evaluator(f), stroke_evaluator(f)
+    assert isinstance(first, VectorisedSX) and isinstance(second, VectorisedSX)
+    said = [w for w in seen if issubclass(w.category, compiled.CompileWarning)]
+    assert len(said) == 1 and "failed" in str(said[0].message)
+    failed = list(cache.glob("*.failed"))
+    assert len(failed) == 1 and "out of order" in failed[0].read_text()
+    assert not list(cache.glob("*.so"))
+
+
+def test_opt_out_compiles_and_loads_nothing(cache, monkeypatch):
+    stroke_evaluator(small_function())                 # an entry that could be loaded
+    monkeypatch.setenv("OPTDESIGN_NO_COMPILE", "1")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert isinstance(stroke_evaluator(small_function()), VectorisedSX)
+        s, p = ca.SX.sym("s"), ca.SX.sym("p", 1)
+        assert isinstance(stroke_evaluator(ca.Function("other", [s, p], [s * p])), VectorisedSX)
+    assert len(list(cache.glob("*.so"))) == 1
+
+
+def test_background_compiler_fills_the_cache_for_later_runs(cache, monkeypatch):
+    monkeypatch.setenv("OPTDESIGN_COMPILE", "background")
+    f = small_function()
+    assert isinstance(stroke_evaluator(f), VectorisedSX)   # this run: the VM, compiling aside
+    deadline = time.time() + 120
+    while not list(cache.glob("external-*.json")) and time.time() < deadline:
+        time.sleep(0.2)
+    for child in compiled._children:
+        child.wait(timeout=max(deadline - time.time(), 1))
+    ev = stroke_evaluator(f)
+    assert isinstance(ev, BlockedFunction)
+    assert_same(ev(S, P), vm(f, S, P))
+    assert not [p for p in cache.iterdir() if ".tmp" in p.name or ".job" in p.name or ".src" in p.name]
+
+
+def test_another_process_finds_the_same_entry(cache):
+    """A study's worker builds the scene again: its graph has the same key, so it loads the
+    library this process compiled instead of compiling it again."""
+    scene = str(ROOT / "problems" / "truck_crane.toml")
+    a = Analysis(load(scene), samples=101, certify=False)
+    assert isinstance(a.vectorised, BlockedFunction)
+    mine = compiled.entry_key("external", a.function.serialize(), {"name": "optdesign_blocked"})
+    before = sorted((p.name, p.stat().st_mtime_ns) for p in cache.iterdir())
+    code = textwrap.dedent("""
+        import sys
+        from optdesign import load
+        from optdesign.model import compiled
+        from optdesign.model.analysis import Analysis
+        a = Analysis(load(sys.argv[1]), samples=101, certify=False)
+        print(type(a.vectorised).__name__)
+        print(compiled.entry_key("external", a.function.serialize(), {"name": "optdesign_blocked"}))
+    """)
+    out = subprocess.run([sys.executable, "-c", code, scene], capture_output=True, text=True, cwd=ROOT,
+                         env=dict(os.environ), check=True).stdout.split()
+    assert out == ["BlockedFunction", mine]
+    assert sorted((p.name, p.stat().st_mtime_ns) for p in cache.iterdir()) == before
