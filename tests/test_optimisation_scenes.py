@@ -353,17 +353,7 @@ def test_there_are_optimisation_scenes():
         assert expected in names, f"problems/{expected}.toml missing or without an [objective]"
 
 
-# Library machines on which the default multistart does not yet reach the best from 18 of 20
-# starts, as measured on this commit.  Strict: a scene that starts passing must leave this list.
-BELOW_18_OF_20 = {
-    "lib_toggle_press": "5/20 (15 'Solve_Succeeded (exchange did not converge)': the exchange steps "
-                        "of the toggle's sharp ram-force peak do not settle)",
-}
-
-
-@pytest.mark.parametrize("path", [
-    pytest.param(p, marks=pytest.mark.xfail(strict=True, reason=f"issue 14: {BELOW_18_OF_20[p.stem]}"))
-    if p.stem in BELOW_18_OF_20 else p for p in SCENES], ids=IDS)
+@pytest.mark.parametrize("path", SCENES, ids=IDS)
 def test_multistart_reaches_the_best(path):
     result, seconds = optimum(path)
     assert result.success, f"{path.name}: {result.status}: {result.message}"

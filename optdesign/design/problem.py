@@ -62,7 +62,7 @@ class SolverSettings:
     slots: int = 6                 # movable sample points put on the located extrema
     peak_tol: float = 1e-8         # relative agreement of epigraph and continuous peak
     constraint_tol: float = 1e-7   # allowed violation of a scaled constraint between samples
-    max_exchanges: int = 12        # exchange steps per start
+    max_exchanges: int = 20        # exchange steps per start
     rms_panels: int = 16           # composite Gauss-Legendre panels (4 nodes each) for rms(...), doubled until accurate
     rms_tol: float = 1e-7          # relative agreement of the rms with twice as many panels
     efficiency_smoothing: float = 1e-3  # width of the power-flow switch, times the power scale

@@ -12,6 +12,9 @@ from .problem import DesignProblem
 from .results import Solution
 
 
+STEP_START = 0.1   # the exchange's first design step limit, a tenth of each variable's range
+
+
 class Solver:
     """Solves a :class:`DesignProblem` from one start by exchange of sample points."""
 
@@ -46,8 +49,19 @@ class Solver:
             if isinstance(w, str):
                 return w
         iterations, res = 0, None
+        # the design step limit of the exchange (a trust region, scaled design units): none for
+        # the first solve; after an exchange step each solve stays within `step` of the last
+        # design, halved while the worst excess between the samples does not fall, doubled
+        # while a solve ends on the limit.  Tracking an extremum to first order holds only for
+        # small design changes: without a limit a far step moves the extrema far from where the
+        # slots follow them, and the solves can cycle between designs that each exploit a gap
+        # between the samples (the toggle press's sharp forming-force peak).  A design is
+        # accepted only with no excess and off the limit: a local optimum of the continuous problem.
+        step, worst_before = None, np.inf
         for exchange in range(st.max_exchanges + 1):
-            res, stats, its = self._ipopt(w, pb.nlp_parameters(fixed, s_pts, x_ref, tracking), pb.row_bounds(s_pts), res)
+            box = self._step_box(x_ref, step)
+            res, stats, its = self._ipopt(w, pb.nlp_parameters(fixed, s_pts, x_ref, tracking), pb.row_bounds(s_pts),
+                                          res, box)
             iterations += its
             status = stats["return_status"]
             w = np.asarray(res["x"]).ravel()
@@ -56,8 +70,17 @@ class Solver:
             if not stats["success"]:
                 return self._solution(res, x, fixed, s_now, status, False, iterations, exchange, {}, {}, False)
             violations, certified, sampled = self.continuous_check(x, fixed, w, s_now)
-            if not any(v[0] > 0 for v in violations):
+            worst = max((v[0] for v in violations), default=0.0)
+            on_limit = step is not None and self._on_step_limit(w[:nd], box)
+            if worst <= 0 and not on_limit:
                 return self._solution(res, x, fixed, s_now, status, True, iterations, exchange, certified, sampled, True)
+            if step is None:
+                step = STEP_START
+            elif worst > 0 and worst >= worst_before:
+                step *= 0.5
+            elif on_limit:
+                step = min(2.0 * step, 1.0)
+            worst_before = worst
             slots, rows = self._slots(violations, s_now, rows, np.asarray(res["lam_g"]).ravel())
             s_pts = np.r_[pb.base_points, slots]
             tracking = np.zeros((pb.n_points, nd))
@@ -117,11 +140,33 @@ class Solver:
                 tracking[len(pb.base_points) + j] = pb.tracking_gradient(s_j, x, fixed, row)
         return s_pts, x, tracking, rows
 
-    def _ipopt(self, w, p, row_bounds, last=None):
-        """One IPOPT solve: warm from the last solution's multipliers after an exchange step
-        (cold again if that fails).  Returns (result, stats, iterations)."""
+    def _step_box(self, x_ref, step):
+        """(lbw, ubw): the NLP's variable bounds, the design's within ``step`` of x_ref (scaled)."""
         pb = self.pb
-        bounds = {"lbx": pb.lbw, "ubx": pb.ubw, "lbg": row_bounds[0], "ubg": row_bounds[1]}
+        if step is None:
+            return pb.lbw, pb.ubw
+        nd = len(pb.design_names)
+        z = pb.to_z(x_ref)
+        lo, hi = pb.lbw.copy(), pb.ubw.copy()
+        lo[:nd] = np.maximum(lo[:nd], z - step)
+        hi[:nd] = np.minimum(hi[:nd], z + step)
+        return lo, hi
+
+    def _on_step_limit(self, z, box) -> bool:
+        """Whether the design ``z`` lies on a side of the step limit that is not a design bound."""
+        pb = self.pb
+        nd = len(z)
+        lo, hi = box[0][:nd], box[1][:nd]
+        tight = 1e-7
+        return bool(np.any((lo > pb.lbw[:nd]) & (z <= lo + tight)) or np.any((hi < pb.ubw[:nd]) & (z >= hi - tight)))
+
+    def _ipopt(self, w, p, row_bounds, last=None, box=None):
+        """One IPOPT solve: warm from the last solution's multipliers after an exchange step
+        (cold again if that fails), within the variable bounds ``box`` (default the NLP's).
+        Returns (result, stats, iterations)."""
+        pb = self.pb
+        lbx, ubx = (pb.lbw, pb.ubw) if box is None else box
+        bounds = {"lbx": lbx, "ubx": ubx, "lbg": row_bounds[0], "ubg": row_bounds[1]}
         iterations = 0
         if last is not None:
             res = pb.warm_solver(x0=w, p=p, lam_x0=last["lam_x"], lam_g0=last["lam_g"], **bounds)
