@@ -43,7 +43,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "tests"), str(ROOT / "tests" / "library"), str(ROOT / "benchmarks")]
 
 import optdesign  # noqa: E402
-from optdesign.design import multistart, nlp, phase1, starts  # noqa: E402
+from optdesign.design import multistart, nlp, phase1, problem, solver, starts  # noqa: E402
 from optdesign.errors import OptdesignError  # noqa: E402
 from optdesign.report.output import write_atomic  # noqa: E402
 
@@ -200,6 +200,22 @@ def phase1_options(options):
     return patch
 
 
+def max_exchanges(n):
+    """SolverSettings' default number of exchange steps set to n."""
+    @contextlib.contextmanager
+    def patch():
+        old_init = problem.SolverSettings.__init__.__defaults__
+        defaults = list(old_init)
+        names = [f for f in problem.SolverSettings.__dataclass_fields__]
+        defaults[names.index("max_exchanges")] = n
+        problem.SolverSettings.__init__.__defaults__ = tuple(defaults)
+        try:
+            yield
+        finally:
+            problem.SolverSettings.__init__.__defaults__ = old_init
+    return patch
+
+
 def none():
     return contextlib.nullcontext
 
@@ -218,6 +234,9 @@ VARIANTS = [
     ("hessian exact for rms", "the rms objective too (the tool uses limited-memory there)",
      ipopt_change(hessian_approximation=None)),
     ("exchange steps cold", "no warm-start options on an exchange step", cold_exchange()),
+    ("exchange: no step limit", "an exchange step may move the design anywhere in the box (the tool limits it to 0.1 "
+     "of each range, halved or doubled)", lambda: setting(solver, "STEP_START", 1e9)),
+    ("exchange: 12 steps", "at most 12 exchange steps per solve (the tool allows 20)", max_exchanges(12)),
     ("phase 1: mu_strategy adaptive", "phase 1 with the objective phase's barrier strategy (the tool sets monotone)",
      phase1_options({})),
     ("phase 1 left out", "IPOPT from the start as drawn (repair only), as before issue 14", no_phase1()),
