@@ -7,7 +7,9 @@ elastic variables, ``lbg <= g(w) + e_lo - e_hi <= ubg``, and IPOPT minimises
 
     sum(e_lo + e_hi) + rho |z - z0|^2
 
-over the design z (its box kept), the stroke aggregates and the elastics.  The problem is
+over the design z (its box kept), the stroke aggregates and the elastics (and, if that ends
+with a violation, once more from there on the rows' own bounds with rho = 0: the pure L1
+violation).  The problem is
 feasible from any design that assembles (the elastics absorb every violation), so IPOPT does
 not end in its restoration phase or declare the problem infeasible; the L1 penalty is exact
 (the small proximal term keeps the result near the start, so that space-filling starts stay
@@ -71,15 +73,15 @@ class Phase1:
         m = len(self.rows)
         z, a = sym.sym("z", nd), sym.sym("a", na)
         e_lo, e_hi = sym.sym("e_lo", m), sym.sym("e_hi", m)
-        p, z0 = sym.sym("p", nlp["p"].numel()), sym.sym("z0", nd)
+        p, z0, rho = sym.sym("p", nlp["p"].numel()), sym.sym("z0", nd), sym.sym("rho")
         g_all = ca.Function("phase1_rows", [nlp["x"], nlp["p"]], [nlp["g"]])
         w = ca.vertcat(z, ca.DM.zeros(pb.n_t), a)
         g = g_all(w, p)[self.rows.tolist()] + e_lo - e_hi
-        f = ca.sum1(e_lo) + ca.sum1(e_hi) + RHO * ca.sumsqr(z - z0)
+        f = ca.sum1(e_lo) + ca.sum1(e_hi) + rho * ca.sumsqr(z - z0)
         opts = {k: v for k, v in pb.solver_options.items() if k != "ipopt.expect_infeasible_problem"}
         opts.update({"ipopt.tol": 1e-9, "ipopt.constr_viol_tol": 1e-9, "ipopt.max_iter": 500})
         opts.update(OPTIONS)
-        self.solver = ca.nlpsol("phase1", "ipopt", {"x": ca.vertcat(z, a, e_lo, e_hi), "p": ca.vertcat(p, z0),
+        self.solver = ca.nlpsol("phase1", "ipopt", {"x": ca.vertcat(z, a, e_lo, e_hi), "p": ca.vertcat(p, z0, rho),
                                                   "f": f, "g": g}, opts)
         self.g = ca.Function("phase1_check", [nlp["x"], nlp["p"]], [nlp["g"]])
         self.nd, self.na, self.m = nd, na, m
@@ -110,10 +112,20 @@ class Phase1:
         nw = nd + na + 2 * self.m
         lbx = np.r_[pb.lbw[:nd], pb.lbw[nd + pb.n_t:], np.zeros(2 * self.m)]
         ubx = np.r_[pb.ubw[:nd], pb.ubw[nd + pb.n_t:], np.full(2 * self.m, np.inf)]
-        res = self.solver(x0=np.r_[z0, a0, e_lo0, e_hi0][:nw], p=np.r_[p, z0], lbx=lbx, ubx=ubx, lbg=lo, ubg=hi)
-        stats = self.solver.stats()
-        x = np.asarray(res["x"]).ravel()
-        z = np.clip(x[:nd], pb.lbw[:nd], pb.ubw[:nd])
-        w = np.r_[z, w0[nd:nd + pb.n_t], x[nd:nd + na]]
-        return Phase1Result(pb.to_x(z), self.violation(w, p, lbg, ubg), stats["return_status"],
-                            int(stats.get("iter_count", 0)))
+        x0, iterations = np.r_[z0, a0, e_lo0, e_hi0][:nw], 0
+        for rho, (row_lo, row_hi) in ((RHO, (lo, hi)), (0.0, (lbg[self.rows], ubg[self.rows]))):
+            res = self.solver(x0=x0, p=np.r_[p, z0, rho], lbx=lbx, ubx=ubx, lbg=row_lo, ubg=row_hi)
+            stats = self.solver.stats()
+            iterations += int(stats.get("iter_count", 0))
+            x = np.asarray(res["x"]).ravel()
+            z = np.clip(x[:nd], pb.lbw[:nd], pb.ubw[:nd])
+            w = np.r_[z, w0[nd:nd + pb.n_t], x[nd:nd + na]]
+            result = Phase1Result(pb.to_x(z), self.violation(w, p, lbg, ubg), stats["return_status"], iterations)
+            if result.feasible:
+                break
+            # from there once more, on the rows' own bounds and without the proximal term: the
+            # tightened rows can leave no room where the feasible designs form a narrow band
+            # (a stroke equality beside a bound on the ram's depth), and the proximal term can
+            # hold the design back where a violation's gradient is weak
+            x0 = x
+        return result
