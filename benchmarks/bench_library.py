@@ -83,6 +83,8 @@ def shipped_reference(path: Path):
     import test_optimisation_scenes as ind
 
     scene = optdesign.load(path)
+    if scene.cases:   # an objective over load cases: the evaluator has no cases (tests/test_cases_*.py check those)
+        return None
     grid, n, total, assembling = ind.grid_search(scene)
     fine = ind.Stroke(scene, max(2001, scene.sweep.samples), refine=True)
     dense = ind.Stroke(scene, DENSE)
