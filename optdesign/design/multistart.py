@@ -33,9 +33,9 @@ def optimise(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSett
     ``starts`` local solves from reproducible starts (the scene's start, then the best of a
     screened scrambled Sobol sample of the design box drawn with ``seed``) or from explicit
     ``x_starts`` (retried from the seeded reserve if one cannot be made feasible);
-    ``progress(done, total)`` is called after each start; ``workers`` > 1 solves the starts
-    in that many forked processes (where the platform can fork; the result does not depend on
-    the number of workers)."""
+    ``progress(done, total)`` is called once the starts are planned (done = 0) and after each
+    start; ``workers`` > 1 solves the starts in that many forked processes (where the platform
+    can fork; the result does not depend on the number of workers)."""
     starts, seed, workers = optimise_arguments(scene_argument("optimise", scene), starts, seed, workers)
     t0 = time.perf_counter()
     problem = DesignProblem(scene, settings)
@@ -43,6 +43,8 @@ def optimise(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSett
     t_build = time.perf_counter() - t0
     plan = draw_plan(problem, starts, seed, x_starts=x_starts)
     t_plan = time.perf_counter() - t0 - t_build
+    if progress is not None:
+        progress(0, len(plan.points))  # the starts are planned (a caller may stop here: Ctrl-C)
     runs = solve_starts(solver, repair, plan, workers, progress)
     reports, solutions = [r for r, _ in runs], [s for _, s in runs]
     return summarise(problem, solver, reports, solutions,

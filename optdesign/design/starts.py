@@ -3,7 +3,8 @@ screened with the NLP's own rows, and the reserve from which a start that cannot
 feasible is retried.
 
 * Candidates: a scrambled Sobol sequence over the design box (scipy.stats.qmc, seeded with the
-  run's seed), ``CANDIDATES_PER_START`` per start (a power of two, at least ``MIN_CANDIDATES``).
+  run's seed), ``CANDIDATES_PER_START`` per start (a power of two, at least ``MIN_CANDIDATES``,
+  at most ``MAX_CANDIDATES`` unless the starts need more).
   A low-discrepancy sample covers the box evenly where independent uniform draws leave holes
   and clusters; benchmarks/bench_library.py measures it against Latin hypercube and uniform
   draws over the scene library.
@@ -34,6 +35,7 @@ from .screening import ManyDesigns
 
 CANDIDATES_PER_START = 64   # space-filling candidates screened per start
 MIN_CANDIDATES = 1024
+MAX_CANDIDATES = 16384      # (or twice the starts, if more): a few seconds of screening at most
 # zoom levels: (distinct seeds, candidates around each, half-width as a fraction of the box)
 ZOOM = ((8, 256, 0.1), (4, 256, 0.02))
 RETRIES = 4                 # fresh points a start may try after its first
@@ -176,7 +178,8 @@ def plan_starts(pb, starts: int, seed: int, fixed=None, method: str = "sobol", z
         return StartPlan(np.zeros((0, d)), np.zeros((0, d)), 0, method)
     screen = pb._once("screen", lambda: Screen(pb))
     lo, hi = box(pb)
-    n = 2 ** int(np.ceil(np.log2(max(MIN_CANDIDATES, CANDIDATES_PER_START * starts))))
+    wanted = max(MIN_CANDIDATES, min(CANDIDATES_PER_START * starts, MAX_CANDIDATES), 2 * starts)
+    n = 2 ** int(np.ceil(np.log2(wanted)))
     cand = space_filling(pb, n, seed, method)
     f, viol = screen(cand, fixed, pb.lbg, pb.ubg)
     for level, (k, per, h) in enumerate(ZOOM if zoom is None else zoom):

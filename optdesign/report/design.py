@@ -7,6 +7,7 @@ from .design_cases import cases_json, cases_summary
 from . import design_figures
 from .design_figures import FIGURES, write_figures
 from .output import SCHEMA, to_json, write_atomic
+from .units import constraint_scale
 
 
 def optimisation_json(result) -> dict:
@@ -40,9 +41,14 @@ def summary(result) -> str:
         if result.peak_certified is not None:
             lines.append(f"peak |drive| certified = {result.peak_certified:.9g}, sampled = {result.peak_sampled:.9g}")
         lines.append("constraints (value, bounds, multiplier = d objective / d active bound):")
+        by_name = {c.name: c for c in result.scene.constraints}
         for name, c in result.constraints.items():
-            lines.append(f"  {name}: {_fmt(c['value'])} in [{_fmt(c['lower'])}, {_fmt(c['upper'])}]"
-                         f"  multiplier {_fmt(c['multiplier'])}" + (f" ({c['active']} active)" if c["active"] else ""))
+            # in the unit the scene wrote the bounds in (deg), the multiplier per that unit
+            f, unit = constraint_scale(by_name[name]) if name in by_name else (1.0, "")
+            per = f" per {unit}" if unit else ""
+            lines.append(f"  {name}: {_fmt(c['value'], f)} in [{_fmt(c['lower'], f)}, {_fmt(c['upper'], f)}]"
+                         f"{' ' + unit if unit else ''}  multiplier {_fmt(c['multiplier'], 1 / f)}{per}"
+                         + (f" ({c['active']} active)" if c["active"] else ""))
         if result.sensitivities:
             lines.append("sensitivities d objective / d parameter:")
             lines += [f"  {k}: {v:.6g}" for k, v in result.sensitivities.items()]
@@ -107,8 +113,8 @@ def _indices(starts) -> str:
     return f"starts {shown}" + (", ..." if len(starts) > 8 else "")
 
 
-def _fmt(v):
-    return "-" if v is None else f"{v:.6g}"
+def _fmt(v, factor=1.0):
+    return "-" if v is None else f"{v * factor:.6g}"
 
 
 FILES = ("result.json", "summary.txt") + FIGURES
