@@ -13,7 +13,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from ..model.vectorised import BINARY, UNARY
+from ..model.vectorised import instruction_program
 
 
 class ManyDesigns:
@@ -26,30 +26,11 @@ class ManyDesigns:
         self.program = None
         try:
             sx = func if func.is_a("SXFunction") else func.expand()
-            self.program = self._compile(sx)
+            self.program = instruction_program(sx)
             self.func = sx
         except (NotImplementedError, RuntimeError):
             self.program = None
         self._maps = {}
-
-    @staticmethod
-    def _compile(f):
-        program = []
-        for k in range(f.n_instructions()):
-            op, i, o = f.instruction_id(k), f.instruction_input(k), f.instruction_output(k)
-            if op == ca.OP_INPUT:
-                program.append((0, i[0], i[1], o[0]))
-            elif op == ca.OP_OUTPUT:
-                program.append((1, o[0], o[1], i[0]))
-            elif op == ca.OP_CONST:
-                program.append((2, float(f.instruction_constant(k)), None, o[0]))
-            elif op in BINARY:
-                program.append((3, BINARY[op], (i[0], i[1]), o[0]))
-            elif op in UNARY:
-                program.append((4, UNARY[op], i[0], o[0]))
-            else:
-                raise NotImplementedError(f"CasADi operation {op} has no numpy counterpart")
-        return program
 
     def __call__(self, *inputs) -> list:
         f = self.func

@@ -83,11 +83,7 @@ class Solver:
             worst_before = worst
             slots, rows = self._slots(violations, s_now, rows, np.asarray(res["lam_g"]).ravel())
             s_pts = np.r_[pb.base_points, slots]
-            tracking = np.zeros((pb.n_points, nd))
-            for j, s_j in enumerate(slots):
-                row = rows.get(round(s_j, 12))
-                if row is not None:
-                    tracking[len(pb.base_points) + j] = pb.tracking_gradient(s_j, x, fixed, row)
+            tracking = self._tracking(slots, rows, x, fixed)
             x_ref = x
         return self._solution(res, x, fixed, s_now, status + " (exchange did not converge)", False,
                               iterations, exchange, certified, sampled, False)
@@ -107,11 +103,7 @@ class Solver:
         violations, _, _ = self.continuous_check(sol.x, fixed, sol.w, sol.s_points)
         slots, rows = self._slots(violations, sol.s_points, {}, np.zeros(len(sol.lam_g)))
         s_pts = np.r_[pb.base_points, slots]
-        tracking = np.zeros((pb.n_points, nd))
-        for j, s_j in enumerate(slots):
-            row = rows.get(round(s_j, 12))
-            if row is not None:
-                tracking[len(pb.base_points) + j] = pb.tracking_gradient(s_j, sol.x, fixed, row)
+        tracking = self._tracking(slots, rows, sol.x, fixed)
         res, stats, its = self._ipopt(sol.w, pb.nlp_parameters(fixed, s_pts, sol.x, tracking), pb.row_bounds(s_pts),
                                       {"lam_x": sol.lam_x, "lam_g": sol.lam_g})
         if not stats["success"]:
@@ -129,16 +121,21 @@ class Solver:
         """(sample points, x_ref, tracking, rows) with the slots on the located extrema of
         every block at design x (the continuous check's, near-active ones included)."""
         pb = self.pb
-        nd = len(pb.design_names)
         violations, _, _ = self.continuous_check(x, fixed, w, s_pts)
         slots, rows = self._slots(violations, s_pts, {}, np.zeros(len(pb.lbg)))
         s_pts = np.r_[pb.base_points, slots]
-        tracking = np.zeros((pb.n_points, nd))
+        return s_pts, x, self._tracking(slots, rows, x, fixed), rows
+
+    def _tracking(self, slots, rows, x, fixed):
+        """d(sample point)/d(design) of every sample point: each slot that follows an extremum
+        moves with it to first order in the design (IPOPT's points at x' are s + T (x' - x))."""
+        pb = self.pb
+        tracking = np.zeros((pb.n_points, len(pb.design_names)))
         for j, s_j in enumerate(slots):
             row = rows.get(round(s_j, 12))
             if row is not None:
                 tracking[len(pb.base_points) + j] = pb.tracking_gradient(s_j, x, fixed, row)
-        return s_pts, x, tracking, rows
+        return tracking
 
     def _step_box(self, x_ref, step):
         """(lbw, ubw): the NLP's variable bounds, the design's within ``step`` of x_ref (scaled)."""

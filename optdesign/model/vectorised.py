@@ -32,6 +32,29 @@ BINARY = {getattr(ca, k): f for k, f in _BINARY.items() if hasattr(ca, k)}
 UNARY = {getattr(ca, k): f for k, f in _UNARY.items() if hasattr(ca, k)}
 
 
+def instruction_program(func: ca.Function) -> list:
+    """The instruction list of an SX Function as (kind, a, b, c) tuples that a numpy loop runs:
+    0 input (input a, nonzero b -> work c), 1 output (output a, nonzero b <- work c), 2 constant
+    a -> work c, 3 binary numpy function a of works b -> work c, 4 unary a of work b -> work c.
+    Raises ``NotImplementedError`` for an operation without a numpy counterpart."""
+    program = []
+    for k in range(func.n_instructions()):
+        op, i, o = func.instruction_id(k), func.instruction_input(k), func.instruction_output(k)
+        if op == ca.OP_INPUT:
+            program.append((0, i[0], i[1], o[0]))
+        elif op == ca.OP_OUTPUT:
+            program.append((1, o[0], o[1], i[0]))
+        elif op == ca.OP_CONST:
+            program.append((2, float(func.instruction_constant(k)), None, o[0]))
+        elif op in BINARY:
+            program.append((3, BINARY[op], (i[0], i[1]), o[0]))
+        elif op in UNARY:
+            program.append((4, UNARY[op], i[0], o[0]))
+        else:
+            raise NotImplementedError(f"CasADi operation {op} has no numpy counterpart here")
+    return program
+
+
 class VectorisedSX:
     """A scalar-output SX Function (s, p) -> outputs, run over a row of sweep values.
 
@@ -45,21 +68,7 @@ class VectorisedSX:
             raise NotImplementedError("only scalar outputs are vectorised")
         self.names = [func.name_out(j) for j in range(func.n_out())]
         self.n_work = func.sz_w()
-        self.program = []
-        for k in range(func.n_instructions()):
-            op, i, o = func.instruction_id(k), func.instruction_input(k), func.instruction_output(k)
-            if op == ca.OP_INPUT:
-                self.program.append((0, i[0], i[1], o[0]))
-            elif op == ca.OP_OUTPUT:
-                self.program.append((1, o[0], None, i[0]))
-            elif op == ca.OP_CONST:
-                self.program.append((2, float(func.instruction_constant(k)), None, o[0]))
-            elif op in BINARY:
-                self.program.append((3, BINARY[op], (i[0], i[1]), o[0]))
-            elif op in UNARY:
-                self.program.append((4, UNARY[op], i[0], o[0]))
-            else:
-                raise NotImplementedError(f"CasADi operation {op} has no numpy counterpart here")
+        self.program = instruction_program(func)
 
     def __call__(self, s_row, p) -> dict:
         inputs = (np.asarray(s_row, float).ravel(), np.asarray(p, float).ravel())
