@@ -195,11 +195,11 @@ def ipopt_options(st, objective_kind) -> dict:
             "ipopt.alpha_for_y": "min-dual-infeas",
             # initial constraint multipliers zero: fewer iterations from infeasible starts
             "ipopt.constr_mult_init_max": 0.0,
-            # a start far from feasible can make the constraint multipliers grow without
-            # bound while the line search takes ever shorter steps: switch to the
-            # restoration phase once they exceed 1e8 (truck crane: four starts took about
-            # 100 iterations each; 20 starts 720 -> 621 iterations, all at the optimum)
-            "ipopt.expect_infeasible_problem": "yes",
+            # expect_infeasible_problem is left at IPOPT's default (no): it was set for starts
+            # far from feasible (truck crane), which phase 1 no longer lets through; over the
+            # library it changes nothing but the toggle press, where it costs a start and 4.6x
+            # the time (19/20 at 2.2 s per start against 20/20 at 0.48 s:
+            # benchmarks/bench_library.py, results/optimise_library.md)
             # no MUMPS scaling: our rows are scaled to order one already, and on a KKT
             # system of a few hundred rows computing the scaling costs more than the
             # factorisation (about 18 % of the time per start, same iterations)
