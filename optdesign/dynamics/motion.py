@@ -170,7 +170,9 @@ def _decide(run, branch, name, t, x):
         return Event(t, "stroke end", x, branch, None, end=name)
     end = getattr(run, "phase_end", None)
     if name == "position" or name == "rest" or (name == "speed" and end is not None and end[0] == "rest"):
-        if name != "position":
+        if name == "position":
+            x[0] = end[2]  # located to the tolerance: on it
+        else:
             x[1] = 0.0
         return Event(t, "phase end", x, branch, None)
     if name == "speed":

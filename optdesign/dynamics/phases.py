@@ -276,6 +276,12 @@ class PhasedSimulator:
                              "raise [simulation] t_end")
         cols = eq.columns(X, p, np.concatenate(cs), np.concatenate(helds))
         piece = self._motor_columns({"t": t0 + T, **cols}, None)
+        if ph.until == "profile" and abs(last[0] - profile.s_end) > CONNECT * (self.hi - self.lo):
+            raise SceneError(f"{self.scene.path}: {where}: the motion did not follow the profile: at its end "
+                             f"(t = {t0 + T[-1]:.9g} s) {self._state(last)}, against the profile's end "
+                             f"{self.scene.sweep.name} = {_fmt_s(profile.s_end)}{self._saturated(piece)}; the next "
+                             "phase could not start where it should. Give a stronger motor or another gear ratio "
+                             "(the sized one: simulate --design RESULT_JSON), or a slower profile")
         integrals = {name: float(last[n_base + 1 + i]) for i, name in enumerate(QUADRATURES)}
         integrals["motor_squared"] += held_squared
         record = {"name": ph.name, "kind": ph.kind, "until": ph.until, "case": ph.case, "t_start": t0,
@@ -344,6 +350,18 @@ class PhasedSimulator:
                   "t_end": t0 + duration, "hold_torque": motor,
                   "integrals": {"motor_squared": motor**2 * duration, "motor_work": 0.0, "drive_work": 0.0}}
         return piece, record
+
+    def _saturated(self, piece):
+        """', the motor at its peak torque for .. s of the phase (from t = ..)', or ''."""
+        if self.motor is None:
+            return ""
+        at = np.abs(piece["motor_torque"]) >= self.motor["peak_torque"] * (1 - 1e-3)
+        if not at.any():
+            return ""
+        t = piece["t"]
+        spent = float(np.sum(np.diff(t)[at[:-1]]))
+        return (f", the motor at its peak torque {self.motor['peak_torque']:g} N m for {spent:.3g} s of the phase "
+                f"(from t = {t[np.argmax(at)]:.6g} s)")
 
     def _motor_columns(self, cols, c):
         cols["motor_torque"] = cols["drive"] / self.ratio

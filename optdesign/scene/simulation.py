@@ -187,6 +187,12 @@ def check_phases(scene, values, fail_at) -> None:
             _positive(ph.setting["gain"], values, where.at("controller.gain"), fail_at)
             if ph.setting.get("position_gain") is not None:
                 _positive(ph.setting["position_gain"], values, where.at("controller.position_gain"), fail_at)
+        if ph.kind in ("law", "brake"):
+            known = set(values) | ({"q", "qd", "t"} if ph.kind == "law" else set())
+            for name in sorted(ph.setting.names() - known):
+                fail_at(where.at(ph.kind), f"unknown name {name!r} in the {ph.kind} {ph.setting.source!r}"
+                        + (near_miss(name, sorted(known)) or "; expected parameters" + (", q, qd and t (the time since "
+                                                                                         "the phase began)" if ph.kind == "law" else "")))
         if ph.kind == "brake":
             _positive(ph.setting, values, where.at("brake"), fail_at)
         if ph.until == "position":
