@@ -336,3 +336,29 @@ def test_position_outside_stroke_and_motor_needed():
     text = text[:text.index("[[motors]]")] + text[text.index("[simulation]"):]
     with pytest.raises(SceneError, match=r"'raise', motor: a motor phase needs the motor"):
         optdesign.loads(text + '[[simulation.phases]]\nname = "raise"\nmotor = "forward"\nuntil = "rest"\n')
+
+
+def test_command_line_json_and_cycle_figure(tmp_path, capsys):
+    """`optdesign simulate` of a phased scene: the JSON holds the phases, the cycle beside
+    analyse's figures and the phase events; --plot writes cycle.png."""
+    import json
+
+    from optdesign.cli.main import main
+
+    scene = tmp_path / "bar.toml"
+    scene.write_text(BAR + PHASES)
+    code = main(["simulate", str(scene), "--json", "-q", "--tolerance", "1e-10", "--plot", str(tmp_path / "plots")])
+    assert code in (0, None)
+    doc = json.loads(capsys.readouterr().out)
+    assert [p["name"] for p in doc["phases"]] == ["raise", "stop", "park", "let down"]
+    assert doc["stop"]["reason"] == "cycle end"
+    phases = [e for e in doc["events"] if e["kind"] == "phase"]
+    assert [(e["previous"], e["phase"], e["end"]) for e in phases] == [
+        ("raise", "stop", "position"), ("stop", "park", "rest"), ("park", "let down", "time")]
+    events, integrals, _, _ = reference()
+    assert phases[0]["t"] == pytest.approx(events[0][1], abs=1e-8)
+    assert doc["cycle"]["rms_motor_torque"] == pytest.approx(math.sqrt(integrals["motor_squared"] / doc["stop"]["t"]),
+                                                             rel=1e-7)
+    assert doc["cycle"]["profiles"] is None   # no [[cases]]: nothing to compare with
+    assert {"motor_torque", "motor_speed"} <= set(doc["samples"][0])
+    assert (tmp_path / "plots" / "cycle.png").stat().st_size > 10000

@@ -173,7 +173,7 @@ class PhasedSimulator:
             x = np.array([piece["s"][-1], piece["sd"][-1]] + ([piece["q"][-1]] if self.model.rotary else []))
             if k + 1 < len(sim.phases):
                 nxt = sim.phases[k + 1].name
-                events.append({"t": t0, "kind": "phase", "phase": nxt, "after": ph.name, "end": ph.until,
+                events.append({"t": t0, "kind": "phase", "phase": nxt, "previous": ph.name, "end": ph.until,
                                "state": {"s": float(x[0]), "sd": float(x[1]), "q": float(piece["q"][-1]),
                                          "qd": float(piece["qd"][-1])}})
         events.sort(key=lambda e: e["t"])
