@@ -362,3 +362,16 @@ def test_command_line_json_and_cycle_figure(tmp_path, capsys):
     assert doc["cycle"]["profiles"] is None   # no [[cases]]: nothing to compare with
     assert {"motor_torque", "motor_speed"} <= set(doc["samples"][0])
     assert (tmp_path / "plots" / "cycle.png").stat().st_size > 10000
+
+
+def test_motor_hold_carries_the_static_load():
+    """A hold by the motor: at rest, the motor carries the bar's weight through the gearbox,
+    T_m = m g L/2 cos(phi) / (eta_g i) (c = 1/eta_g: the motor drives), for the hold's time."""
+    scene = optdesign.loads(BAR + PHASES.replace('hold = "brake"', 'hold = "motor"'))
+    result = simulate(scene, tolerance=1e-10)
+    park = [p for p in result.phases if p["name"] == "park"][0]
+    phi = [e for e in result.events if e["kind"] == "phase" and e["phase"] == "park"][0]["state"]["s"]
+    expected = m * g * L / 2 * math.cos(phi) / (eta_g * ratio)
+    inside = (result.t > park["t_start"]) & (result.t < park["t_end"])
+    assert np.allclose(result.motor_torque[inside], expected, rtol=1e-12)
+    assert park["integrals"]["motor_squared"] == pytest.approx(expected**2 * 0.2, rel=1e-12)
