@@ -375,3 +375,12 @@ def test_motor_hold_carries_the_static_load():
     inside = (result.t > park["t_start"]) & (result.t < park["t_end"])
     assert np.allclose(result.motor_torque[inside], expected, rtol=1e-12)
     assert park["integrals"]["motor_squared"] == pytest.approx(expected**2 * 0.2, rel=1e-12)
+
+
+def test_law_not_finite_during_the_motion():
+    """sqrt(0.5 - q) is NaN past q = 0.5 rad: the bar, driven up by it, gets there; the error
+    names the phase, the time and the state (q just past 0.5)."""
+    scene = optdesign.loads(BAR + '[[simulation.phases]]\nname = "odd"\nlaw = "3*sqrt(0.5 - q)"\nuntil = "rest"\n')
+    with pytest.raises(SceneError, match=r"'odd', law: the law gives nan where the integrator gave up \(phase 'odd', "
+                                         r"t = 0\.24\d+ s, q = 0\.500\d+, qd = 10\.\d+\)"):
+        simulate(scene)

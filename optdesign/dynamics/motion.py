@@ -207,9 +207,11 @@ def _failure(run, branch, t_a, t_b, x_a, failure, where):
     hint = {"bdf": "tighten or loosen the tolerance, or check the law and the loads for a blow-up",
             "adams": "use the implicit integrator (integrator = \"bdf\"), which handles stiff cases",
             "rk4": "use more steps per sample or the implicit integrator (integrator = \"bdf\")"}[method]
-    return SolverError(
+    exc = SolverError(
         f"{path}: the {method} integrator failed between t = {t_a:.6g} s and {t_b:.6g} s, from "
         f"{name} = {_fmt_s(x_a[0])}, drive speed {qd:.6g}, d{name}/dt = {x_a[1]:.6g}: {what}; {hint}.")
+    exc.state, exc.span, exc.branch = np.array(x_a, float), float(t_b - t_a), branch  # for :mod:`.phases`
+    return exc
 
 
 def _finish(out, events, stop, end):

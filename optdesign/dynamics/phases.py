@@ -234,6 +234,7 @@ class PhasedSimulator:
             try:
                 motion = run_motion(run, grid, self.where)
             except SolverError as exc:
+                self._law_at_failure(exc, eq, ph, p, t0)
                 raise SolverError(f"{where} (from t = {t0 + t_local:.9g} s): {exc}") from None
             keep = slice(1, None) if ts else slice(None)
             ts.append(t_local + motion.t[keep])
@@ -367,6 +368,23 @@ class PhasedSimulator:
         cols["motor_torque"] = cols["drive"] / self.ratio
         cols["motor_speed"] = cols["qd"] * self.ratio
         return cols
+
+    def _law_at_failure(self, exc, eq, ph, p, t0):
+        """Where the integrator gave up: is the law NaN or infinite just ahead (the state
+        carried on along its rate from the last good one)?  Then that is the error."""
+        x = getattr(exc, "state", None)
+        if x is None:
+            return
+        c = exc.branch.c if getattr(exc, "branch", None) is not None else 1.0
+        rate = np.asarray(eq.rhs_branch(*[x[i] for i in range(eq.n_x)], p, c), float).ravel()
+        for tau in np.linspace(0.0, exc.span, 257):
+            y = x + tau * rate
+            value = eq.output("drive", y, p, c)
+            if not math.isfinite(value):
+                raise SceneError(f"{self.scene.path}: {ph.where(ph.kind)}: the law gives {value} where the integrator "
+                                 f"gave up (phase {ph.name!r}, t = {t0 + y[eq.n_x - 1 - len(QUADRATURES)]:.9g} s, "
+                                 f"q = {eq.output('q', y, p):.9g}, qd = {eq.output('qd', y, p):.9g}); write a law "
+                                 "that is finite over the motion") from None
 
     def _check_law(self, eq, ph, x, p, t0):
         value = eq.output("drive", x, p, 1.0)
