@@ -33,7 +33,7 @@ from ..model.train import motor_numbers
 from ..scene.cases import Case
 from ..scene.expressions import evaluate
 from .equations import Equations, check_inertia, initial_state
-from .integrate import DEFAULT_TOLERANCE, Integration, state_scales
+from .integrate import DEFAULT_TOLERANCE, Counts, Integration, state_scales
 from .events import at_rest
 from .motion import run_motion
 from .phase_laws import PhaseLaw
@@ -86,10 +86,6 @@ class PhasedSimulator:
         self.qd_start = res.constant(sim.speed, "[simulation] speed")
         self._hold = ca.Function("hold", [mech.s, mech.p], [model.Q_s if model.has_static else 0 * mech.s,
                                                             model.k])
-        self.equations = {}
-        for ph in sim.phases:
-            if ph.kind != "hold":
-                self.equations[ph.name] = None  # built when the phase starts (a brake needs its direction)
         self.build_time = time.perf_counter() - t0
 
     # --- per phase ---
@@ -114,6 +110,7 @@ class PhasedSimulator:
         return case_profile(self.scene, ad_hoc, res.start, res.stop, res.values)
 
     def equations_of(self, phase, direction, profile):
+        """The phase's equation of motion (compiled per phase: its law, through the gearbox)."""
         mech, model = self.mech, self.model
         law = PhaseLaw(phase.kind, phase.setting, mech, self.motor, self.ratio,
                        (profile.sigma, profile.shape, profile.s_begin) if profile is not None else None, direction)
@@ -412,7 +409,8 @@ class _FirstLaw:
 
 
 def _sum_counts(counts):
-    out = {}
+    """The integrator statistics of every phase's run, summed (zeros where only holds ran)."""
+    out = Counts().as_dict()
     for c in counts:
         for k, v in c.items():
             if isinstance(v, dict):

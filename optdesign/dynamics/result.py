@@ -29,7 +29,8 @@ class SimulationResult:
     per phase its name, kind, end, case, start and end times and its integrals over time
     (motor_squared = int T_m^2 dt, motor_work = int T_m omega_m dt, drive_work = int T_S qd
     dt); its columns add ``motor_torque`` and ``motor_speed``, its events 'phase' (a phase
-    change: the phase that follows, the ``previous`` one, its ``end``)."""
+    change: the phase that follows, the ``previous`` one, its ``end``); at a phase change the
+    samples hold the instant twice, the last of the phase before and the first of the next."""
 
     scene: Scene
     drive_kind: str
