@@ -14,6 +14,9 @@ def add_arguments(p):
     p.add_argument("scene", help="scene file (TOML) with [drive] law and [simulation], e.g. problems/sim_slider_crank.toml")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter (repeatable)")
+    p.add_argument("--design", metavar="RESULT_JSON",
+                   help="simulate the design of an optimisation: its result.json (the scene's design variables "
+                        "set to the optimum's values, e.g. the sized gear ratio)")
     p.add_argument("--integrator", choices=("bdf", "adams", "rk4"), default=None,
                    help="bdf: CVODES BDF, Newton (implicit, stiff cases); adams: CVODES Adams, functional "
                         "iteration (non-stiff); rk4: fixed-step explicit RK4 (default: the scene's, else bdf)")
@@ -23,19 +26,22 @@ def add_arguments(p):
     p.add_argument("--samples", type=_samples, default=None, help="output samples over 0 .. t_end (default: the scene's)")
     p.add_argument("--t-end", type=real_number(above=0.0), default=None, dest="t_end",
                    help="end time [s], > 0 (default: the scene's)")
-    p.add_argument("--plot", metavar="DIR", help="write figures (PNG) of q, its rate and the drive load over time into DIR")
+    p.add_argument("--plot", metavar="DIR", help="write figures (PNG) of q, its rate and the drive load over time into DIR "
+                                                 "(and, for a duty cycle of phases, cycle.png: the motor's speed and torque "
+                                                 "against its limits)")
     p.add_argument("--table", action="store_true", help="print the table over every output sample before the "
                    "summary (default: the summary alone)")
 
 
 def run(args):
-    from .common import emit as _emit, load_scene as _load, results_folder
+    from .common import emit as _emit, results_folder
+    from .design_option import scene_with_design
     from ..report.simulation import FIGURES, figures, simulation_json, summary_chunks
     from ..dynamics.simulator import simulate
 
     if args.plot:
         results_folder(args.plot, "--plot", FIGURES)
-    result = simulate(_load(args), integrator=args.integrator, tolerance=args.tolerance, steps=args.steps,
+    result = simulate(scene_with_design(args), integrator=args.integrator, tolerance=args.tolerance, steps=args.steps,
                       samples=args.samples, t_end=args.t_end)
     if args.plot:
         for path in figures(result, args.plot, label="--plot"):

@@ -71,25 +71,40 @@ class Equations:
 
     INDICATORS = ("s", "sd", "sdd", "bracket", "bracket_rate", "bracket_size")
 
-    def __init__(self, mech, model, drive):
+    def __init__(self, mech, model, drive, law=None, inertia=None, eta=None, timed=False, quadratures=None):
+        """``law``, ``inertia`` and ``eta`` replace the drive's law, its inertia and the
+        efficiency (:mod:`.phases`: a phase's law through the gearbox): ``law(env)`` gives the
+        torque at the drive from ``env`` (the mechanism's names, ``q``, ``qd``, ``t``, ``sd``,
+        ``k``).  ``timed`` adds the time t (rate 1) to the state, ``quadratures`` (name ->
+        integrand(env)) their integrals over time (``env`` then also has ``sdd``, ``qdd``, ``c``)."""
         self.mech = mech
         self._mapped = {}
         self.rotary = model.rotary
-        self.uses_efficiency = model.uses_efficiency
+        self.uses_efficiency = model.uses_efficiency or eta is not None
         sym, s, p = mech.sym, mech.s, mech.p
         k, dk = model.k, model.dk
         sd = sym.sym("sd")
         M_s = model.M_s if model.has_inertia else 0
         dM_s = mech.ds(M_s) if model.has_inertia else 0
         Q_s = model.Q_s if model.has_static else 0
-        J = mech.value(drive.inertia, "[drive] inertia") if drive.inertia is not None else 0
+        if inertia is not None:
+            J = inertia
+        else:
+            J = mech.value(drive.inertia, "[drive] inertia") if drive.inertia is not None else 0
         qd = k * sd
         # the rotary drive's angle is an atan2 (wrapped): the law sees the continuous angle,
         # carried as a third state q' = k sd
         q_state = sym.sym("q") if self.rotary else None
+        t_state = sym.sym("t") if timed else None
+        quadratures = quadratures or {}
+        quad_states = [sym.sym(f"quad_{i}") for i in range(len(quadratures))]
+        self.quadrature_names = list(quadratures)
         q = q_state if self.rotary else mech.q
         env = dict(mech.env, q=q, qd=qd)
-        T_m = evaluate(drive.law, env, mech.points, "[drive] law")
+        if law is not None:
+            T_m = law(dict(env, t=t_state if timed else 0, sd=sd, k=k, s=s))
+        else:
+            T_m = evaluate(drive.law, env, mech.points, "[drive] law")
         V = 0.5 * dM_s * sd**2  # velocity term in s: -dT_S referred to s
         rest = k * T_m - J * k * dk * sd**2
         # T_S qd = sd * bracket / (c M_s + J k^2): the sign of the power flow, independent of c
@@ -97,7 +112,8 @@ class Equations:
         size = ca.fabs(M_s * k * T_m) + ca.fabs(M_s * J * k * dk * sd**2) + ca.fabs(J * k**2 * V) \
             + ca.fabs(J * k**2 * Q_s)
         bracket, size = bracket + 0 * s, size + 0 * s
-        eta = model.eta if model.uses_efficiency else 1.0
+        if eta is None:
+            eta = model.eta if model.uses_efficiency else 1.0
         self.eta = ca.Function("eta", [p], [sym(eta) if isinstance(eta, (int, float)) else eta])
 
         def acceleration(c):
@@ -107,11 +123,14 @@ class Equations:
         sdd = acceleration(c)
         qdd = k * sdd + dk * sd**2
         # Functions of the state's parts (an MX state cannot be a vertcat of symbols)
-        states = [s, sd, q_state] if self.rotary else [s, sd]
+        states = ([s, sd, q_state] if self.rotary else [s, sd]) + ([t_state] if timed else []) + quad_states
         self.n_x = len(states)
+        self.timed = timed
+        quad_env = dict(env, t=t_state if timed else 0, sd=sd, k=k, s=s, sdd=sdd, qdd=qdd, c=c, drive=T_m)
+        quad_rates = [f(quad_env) + 0 * s for f in quadratures.values()]
 
         def rate(sdd):
-            return ca.vertcat(sd, sdd, qd) if self.rotary else ca.vertcat(sd, sdd)
+            return ca.vertcat(sd, sdd, *([qd] if self.rotary else []), *([1 + 0 * s] if timed else []), *quad_rates)
 
         self.rhs_branch = self._function("rhs_branch", states + [p, c], [rate(sdd)])
         xs = sym.sym("x", self.n_x)
@@ -120,14 +139,16 @@ class Equations:
         bracket_rate = ca.jacobian(bracket, s) * sd + ca.jacobian(bracket, sd) * sdd
         if self.rotary:
             bracket_rate = bracket_rate + ca.jacobian(bracket, q_state) * qd
+        if timed:
+            bracket_rate = bracket_rate + ca.jacobian(bracket, t_state)
         inds = self._function("indicators", states + [p, c], [ca.vertcat(s, sd, sdd, bracket, bracket_rate, size)])
         self.indicators = self._function("indicators", [xs, p, c], [inds(*parts, p, c)])
         power = self._function("power", states + [p], [ca.vertcat(bracket, size)])
         self.power = self._function("power", [xs, p], [power(*parts, p)])
         # at rest: the one-sided accelerations, each on the branch of its own power direction
-        at_rest = [xs[0], 0] + ([xs[2]] if self.rotary else [])
-        c_plus = ca.if_else(bracket >= 0, 1 / eta, eta) if model.uses_efficiency else 1.0
-        c_minus = ca.if_else(-bracket >= 0, 1 / eta, eta) if model.uses_efficiency else 1.0
+        at_rest = [xs[0], 0] + [xs[i] for i in range(2, self.n_x)]
+        c_plus = ca.if_else(bracket >= 0, 1 / eta, eta) if self.uses_efficiency else 1.0
+        c_minus = ca.if_else(-bracket >= 0, 1 / eta, eta) if self.uses_efficiency else 1.0
         scale = (ca.fabs(rest) + ca.fabs(V + Q_s) / eta) / (eta * M_s + J * k**2)  # eta <= 1
         rest_f = self._function("rest", states + [p], [ca.vertcat(acceleration(c_plus), c_plus, acceleration(c_minus),
                                                               c_minus, scale)])
@@ -137,7 +158,7 @@ class Equations:
         qdd_out = k * sdd_out + dk * sd**2
         outs = {"q": q, "qd": qd, "qdd": qdd_out, "sdd": sdd_out, "drive": T_m, "transmitted": T_m - J * qdd_out,
                 "kinetic_energy": 0.5 * M_s * sd**2 + 0.5 * J * qd**2, "power": T_m * qd}
-        if model.uses_efficiency:
+        if self.uses_efficiency:
             outs["efficiency_factor"] = c
         self.output_names = list(outs)
         f = self._function("outputs", states + [p, c, held], [ca.vertcat(*[o + 0 * s for o in outs.values()])])

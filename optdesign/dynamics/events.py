@@ -51,7 +51,7 @@ class Branch:
 @dataclass
 class Event:
     """A located non-smooth instant: time ``t``, ``kind`` ('reversal', 'rest', 'stall', 'power
-    flow', 'stroke end'), the state ``x`` there, the branches before and after (None at the
+    flow', 'stroke end', 'phase end'), the state ``x`` there, the branches before and after (None at the
     start or at a stop), and the stroke ``end`` ('from'/'to') of a stroke end."""
     t: float
     kind: str
@@ -83,6 +83,21 @@ def watch(run, branch, X, rates=True):
         band += [0 * s, 1e-11 * B_size]
     if run.ends["from"] > run.ends["to"]:  # 'from' is the upper end of the stroke
         g[0], g[1], rate[0], rate[1] = g[1], g[0], rate[1], rate[0]
+    end = getattr(run, "phase_end", None)  # a phase of a duty cycle (:mod:`.phases`): where it ends
+    if end is not None and end[0] == "position":
+        sigma, target = end[1], end[2]
+        names.append("position")
+        g.append(sigma * (target - s))
+        rate.append(-sigma * sd)
+        band.append(0 * s)
+    elif end is not None and end[0] == "rest" and "speed" not in names:
+        d = end[1]
+        sdd = (np.asarray(run.eq.mapped("indicators", X.shape[1])(X, run.p, branch.c))[2] if rates
+               else np.full_like(s, np.nan))
+        names.append("rest")
+        g.append(d * sd)
+        rate.append(d * sdd)
+        band.append(0 * s)
     return names, np.array(g), np.array(rate), np.array(band)
 
 
@@ -210,8 +225,8 @@ def locate(run, branch, name, t_a, x_a, t_b, x_b):
     if ga is None:
         return None
     # to 1e-2 of the tolerance of its scale (the stroke, the reference rate, the bracket's terms)
-    gtol = 1e-2 * run.tol * {"from": run.scale[0], "to": run.scale[0], "speed": run.scale[1],
-                             "power": band / 1e-11}[name]
+    gtol = 1e-2 * run.tol * {"from": run.scale[0], "to": run.scale[0], "speed": run.scale[1], "rest": run.scale[1],
+                             "position": run.scale[0], "power": band / 1e-11}[name]
     a, xa, ga = 0.0, x_a, max(ga, 0.0)
     b, xb = t_b - t_a, x_b
     gb, rb, _ = value(x_b)

@@ -29,6 +29,7 @@ import re
 import casadi as ca
 import numpy as np
 
+DEFAULT_TOLERANCE = 1e-8  # relative, when neither the scene nor the caller gives one
 MAX_STEPS = 20000  # CVODES steps per output point (8 or more per output interval) before it gives up
 SUBSAMPLES = 8     # CVODES output points per output interval at least, at which events are watched
 LONGEST = 128      # output intervals per integrator call at most

@@ -33,7 +33,8 @@ SAME_INSTANT = 50     # events in a row at one instant (to 1e-12 of an output in
 class Motion:
     """The samples of a run (times ``t``, states ``X`` in columns, per sample the branch's c
     and whether the drive holds the mechanism at rest), its ``events`` and its stop ('t_end',
-    'stroke end' with ``stop_end`` 'from'/'to', 'stalled')."""
+    'stroke end' with ``stop_end`` 'from'/'to', 'stalled'; 'phase end' where a phase of
+    :mod:`.phases` ends)."""
     t: np.ndarray
     X: np.ndarray
     c: np.ndarray
@@ -128,6 +129,8 @@ def run_motion(run, grid, where):
             return _finish(out, events, "stroke end", event.end)
         if event.kind == "stall":
             return _finish(out, events, "stalled", None)
+        if event.kind == "phase end":
+            return _finish(out, events, "phase end", None)
         t, x, branch, K = event.t, event.x, event.after, 1
     return _finish(out, events, "t_end", None)
 
@@ -143,7 +146,7 @@ def _event(run, branch, hit, T, X, failure, where):
         if not found:
             raise SolverError(f"{where[0]}: an event ({', '.join(names)}) between t = {t_a:.9g} s and {t_b:.9g} s "
                               "could not be located; tighten the tolerance")
-        order = {"from": 0, "to": 0, "speed": 1, "power": 2}
+        order = {"position": -1, "from": 0, "to": 0, "speed": 1, "rest": 1, "power": 2}
         t_e, name, x_e = min(found, key=lambda f: (f[0], order[f[1]]))
         return _decide(run, branch, name, t_e, x_e)
     # the integration failed (or blew up) in the sub-interval: a stroke end within reach?
@@ -165,6 +168,13 @@ def _decide(run, branch, name, t, x):
     if name in ("from", "to"):
         x[0] = run.ends[name]
         return Event(t, "stroke end", x, branch, None, end=name)
+    end = getattr(run, "phase_end", None)
+    if name == "position" or name == "rest" or (name == "speed" and end is not None and end[0] == "rest"):
+        if name == "position":
+            x[0] = end[2]  # located to the tolerance: on it
+        else:
+            x[1] = 0.0
+        return Event(t, "phase end", x, branch, None)
     if name == "speed":
         return at_rest(run, t, x, branch)
     after = flow_branch(run, x, branch.d)
@@ -197,9 +207,11 @@ def _failure(run, branch, t_a, t_b, x_a, failure, where):
     hint = {"bdf": "tighten or loosen the tolerance, or check the law and the loads for a blow-up",
             "adams": "use the implicit integrator (integrator = \"bdf\"), which handles stiff cases",
             "rk4": "use more steps per sample or the implicit integrator (integrator = \"bdf\")"}[method]
-    return SolverError(
+    exc = SolverError(
         f"{path}: the {method} integrator failed between t = {t_a:.6g} s and {t_b:.6g} s, from "
         f"{name} = {_fmt_s(x_a[0])}, drive speed {qd:.6g}, d{name}/dt = {x_a[1]:.6g}: {what}; {hint}.")
+    exc.state, exc.span, exc.branch = np.array(x_a, float), float(t_b - t_a), branch  # for :mod:`.phases`
+    return exc
 
 
 def _finish(out, events, stop, end):

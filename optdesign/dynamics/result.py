@@ -24,7 +24,13 @@ class SimulationResult:
     ``stop_end`` 'from' or 'to' (which end of [sweep]) or None.  ``events``: one dict per located
     non-smooth instant (:func:`event_record`).  ``stats``: integrator counts (steps,
     rhs_evaluations, error_test_failures, nonlinear_iterations, integrator_calls, failed_calls)
-    summed over every integrator call of the run, failed ones included, and ``timings``."""
+    summed over every integrator call of the run, failed ones included, and ``timings``.  A duty
+    cycle (``[[simulation.phases]]``, :mod:`.phases`) stops at 'cycle end' and has ``phases``:
+    per phase its name, kind, end, case, start and end times and its integrals over time
+    (motor_squared = int T_m^2 dt, motor_work = int T_m omega_m dt, drive_work = int T_S qd
+    dt); its columns add ``motor_torque`` and ``motor_speed``, its events 'phase' (a phase
+    change: the phase that follows, the ``previous`` one, its ``end``); at a phase change the
+    samples hold the instant twice, the last of the phase before and the first of the next."""
 
     scene: Scene
     drive_kind: str
@@ -39,6 +45,7 @@ class SimulationResult:
     timings: dict = field(default_factory=dict)
     error_estimate: float | None = None
     events: list = field(default_factory=list)
+    phases: list = field(default_factory=list)
 
     def __getattr__(self, name):
         columns = self.__dict__.get("columns", {})

@@ -22,11 +22,10 @@ from ..scene import Scene
 from ..scene.arguments import scene_argument, simulation_arguments
 from ..scene.elements import INTEGRATORS
 from .equations import Equations, check_inertia, initial_state
-from .integrate import Integration, state_scales
+from .integrate import DEFAULT_TOLERANCE, Integration, state_scales
 from .motion import run_motion
 from .result import SimulationResult, event_record
 
-DEFAULT_TOLERANCE = 1e-8
 DEFAULT_RK4_STEPS = 20
 
 
@@ -139,4 +138,9 @@ def simulate(scene: Scene, integrator: str | None = None, tolerance: float | Non
     """The motion of ``scene`` in time under its ``[drive] law`` from its ``[simulation]`` start
     (front door).  ``integrator`` ('bdf', 'adams', 'rk4'), ``tolerance``, ``samples`` and
     ``t_end`` override the scene's; ``steps`` is RK4's steps per output sample."""
-    return Simulator(scene_argument("simulate", scene)).run(integrator, tolerance, steps, samples, t_end)
+    scene = scene_argument("simulate", scene)
+    if scene.simulation is not None and scene.simulation.phases:
+        from .phases import PhasedSimulator
+
+        return PhasedSimulator(scene).run(integrator, tolerance, samples, t_end)
+    return Simulator(scene).run(integrator, tolerance, steps, samples, t_end)

@@ -12,13 +12,13 @@ from .output import SCHEMA, Rows, save_figure, table_chunks
 UNITS = {
     "rotary": {"t": "s", "s": "sweep", "sd": "sweep/s", "sdd": "sweep/s^2", "q": "rad", "qd": "rad/s",
                "qdd": "rad/s^2", "drive": "N m", "transmitted": "N m", "kinetic_energy": "J", "power": "W",
-               "efficiency_factor": "1"},
+               "efficiency_factor": "1", "motor_torque": "N m", "motor_speed": "rad/s"},
     "linear": {"t": "s", "s": "sweep", "sd": "sweep/s", "sdd": "sweep/s^2", "q": "m", "qd": "m/s",
                "qdd": "m/s^2", "drive": "N", "transmitted": "N", "kinetic_energy": "J", "power": "W",
-               "efficiency_factor": "1"},
+               "efficiency_factor": "1", "motor_torque": "N", "motor_speed": "m/s"},
 }
 ORDER = ("t", "s", "sd", "sdd", "q", "qd", "qdd", "drive", "transmitted", "kinetic_energy", "power",
-         "efficiency_factor")
+         "efficiency_factor", "motor_torque", "motor_speed")
 
 
 def _columns(result):
@@ -29,6 +29,11 @@ def _columns(result):
 def simulation_json(result) -> dict:
     cols = _columns(result)
     n = len(result.t)
+    cycle = {}
+    if result.phases:
+        from .cycle import cycle_report
+
+        cycle = {"phases": result.phases, "cycle": cycle_report(result)}
     return {
         "schema": SCHEMA, "kind": "simulation", "title": result.scene.title, "file": result.scene.path,
         "sweep": result.scene.sweep.name, "drive": result.drive_kind,
@@ -37,6 +42,7 @@ def simulation_json(result) -> dict:
         "stop": {"reason": result.stop, "end": result.stop_end, "t": result.t_stop},
         "stats": result.stats, "timings": result.timings, "events": result.events,
         "units": {k: UNITS[result.drive_kind][k] for k in cols},
+        **cycle,
         "samples": Rows(n, lambda i: {k: float(v[i]) for k, v in cols.items()}),
     }
 
@@ -52,7 +58,7 @@ def summary_chunks(result):
     where = {"stroke end": f"stroke end ({result.stop_end}: {result.scene.sweep.name} = {result.s[-1]:.6g})",
              "stalled": f"stalled: the mechanism came to rest at {result.scene.sweep.name} = {result.s[-1]:.6g} and "
                         "the self-locking drive holds it there (under eta < 1 its load cannot move it either way)",
-             "t_end": "t_end"}[result.stop]
+             "t_end": "t_end", "cycle end": f"the end of the cycle's last phase ({len(result.phases)} phases)"}[result.stop]
     st = result.stats
     lines = ["",
              f"{result.scene.title}",
@@ -68,6 +74,10 @@ def summary_chunks(result):
              f"q from {result.q[0]:.6g} to {result.q[-1]:.6g} {units['q']}; rate {result.qd.min():.6g} .. "
              f"{result.qd.max():.6g} {units['qd']}; drive {result.drive.min():.6g} .. {result.drive.max():.6g} "
              f"{units['drive']}; kinetic energy {result.kinetic_energy[0]:.6g} -> {result.kinetic_energy[-1]:.6g} J"]
+    if result.phases:
+        from .cycle import cycle_figures, cycle_lines, profile_figures
+
+        lines += cycle_lines(cycle_figures(result), profile_figures(result))
     yield "\n" + "\n".join(lines)
 
 
@@ -101,7 +111,7 @@ def _mark_events(ax, result, values):
                 label=label, zorder=5)
 
 
-FIGURES = ("q.png", "q_rate.png", "drive_load.png")
+FIGURES = ("q.png", "q_rate.png", "drive_load.png", "cycle.png")
 
 
 def figures(result, folder, label="folder") -> list:
@@ -148,4 +158,9 @@ def _figures(result, folder) -> list:
         written.append(folder / file)
         save_figure(fig, written[-1])
         plt.close(fig)
+    if result.phases:
+        from .cycle import cycle_figure, cycle_figures
+
+        written.append(folder / "cycle.png")
+        cycle_figure(result, cycle_figures(result), written[-1], EVENT_STYLE)
     return written

@@ -183,7 +183,9 @@ class Simulation:
     ``start`` and the drive speed ``speed`` (omega_S [rad/s] or v_S [m/s]) at t = 0, the end
     time ``t_end`` [s], the number of output ``samples`` over [0, t_end], the ``integrator``
     ('bdf' implicit, 'adams' non-stiff, 'rk4' explicit fixed-step) and its relative
-    ``tolerance``.  The run also stops where the sweep reaches an end of the stroke."""
+    ``tolerance``.  The run also stops where the sweep reaches an end of the stroke.  With
+    ``phases`` the run is a sequence of phases, each with its own drive law and end, driven by
+    ``motor`` (:mod:`optdesign.scene.simulation`)."""
 
     start: Expression
     speed: Expression
@@ -191,6 +193,8 @@ class Simulation:
     samples: int = 201
     integrator: str = "bdf"
     tolerance: Expression | None = None
+    phases: tuple = ()          # a duty cycle in time (:mod:`optdesign.scene.simulation`); () : one [drive] law
+    motor: str | None = None    # the [[motors]] entry that drives the phases (needed with a catalogue)
 
     def __post_init__(self):
         where = Where("simulation")

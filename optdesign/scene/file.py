@@ -19,6 +19,7 @@ from .drawing import DRAWING_KEYS, Drawing
 from .file_sizing import SIZING_KEYS, read_sizing
 from .points import Attach, Closure, Dyad, Fixed, Loop, Polar, Slider
 from .scene import Scene
+from .simulation import read_phases
 from .where import ARRAY_TABLES, Where, located_error, near_miss
 
 TOP_KEYS = ("title", "source", "parameters", "sweep", "points", "bodies", "gravity", "drive",
@@ -38,7 +39,7 @@ CONSTRUCTION_KEYS = {
 SWEEP_KEYS = ("name", "from", "to", "samples", "rate", "acceleration")
 BODY_KEYS = ("name", "frame", "mass", "com", "inertia", "force", "torque")
 CONSTRAINT_KEYS = ("name", "expr", "min", "max", "case")
-SIMULATION_KEYS = ("start", "speed", "t_end", "samples", "integrator", "tolerance")
+SIMULATION_KEYS = ("start", "speed", "t_end", "samples", "integrator", "tolerance", "motor", "phases")
 
 
 def load(path, overrides: dict | None = None) -> Scene:
@@ -310,7 +311,8 @@ class _Reader:
         defaults = {f.name: f.default for f in Simulation.__dataclass_fields__.values()}
         return Simulation(data.get("start"), data.get("speed"), data.get("t_end"),
                           data.get("samples", defaults["samples"]), data.get("integrator", defaults["integrator"]),
-                          data.get("tolerance"))
+                          data.get("tolerance"), read_phases(data["phases"]) if "phases" in data else (),
+                          data.get("motor"))
 
     def drawing(self, data):
         self.check_keys(Where("drawing"), data, DRAWING_KEYS)

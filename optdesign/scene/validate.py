@@ -16,6 +16,7 @@ from .elements import (DRIVE_PINS, LAW_NAMES, Body, Constraint, Drive, Gravity, 
                        Simulation, Sweep)
 from .expressions import constant_value
 from .points import CONSTRUCTIONS, Loop
+from .simulation import check_phases
 from .validate_cases import DriveSizingValidator, case_columns
 from .values import RESERVED
 from .where import Where, fail, near_miss, show
@@ -259,7 +260,9 @@ class Validator:
         """[simulation]: needs a [drive] with a law; start inside the stroke, t_end > 0,
         tolerance in (0, 0.1]."""
         sim, where = self.scene.simulation, Where("simulation")
-        if self.scene.drive is None or self.scene.drive.law is None:
+        if self.scene.drive is None:
+            self._fail(where, "a simulation needs a [drive]")
+        if not sim.phases and self.scene.drive.law is None:
             self._fail(where, "a simulation needs the drive's law: add law = \"...\" to [drive] (a torque "
                               "or force in q, qd and parameters, e.g. \"T0*(1 - qd/omega0)\")")
         numbers = {}
@@ -277,6 +280,8 @@ class Validator:
         if "tolerance" in numbers and not 0 < numbers["tolerance"] <= 0.1:
             self._fail(where.at("tolerance"), f"expected a relative tolerance in (0, 0.1], e.g. 1e-8, "
                                               f"found {numbers['tolerance']:g}")
+        if sim.phases:
+            check_phases(self.scene, values, self._fail)
 
     def _check_constraints(self, values, names, built):
         seen = set()
