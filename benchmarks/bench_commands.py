@@ -68,6 +68,10 @@ def main(argv=None):
         commands = {
             "floor": [sys.executable, "-c", "import optdesign.cli"],
             "analyse": [sys.executable, "-m", "optdesign", "analyse", CRANE, "--json", "-q"],
+            "optimise imports": [sys.executable, "-c", "import casadi, scipy.stats, matplotlib.pyplot, "
+                                 "optdesign.cli.main, optdesign.design.multistart, optdesign.report.design"],
+            "optimise --no-animation": [sys.executable, "-m", "optdesign", "optimise", args.scene, "--starts", "20",
+                                        "--out", str(Path(tmp) / "out_no_animation"), "-q", "--no-animation"],
             "optimise": [sys.executable, "-m", "optdesign", "optimise", args.scene, "--starts", "20", "--out",
                          str(Path(tmp) / "out"), "-q"],
         }
@@ -94,7 +98,7 @@ def main(argv=None):
         f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; {git}; machine {cpu_model()}, nproc {os.cpu_count()} "
         f"(shared); load average (1, 5, 15 min) {', '.join(f'{v:.2f}' for v in load0)} at the start, "
         f"{', '.join(f'{v:.2f}' for v in load1)} at the end.  Warm (each command run once before timing, "
-        f"the compiled code in the disk cache); {args.repeats} rounds of the three commands in turn; medians. "
+        f"the compiled code in the disk cache); {args.repeats} rounds of the commands in turn; medians. "
         "CPU = the child's user + system time (optimise's forked workers included: it can exceed the wall time).", "",
         "| command | wall [s] | CPU [s] | goal |", "|---|---:|---:|---|",
         f"| floor: `python -c \"import optdesign.cli\"` | {floor_w:.3f} | {floor_c:.3f} | |",
@@ -103,7 +107,11 @@ def main(argv=None):
         f"| `optdesign optimise {args.scene} --starts 20` (figures, report.html, animation; workers = cores) | "
         f"{opt_w:.3f} | {opt_c:.3f} | <= 3 x (floor + 0.5 s) = {goal_a:.2f} s: {verdict(opt_w <= goal_a)}; "
         f"the stricter reading 3 x floor + 0.5 s = {goal_b:.2f} s: {verdict(opt_w <= goal_b)} |",
-        "", f"Every round [s] (wall / CPU): " + "; ".join(
+        f"| of which: the imports the optimise command needs (casadi, scipy.stats for the Sobol starts, "
+        f"matplotlib.pyplot, optdesign's design and report) | {med['optimise imports'][0]:.3f} | {med['optimise imports'][1]:.3f} | |",
+        f"| the same optimise with `--no-animation` | {med['optimise --no-animation'][0]:.3f} | "
+        f"{med['optimise --no-animation'][1]:.3f} | |",
+        "", "Every round [s] (wall / CPU): " + "; ".join(
             f"{k}: " + ", ".join(f"{w:.2f}/{c:.2f}" for w, c in v) for k, v in times.items()) + ".",
         "", f"The optimise folder holds: {', '.join(figures)}.", "",
         "Slowest imports of the analyse command (`python -X importtime`, cumulative, top level): "
