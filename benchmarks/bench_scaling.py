@@ -15,10 +15,14 @@ constraints, minimise peak(drive)), with
   forward and reverse in turn (the objective peak(drive) over every case).
 
 Each axis varies from the base (201 samples, 2 variables, no cases; on the cases axis one case
-and up).  Per scene: *analyse* = ``Analysis(scene).run()`` after its build (median of
-``--repeats`` runs; the build reported beside it); *optimise start* = ``solve_start`` (phase 1,
-objective phase, exchange, continuous check) from each of ``--starts`` planned starts
-(``draw_plan``), median per start; the DesignProblem's build beside it.  Compiled functions come
+and up).  The family's scenes are not nested (the added masses must carry 50 k kg, the cases
+lift heavier loads), so each point is its own problem: its optimum, iterations and active set
+differ, and the time per start carries that scatter.  Per scene: *analyse* =
+``Analysis(scene).run()`` after its build (median of ``--repeats`` runs); *optimise start* =
+``solve_start`` (phase 1, objective phase, exchange, continuous check) from each of ``--starts``
+planned starts (``draw_plan``), median per start, with IPOPT's iterations per start (phase 1 and
+objective phase).  Each is built twice, the first build untimed (it compiles, or loads from the
+disk cache); the builds' columns are the second's.  Compiled functions come
 from the disk cache (``OPTDESIGN_COMPILE=wait``: compiled before timing, as every later run
 has them).  Wall and CPU (``time.process_time``) times; the growth exponent of each is the slope
 of log(time) against log(size) by least squares (CPU time: the machine is shared).  Goal: no
@@ -109,10 +113,11 @@ def measure(folder: Path, config: dict, args) -> dict:
     problem, pb_w, pb_c = timed(lambda: DesignProblem(scene))
     solver, repair = Solver(problem), Repair(problem)
     plan = draw_plan(problem, args.starts, args.seed)
-    starts, values = [], []
+    starts, values, iterations = [], [], []
     for i, x0 in enumerate(plan.points):
         (report, _), w, c = timed(lambda: solve_start(solver, repair, i, x0, retry=lambda k, i=i: plan.retry(i, k)))
         starts.append((w, c))
+        iterations.append(report.iterations + report.phase1_iterations)
         values.append(report.objective if report.success else None)
     ok = [v for v in values if v is not None]
     best = min(ok) if ok else None
@@ -121,7 +126,7 @@ def measure(folder: Path, config: dict, args) -> dict:
            "analyse_w": statistics.median(w for w, _ in runs), "analyse_c": statistics.median(c for _, c in runs),
            "analysis_build_w": build_w, "analysis_build_c": build_c, "problem_build_w": pb_w, "problem_build_c": pb_c,
            "start_w": statistics.median(w for w, _ in starts), "start_c": statistics.median(c for _, c in starts),
-           "best": best, "at_best": at_best, "converged": len(ok), "starts": len(values)}
+           "best": best, "at_best": at_best, "iterations": statistics.median(iterations), "converged": len(ok), "starts": len(values)}
     print(f"{config}: analyse {1e3 * out['analyse_c']:.1f} ms CPU, start {1e3 * out['start_c']:.1f} ms CPU, "
           f"{at_best}/{len(values)} at best", flush=True)
     return out
@@ -134,13 +139,14 @@ def exponent(xs, ts) -> float:
 
 def axis_table(title, label, rows, xs, goal) -> list:
     lines = [f"## {title}", "",
-             f"| {label} | NLP rows | analyse [ms] CPU (wall) | Analysis build [ms] CPU | optimise start [ms] CPU (wall) | "
-             "DesignProblem build [ms] CPU | starts converged, at best | best peak(drive) [N] |",
-             "|---|---|---|---|---|---|---|---|"]
+             f"| {label} | NLP rows | analyse [ms] CPU (wall) | Analysis build (second) [ms] CPU | optimise start [ms] CPU "
+             "(wall) | IPOPT iterations per start | DesignProblem build (second) [ms] CPU | starts converged, at best | "
+             "best peak(drive) [N] |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for x, r in zip(xs, rows):
         best = "n/a" if r["best"] is None else f"{r['best']:.6g}"
         lines.append(f"| {x:,} | {r['rows']} | {1e3 * r['analyse_c']:.2f} ({1e3 * r['analyse_w']:.2f}) | "
-                     f"{1e3 * r['analysis_build_c']:.0f} | {1e3 * r['start_c']:.1f} ({1e3 * r['start_w']:.1f}) | "
+                     f"{1e3 * r['analysis_build_c']:.0f} | {1e3 * r['start_c']:.1f} ({1e3 * r['start_w']:.1f}) | {r['iterations']:g} | "
                      f"{1e3 * r['problem_build_c']:.0f} | {r['converged']}/{r['starts']}, {r['at_best']} | "
                      f"{best} |")
     ea, es = exponent(xs, [r["analyse_c"] for r in rows]), exponent(xs, [r["start_c"] for r in rows])
