@@ -16,7 +16,8 @@ a. **ours**: ``solve_start`` (phase 1, the objective phase's IPOPT solves and ex
    (``OPTDESIGN_COMPILE=wait``: what every run after the first gets); instrumented by wrapping
    the problem's pieces, so that the profile table splits each start into phase 1 (IPOPT's own
    work and its NLP evaluations from ``solver.stats()``), repairs, the objective phase's IPOPT
-   (own work = ``t_wall_total`` minus the ``t_wall_nlp_*`` entries; CPU from ``t_proc_*``), the
+   (own work = the call's time minus the ``t_wall_nlp_*`` entries, CPU minus ``t_proc_*``:
+   CasADi's set-up of each call included, its stats carry no total with print_time off), the
    exchange's rebuilds (slots, tracking gradients, NLP parameters, row bounds), the continuous
    check, the start's own evaluations, and the Python between them (the rest).
 b. **SLSQP-FD**: ``benchmarks/bench_optimise.py``'s ``slsqp_start`` (scipy SLSQP, finite
