@@ -54,7 +54,21 @@ def timed_study(study, folder, **kw):
     result = study.run(out=folder, restart=True, figures=False, **kw)
     wall = time.perf_counter() - t0
     assert result.complete and result.computed == 1000
+    CASE_TIMES[str(folder)] = case_time(folder)
     return wall, result, (Path(folder) / "cases.csv").read_bytes()
+
+
+CASE_TIMES = {}   # folder -> the sum of its cases' own times (measured where each case ran)
+
+
+def case_time(folder):
+    """The sum of the cases' own wall times, from the study's journal (None without one)."""
+    import json
+
+    journal = Path(folder) / "journal.jsonl"
+    if not journal.exists():
+        return None
+    return sum(json.loads(line)["time_s"] for line in journal.read_text().splitlines() if line.strip())
 
 
 def single_cases(study, sample):
@@ -77,6 +91,36 @@ def single_cases(study, sample):
     finally:
         os.environ["OPTDESIGN_COMPILE"] = before or "background"
     return np.array(times), objectives
+
+
+def busy_text(sums, walls):
+    if any(v is None for v in sums):
+        return "n/a"
+    return ", ".join(f"{v:.1f} ({v / (2 * w):.0%})" for v, w in zip(sums, walls))
+
+
+def not_met_text(ratio, busy, pool_walls, dask_walls):
+    """For the Dask goal not met: what was tried and what would be needed."""
+    if ratio >= 0.9:
+        return ""
+    cases_slower = None
+    if not any(v is None for v in busy["w2"] + busy["dask"]):
+        cases_slower = statistics.median(busy["dask"]) / statistics.median(busy["w2"])
+    where = ("" if cases_slower is None else
+             f"  The cases themselves took {cases_slower:.2f}x their pool time on Dask, so "
+             + ("most of the loss is in the cases' own time: the helper processes compete for the 2 cores with "
+                "Dask's scheduler, nannies, workers and the client (and with the other users of the machine)"
+                if cases_slower > 1.1 else
+                "the loss is between the cases: the workers wait for their next batch (a round trip through the "
+                "scheduler) and for the client that writes the journal") + ".")
+    return ("\n\nThe goal is NOT met." + where + "  Tried (issue 18 and before): the scene's functions built once per "
+            "worker (in a helper process per worker, since the worker's own threads slowed CasADi's calls 1.3-1.9x), "
+            "cases in batches of about half a second of work, helpers started before the first batch, compiled "
+            "functions from the disk cache in every helper, the journal on the client.  What would be needed: on this "
+            "2-core machine Dask's own processes (scheduler, 2 nannies, 2 workers, the client's event loop) run beside "
+            "the 2 helpers that compute; measured on a machine with a core per worker and one for the scheduler, or "
+            "with larger batches (whole chains) and a queue of batches on each worker, the round trips would no longer "
+            "fall between cases.")
 
 
 def main(argv=None):
@@ -103,6 +147,7 @@ def main(argv=None):
                 csvs.update((csv2, csvd))
                 print(f"round {k}: 2 workers {w2:.1f} s, dask {wd:.1f} s", file=sys.stderr)
         w2, wd = statistics.median(pool_walls), statistics.median(dask_walls)
+        busy = {kind: [CASE_TIMES.get(str(Path(tmp) / f"{kind}_{k}")) for k in range(args.rounds)] for kind in ("w2", "dask")}
         csv2 = csvd = csv1 if csvs == {csv1} else b""
     identical = csv1 == csv2 == csvd
     times, objectives = single_cases(study, args.sample)
@@ -129,6 +174,10 @@ before the loop (its start-up is not in the times).
 | 1,000 x `optimise(load(scene, {{mC, l}}), starts=1)` (mean of {len(times)} timed, x 1,000; the virtual machine: each case's NLP is a graph of its own) | {single_total:.1f} | {1000 / single_total:.1f} | 1 |
 
 **Dask per worker against the local pool: {w2 / wd:.2f}x** (the same 2 workers; goal >= 0.9x: {"met" if w2 / wd >= 0.9 else "NOT met"}).
+Where the difference lies: the sum of the cases' own times (each measured where it ran: a pool worker, a Dask
+worker's helper process) was {busy_text(busy["w2"], pool_walls)} s in the pool's runs and {busy_text(busy["dask"], dask_walls)} s on Dask
+(the share in brackets: the sum over 2 workers x the run's wall time; the rest of the wall time the workers waited,
+for a batch to come or for the client).{not_met_text(w2 / wd, busy, pool_walls, dask_walls)}
 2 workers against 1: {w1 / w2:.2f}x{" (more than the cores: not a real gain, the shared machine's load varied between the runs)" if w1 / w2 > 2 else ""}.  A single call spends its time building the scene's NLP (CasADi
 graphs, derivatives, IPOPT): mean {np.mean(times) * 1e3:.0f} ms per call (min {np.min(times) * 1e3:.0f}, max
 {np.max(times) * 1e3:.0f}); the study builds once per process and re-solves with new parameter values
