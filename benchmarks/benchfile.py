@@ -15,7 +15,7 @@ from optdesign.report.output import write_atomic
 
 ROOT = Path(__file__).resolve().parents[1]
 BENCH_MD = ROOT / "results" / "bench.md"
-ORDER = ("reduced_model", "optimise", "study")   # the order of the sections in the file
+ORDER = ("reduced_model", "optimise", "per_start", "study", "commands")   # the order of the sections in the file
 TITLE = "# Benchmarks\n\nEach section is written by the script it names, in one run of that script; ratios are measured within one run.\n"
 
 

@@ -104,6 +104,31 @@ def test_design_nlp_compiled_gives_the_same_optimum(cache, monkeypatch):
     assert [s.iterations for s in result.starts] == [s.iterations for s in reference.starts]
 
 
+def test_design_problem_evaluations_compiled_equal_the_virtual_machine(cache):
+    """The design problem's per-sample rows, their s-derivatives (the continuous check) and the
+    extrema's tracking, compiled (model/mapped.py: compiled_function), give the virtual
+    machine's numbers bit for bit (the optimiser's numbers must not depend on the cache)."""
+    from optdesign.design.problem import DesignProblem
+    from optdesign.model.mapped import MappedFunction, compiled_function
+
+    pb = DesignProblem(load(ROOT / "problems" / "lib_pumpjack.toml"))
+    p = pb.full_parameters(pb.start)
+    s = np.r_[np.linspace(pb.s_grid[0], pb.s_grid[-1], 37), pb.s_grid[0] - 1.0]   # one point off the stroke
+    for func in (pb.quantity, pb.quantity_derivatives):
+        fast = MappedFunction(func, compile=True)
+        assert fast.func.is_a("External"), func.name()
+        for mine, reference in zip(fast(s, p), MappedFunction(func)(s, p)):
+            assert np.array_equal(mine, reference, equal_nan=True), func.name()
+    tracking = pb.quantity_tracking
+    assert tracking.is_a("External")
+    vm_tracking = pb.mech.function("quantities_tracking", {"d2v": pb.mech.ds(pb._dv),
+                                                           "dvdp": ca.jacobian(pb._dv, pb.mech.p)})
+    for s_k in s[:5]:
+        for mine, reference in zip(tracking(s_k, p), vm_tracking(s_k, p)):
+            assert np.array_equal(np.asarray(mine), np.asarray(reference), equal_nan=True)
+    assert compiled_function(pb.quantity).is_a("External")   # the second time: from the cache
+
+
 @pytest.mark.parametrize("damage", ["flipped bytes", "truncated", "bad record", "no record"])
 def test_a_damaged_entry_is_found_and_rebuilt(cache, damage):
     f = small_function()

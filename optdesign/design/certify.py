@@ -59,7 +59,7 @@ class ContinuousCheck:
     def __init__(self, problem: DesignProblem):
         self.pb = problem
         # the per-sample quantities' s-derivatives at many sweep values
-        self.derivatives = MappedFunction(problem.quantity_derivatives)
+        self.derivatives = MappedFunction(problem.quantity_derivatives, compile=True)
 
     def __call__(self, x, fixed, w, s_points):
         """Worst values of every block over the continuous stroke at design x.

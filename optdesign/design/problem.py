@@ -44,6 +44,7 @@ import numpy as np
 
 from ..errors import SceneError
 from ..kinematics.mechanism import Mechanism
+from ..model.mapped import compiled_function
 from ..model.reduction import ReducedModel
 from ..scene import Scene
 from . import aggregates, nlp, rows
@@ -161,8 +162,10 @@ class DesignProblem:
         """How each row's extrema move with the parameters: d2v/ds2 and d(dv/ds)/dp, for peak
         tracking (built on first use: only exchange steps need it)."""
         mech, dv = self.mech, self._dv
-        return self._once("tracking", lambda: mech.function(
-            "quantities_tracking", {"d2v": mech.ds(dv), "dvdp": ca.jacobian(dv, mech.p)}))
+        def build():
+            f = mech.function("quantities_tracking", {"d2v": mech.ds(dv), "dvdp": ca.jacobian(dv, mech.p)})
+            return compiled_function(f) or f   # from the disk cache of compiled code: the same numbers
+        return self._once("tracking", build)
 
     def tracking_gradient(self, s, x, fixed, row):
         """ds*/dx of the extremum of ``row`` at sweep value s and design x (0 where the row's

@@ -127,7 +127,7 @@ def build_quantities(pb):
     rows.append(pb.model.k)
     pb.rows = rows
     pb.quantity = mech.function("quantities", {"v": ca.vertcat(*rows)})
-    pb._quantity_many = MappedFunction(pb.quantity)  # at many samples (evaluate_grid)
+    pb._quantity_many = MappedFunction(pb.quantity, compile=True)  # at many samples (evaluate_grid)
     v = ca.vertcat(*rows)
     dv = mech.ds(v)
     pb.quantity_derivatives = mech.function("quantities_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)})

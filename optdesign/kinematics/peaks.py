@@ -142,9 +142,30 @@ def refine_all(evaluate_many, brackets, s_tol=1e-13):
 
     ``brackets``: (row, lo, hi, s0, sign) each; ``evaluate_many(s) -> (V, dV/ds, d2V/ds2)``,
     each rows x len(s).  Returns (s, v(s)) per bracket, in order."""
-    runs = [_refinement(lo, hi, s0, sign, s_tol) for _, lo, hi, s0, sign in brackets]
-    results = [None] * len(runs)
-    asks = {k: run.send(None) for k, run in enumerate(runs)}
+    results = [None] * len(brackets)
+    if not brackets:
+        return results
+    # the first step of every bracket at once: its ends and grid point in one call; a bracket
+    # without a sign change of dv/ds ends here with its grid point (most of them: every sample
+    # of a flat row is a grid maximum), and only the others run the Newton iteration
+    distinct, column = _distinct(s for _, lo, hi, s0, _ in brackets for s in (lo, hi, s0))
+    V, D1, D2 = (np.asarray(a, float) for a in evaluate_many(np.array(distinct, float)))
+    column = np.asarray(column).reshape(len(brackets), 3)
+    rows = np.array([b[0] for b in brackets])
+    sign = np.array([float(b[4]) for b in brackets])
+    with np.errstate(invalid="ignore"):
+        ended = (sign * D1[rows, column[:, 0]] <= 0) | (sign * D1[rows, column[:, 1]] >= 0)
+    runs, asks = {}, {}
+    for k, (row, lo, hi, s0, sgn) in enumerate(brackets):
+        if ended[k]:   # what _refinement returns without a sign change
+            results[k] = (float(s0), float(V[row, column[k, 2]]))
+            continue
+        runs[k] = _refinement(lo, hi, s0, sgn, s_tol)
+        runs[k].send(None)
+        try:
+            asks[k] = runs[k].send([(V[row, c], D1[row, c], D2[row, c]) for c in column[k]])
+        except StopIteration as done:
+            results[k] = done.value
     while asks:
         distinct, column = _distinct(s for ask in asks.values() for s in ask)
         V, D1, D2 = (np.asarray(a, float) for a in evaluate_many(np.array(distinct, float)))
