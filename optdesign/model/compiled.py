@@ -55,6 +55,27 @@ LARGE_SOURCE = 300_000
 
 def flags_for(size: int) -> tuple:
     return ("-O0", *FLAGS[1:]) if size > LARGE_SOURCE else FLAGS
+
+
+# the compiler's bounds: gcc needed 14.6 GB at -O0 for the exact-Hessian SQP of the press's
+# duty cycle (and was killed by the kernel on a 24 GB machine for the crane's catalogue NLP):
+# a source above MAX_SOURCE is not compiled, and the compiler gets at most COMPILER_MEMORY of
+# address space and COMPILE_TIMEOUT_S, else the entry is marked failed and the VM is used
+MAX_SOURCE = 8_000_000
+COMPILER_MEMORY = 3 << 30
+COMPILE_TIMEOUT_S = 900
+
+
+def _limit_memory():
+    """In the compiler's process (before exec): at most COMPILER_MEMORY of address space."""
+    try:
+        import resource
+
+        resource.setrlimit(resource.RLIMIT_AS, (COMPILER_MEMORY, COMPILER_MEMORY))
+    except (ImportError, ValueError, OSError):
+        pass
+
+
 RETRY_AFTER_S = 86400.0   # a failed compile is tried again after a day (or with another compiler)
 
 _compiler = []           # [None] or [{"path", "version"}], found once per process
@@ -272,9 +293,13 @@ def run_job(job: dict, block: bool = True) -> bool:
             if cc is None:
                 raise OSError("no C compiler")
             t0 = time.perf_counter()
-            flags = flags_for(c_file.stat().st_size)
+            size = c_file.stat().st_size
+            if size > MAX_SOURCE:
+                raise OSError(f"{size / 1e6:.1f} MB of C is more than this cache compiles ({MAX_SOURCE / 1e6:g} MB)")
+            flags = flags_for(size)
             out = subprocess.run([cc["path"], *flags, str(c_file), "-o", f"{stem}.so", "-lm"],
-                                 capture_output=True, text=True)
+                                 capture_output=True, text=True, timeout=COMPILE_TIMEOUT_S,
+                                 preexec_fn=_limit_memory if os.name == "posix" else None)
             if out.returncode != 0:
                 raise OSError(f"{cc['path']} exited with status {out.returncode}: {out.stderr[-2000:]}")
             meta = {"sha256": _sha256(Path(f"{stem}.so")), "compiler": cc, "flags": list(flags), "kind": job["kind"],
