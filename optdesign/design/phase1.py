@@ -30,6 +30,8 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from ..errors import check_interrupt
+
 RHO = 1e-2          # proximal weight on the scaled design (|z| <= 1 per variable)
 INTERIOR = 1e-2     # rows' bounds tightened by this (scaled) in phase 1
 # the monotone barrier strategy from IPOPT's default mu_init: from the library's starts it
@@ -112,6 +114,7 @@ class Phase1:
         ubx = np.r_[pb.ubw[:nd], pb.ubw[nd + pb.n_t:], np.full(2 * self.m, np.inf)]
         res = self.solver(x0=np.r_[z0, a0, e_lo0, e_hi0][:nw], p=np.r_[p, z0], lbx=lbx, ubx=ubx, lbg=lo, ubg=hi)
         stats = self.solver.stats()
+        check_interrupt()   # a Ctrl-C stops IPOPT as a failed solve: stop here (errors.py)
         x = np.asarray(res["x"]).ravel()
         z = np.clip(x[:nd], pb.lbw[:nd], pb.ubw[:nd])
         w = np.r_[z, w0[nd:nd + pb.n_t], x[nd:nd + na]]

@@ -29,6 +29,8 @@ import re
 import casadi as ca
 import numpy as np
 
+from ..errors import check_interrupt
+
 MAX_STEPS = 20000  # CVODES steps per output point (8 or more per output interval) before it gives up
 SUBSAMPLES = 8     # CVODES output points per output interval at least, at which events are watched
 LONGEST = 128      # output intervals per integrator call at most
@@ -154,6 +156,7 @@ class Integration:
         try:
             xf = F(x0=x0 / scale, p=p)["xf"].full() * scale[:, None]
         except RuntimeError as exc:
+            check_interrupt(exc)   # a Ctrl-C that CasADi reported as a failed call
             self.counts.add(F.stats(), self.method, failure=str(exc))
             raise IntegratorFailed(str(exc)) from None
         self.counts.add(F.stats(), self.method)
