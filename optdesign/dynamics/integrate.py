@@ -160,4 +160,5 @@ class Integration:
             self.counts.add(F.stats(), self.method, failure=str(exc))
             raise IntegratorFailed(str(exc)) from None
         self.counts.add(F.stats(), self.method)
+        check_interrupt()   # a Ctrl-C that CasADi noticed and let pass (it goes on in some callbacks)
         return xf
