@@ -1,9 +1,10 @@
-"""The error family of optdesign.
+"""The error family of optdesign (and how a Ctrl-C and CasADi's messages are handled).
 
 Every message names the item (file, table, key, construction, sweep value), shows what was
 found and says what to do.  All of them derive from :class:`OptdesignError`, and each also
 derives from the builtin exception a Python user would expect (``ValueError``).
 """
+import re
 
 
 class OptdesignError(Exception):
@@ -55,3 +56,159 @@ class ResultError(OptdesignError, ValueError):
 
 class SolverError(OptdesignError, RuntimeError):
     """A numerical solver that failed (IPOPT, an integrator)."""
+
+
+# --- Ctrl-C through CasADi -------------------------------------------------------------------------
+# CasADi checks for Ctrl-C inside its long calls (IPOPT's iterations, an integrator's steps, a
+# mapped evaluation) and stops them within milliseconds, but it turns the KeyboardInterrupt into
+# a failed call: a RuntimeError whose message says 'KeyboardInterrupt', or an IPOPT status
+# 'NonIpopt_Exception_Thrown' that looks like any failed solve.  A loop that tries again after a
+# failed call would swallow the Ctrl-C.  So the front doors run their long work ``interruptible``:
+# a Ctrl-C is remembered (and still stops the CasADi call at once), and every place that handles a
+# failed CasADi call first calls :func:`check_interrupt`, which raises KeyboardInterrupt.
+
+class _Interrupt:
+    pending = False   # a Ctrl-C arrived while a front door's work ran (reset when it ends)
+    depth = 0
+
+
+def interrupt_pending() -> bool:
+    return _Interrupt.pending
+
+
+def check_interrupt(exc=None):
+    """Raise KeyboardInterrupt if a Ctrl-C arrived, or if ``exc`` (a RuntimeError from CasADi)
+    is a Ctrl-C that CasADi reported as a failed call."""
+    if _Interrupt.pending or (exc is not None and "KeyboardInterrupt" in str(exc)):
+        _Interrupt.pending = True
+        raise KeyboardInterrupt
+
+
+class interruptible:
+    """While this runs (in the main thread): a Ctrl-C sets the pending flag and raises
+    KeyboardInterrupt at once, wherever Python or CasADi is; the flag lets the code that
+    catches CasADi's failed calls see that it was a Ctrl-C (:func:`check_interrupt`).  Nested
+    uses share the outermost handler."""
+
+    def __enter__(self):
+        import signal
+        import threading
+
+        self.previous = None
+        if _Interrupt.depth == 0:
+            _Interrupt.pending = False
+            if threading.current_thread() is threading.main_thread():
+                previous = signal.getsignal(signal.SIGINT)
+                if previous is signal.default_int_handler:   # leave a caller's own handler alone
+                    self.previous = signal.signal(signal.SIGINT, _on_sigint)
+        _Interrupt.depth += 1
+        return self
+
+    def __exit__(self, *exc):
+        import signal
+
+        _Interrupt.depth -= 1
+        if self.previous is not None:
+            signal.signal(signal.SIGINT, self.previous)
+        if _Interrupt.depth == 0:
+            _Interrupt.pending = False
+        return False
+
+
+def _on_sigint(signum, frame):
+    _Interrupt.pending = True
+    raise KeyboardInterrupt
+
+
+def resume_after_interrupt():
+    """Forget the pending Ctrl-C (the caller handled it, e.g. to save what finished); the
+    handler stays, so a second Ctrl-C stops that at once."""
+    _Interrupt.pending = False
+
+
+class OptimisationInterrupted(KeyboardInterrupt):
+    """Ctrl-C during ``optimise``: ``result`` is the best design of the starts that finished
+    before it (an OptimisationResult marked ``interrupted``), or None when none had."""
+
+    def __init__(self, result=None, finished=0, total=0):
+        super().__init__()
+        self.result, self.finished, self.total = result, finished, total
+
+
+def worker_process(parent=None):
+    """Set up a forked worker process: Ctrl-C is left to the parent (which stops the pool and
+    keeps what finished), and the worker dies with its parent (Linux: PR_SET_PDEATHSIG), so a
+    parent killed with SIGKILL leaves no worker behind to fail on its closed pipe
+    (BrokenPipeError tracebacks).  ``parent``: the parent's process id (``os.getpid()`` before
+    the fork), to catch a parent that died before the worker asked to die with it."""
+    import os
+    import signal
+    import sys
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, signal.SIGKILL, 0, 0, 0)   # PR_SET_PDEATHSIG = 1
+        except (OSError, AttributeError):  # pragma: no cover - no libc to ask
+            pass
+    if parent is not None and os.getppid() != parent:   # it died before the prctl
+        os._exit(0)
+
+
+# --- CasADi's own messages ---------------------------------------------------------------------------
+# CasADi's log lines ('CasADi - DATE WARNING("...") [file:line]') and its SUNDIALS callbacks'
+# failures ('rhs failed: KeyboardInterrupt'), each written in pieces, the first piece one of these
+_CASADI_LINE = re.compile(r"CasADi - |(rhs|rhsB|rhsQ|rhsQB|ehfun|jtimesF|jtimesB|psolve|psolveB|lsolveF|lsolveB"
+                          r"|psetup|psetupB|lsetup|lsetupB) failed: ")
+
+
+class _WithoutCasadiMessages:
+    """A text stream that passes everything on but CasADi's own log lines ('CasADi - DATE
+    WARNING("Failed to calculate multipliers") [file:line]', 'rhs failed: ...', written in
+    pieces through Python's sys.stdout/sys.stderr): they speak of CasADi's internals, not of
+    the user's scene, and what they mean is reported by optdesign in its own words (a failed
+    start, an integrator that gave up, a Ctrl-C)."""
+
+    def __init__(self, stream):
+        self._stream, self._dropping = stream, False
+
+    def write(self, text):
+        if not self._dropping and _CASADI_LINE.match(text):
+            self._dropping = True
+        if self._dropping:
+            end = text.find("\n")
+            if end < 0:
+                return len(text)
+            self._dropping = False
+            rest = text[end + 1:]
+            if rest:
+                self._stream.write(rest)
+            return len(text)
+        return self._stream.write(text)
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
+
+
+class casadi_messages_hidden:
+    """While this runs, CasADi's log lines written to sys.stdout and sys.stderr are dropped
+    (everything else passes unchanged).  Nested uses wrap once."""
+
+    def __enter__(self):
+        import sys
+
+        self.saved = sys.stdout, sys.stderr
+        if not isinstance(sys.stdout, _WithoutCasadiMessages):
+            sys.stdout = _WithoutCasadiMessages(sys.stdout)
+        if not isinstance(sys.stderr, _WithoutCasadiMessages):
+            sys.stderr = _WithoutCasadiMessages(sys.stderr)
+        return self
+
+    def __exit__(self, *exc):
+        import sys
+
+        sys.stdout, sys.stderr = self.saved
+        return False

@@ -1,6 +1,7 @@
-"""Ctrl-C during `optdesign optimise`: the run stops after the current start (IPOPT, inside
-CasADi, would otherwise swallow the interrupt as one failed start and go on), exits with 130 and
-writes nothing (and says so)."""
+"""Ctrl-C during `optdesign optimise`: the run stops at once (IPOPT, inside CasADi, would
+otherwise swallow the interrupt as one failed start and go on), exits with 130 and, before any
+start has finished, writes nothing (and says so).  tests/adversarial/test_interrupts.py: the
+best design of the finished starts saved."""
 from __future__ import annotations
 
 import signal
@@ -40,6 +41,9 @@ def test_ctrl_c_stops_optimise_and_writes_nothing(tmp_path):
     stdout, stderr = proc.communicate(timeout=60)
     assert proc.returncode == 130, stderr
     assert time.monotonic() - t0 < 10, "the interrupt was not acted on after the current start"
-    assert "interrupted (nothing was written: every results folder is as it was)" in stderr
-    assert not out.exists()
+    if "the best design of those" in stderr:   # a start had finished on a fast machine: saved
+        assert '"interrupted": true' in (out / "result.json").read_text()
+    else:
+        assert "nothing was written: every results folder is as it was)" in stderr
+        assert not out.exists()
     assert "Traceback" not in stderr

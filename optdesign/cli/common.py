@@ -138,37 +138,6 @@ def _discard_stdout(os):
         pass
 
 
-class deferred_interrupt:
-    """Ctrl-C while a long loop runs takes effect at the loop's next ``check()`` (after a start,
-    a case): inside IPOPT, CasADi would catch the KeyboardInterrupt and report a failed solve,
-    and the loop would go on.  A second Ctrl-C interrupts at once."""
-
-    def __enter__(self):
-        import signal
-        import threading
-
-        self.pending, self.previous = False, None
-        if threading.current_thread() is threading.main_thread():
-            self.previous = signal.signal(signal.SIGINT, self._handler)
-        return self
-
-    def _handler(self, signum, frame):
-        if self.pending:
-            raise KeyboardInterrupt
-        self.pending = True
-
-    def check(self):
-        if self.pending:
-            raise KeyboardInterrupt
-
-    def __exit__(self, *exc):
-        import signal
-
-        if self.previous is not None:
-            signal.signal(signal.SIGINT, self.previous)
-        return False
-
-
 def progress_bar(what):
     """A progress bar on standard error when it is a terminal."""
     if not sys.stderr.isatty():

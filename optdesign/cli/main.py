@@ -8,7 +8,7 @@ import argparse
 import importlib
 import sys
 
-from ..errors import OptdesignError
+from ..errors import OptdesignError, casadi_messages_hidden
 
 COMMANDS = ("kinematics", "analyse", "optimise", "simulate", "study", "draw", "animate")
 
@@ -31,21 +31,50 @@ def main(argv=None):
     from ..report import folder
 
     try:
-        args = parser().parse_args(argv)   # the options' checks import optdesign.scene (CasADi)
+        top = parser()
+        args = top.parse_args(negative_values_joined(top, sys.argv[1:] if argv is None else list(argv)))   # the options' checks import optdesign.scene (CasADi)
     except KeyboardInterrupt:
         print(f"\noptdesign: interrupted ({interrupted_outcome([])})", file=sys.stderr)
         return 130
     del folder.replaced[:]
+    args.argv = list(sys.argv[1:] if argv is None else argv)   # for a message that repeats the command
     try:
-        with quiet(args.quiet, keep_stdout=getattr(args, "json", False)):
+        with quiet(args.quiet, keep_stdout=getattr(args, "json", False)), casadi_messages_hidden():
             args.func(args)
     except OptdesignError as exc:
         print(f"optdesign {args.command}: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
+        print(f"\noptdesign {args.command}: interrupted ({interrupted_outcome(folder.replaced, exc)})",
+              file=sys.stderr)
+        return 130
+    except RuntimeError as exc:
+        if "KeyboardInterrupt" not in str(exc):   # CasADi reports a Ctrl-C inside a call this way
+            raise
         print(f"\noptdesign {args.command}: interrupted ({interrupted_outcome(folder.replaced)})", file=sys.stderr)
         return 130
     return 0
+
+
+def negative_values_joined(top, argv) -> list:
+    """``--tolerance -1e-6`` as ``--tolerance=-1e-6``: argparse takes a value that starts with
+    '-' and is not a plain decimal (-1e-6, -inf) for an option, and reports 'expected one
+    argument' instead of the option's own check (a finite number > 0)."""
+    import re
+
+    takes_value = set()
+    for action in top._actions:
+        for sub in getattr(action, "choices", None).values() if isinstance(action, argparse._SubParsersAction) else ():
+            takes_value |= {o for a in sub._actions if a.nargs != 0 and a.option_strings for o in a.option_strings}
+    out, i = [], 0
+    while i < len(argv):
+        if argv[i] in takes_value and i + 1 < len(argv) and re.match(r"^-(\d|\.\d|inf|nan)", argv[i + 1], re.I):
+            out.append(f"{argv[i]}={argv[i + 1]}")
+            i += 2
+            continue
+        out.append(argv[i])
+        i += 1
+    return out
 
 
 def version() -> str:
@@ -83,13 +112,31 @@ class quiet:
         return False
 
 
-def interrupted_outcome(replaced) -> str:
+def interrupted_outcome(replaced, exc=None) -> str:
     """What an interrupted command left behind, truthfully: every folder it replaced was
-    replaced as a whole, every other one is as it was."""
+    replaced as a whole, every other one is as it was; for optimise, how many starts had
+    finished and whether the best of them was saved (``exc``: an OptimisationInterrupted)."""
+    finished = getattr(exc, "finished", None)
+    if isinstance(finished, int):
+        saved = getattr(exc, "saved", None)
+        head = f"after {finished} of {exc.total} starts"
+        if saved is not None and _same(saved, replaced):
+            return (f"{head}; the best design of those {finished} starts was written to {saved}, replaced as "
+                    "a whole and marked interrupted in result.json and summary.txt")
+        if not finished or exc.result is None:
+            head += ", none with a feasible optimum"
+        tail = interrupted_outcome(replaced)
+        return f"{head}; {tail}"
     if not replaced:
         return "nothing was written: every results folder is as it was"
     return ("the new results were written before the interrupt, each folder replaced as a whole: "
             + ", ".join(str(p) for p in replaced))
+
+
+def _same(path, replaced) -> bool:
+    from pathlib import Path
+
+    return Path(path).resolve() in {Path(p).resolve() for p in replaced}
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -4,8 +4,8 @@ from __future__ import annotations
 import os
 import sys
 
-from ..errors import SolverError
-from .common import (add_scene_arguments, deferred_interrupt, emit, load_scene, progress_bar, results_folder,
+from ..errors import OptimisationInterrupted, SolverError
+from .common import (add_scene_arguments, emit, load_scene, progress_bar, results_folder,
                      whole_number, workers)
 
 HELP = "minimise the scene's objective over its design variables (IPOPT, multistart)"
@@ -26,28 +26,30 @@ def run(args):
     from pathlib import Path
 
     from ..report import design as design_report
-    from ..design import optimise
 
     folder = Path(args.out or Path("optdesign-results") / Path(args.scene).stem)
-    results_folder(folder, "--out", design_report.FILES)
+    results_folder(folder, "--out", design_report.FILES)   # before the solver's imports (scipy: 1 s)
+    from ..design import optimise
     scene = load_scene(args)
     bar = progress_bar("starts")
 
     def progress(done, total):
         if bar is not None:
             bar(done, total)
-        interrupted.check()
 
     catalogue = None
-    with deferred_interrupt() as interrupted:
-        if len(scene.motors) > 1:  # a motor catalogue: each motor in turn, the smallest that fits
-            from ..design.catalogue import optimise_catalogue
+    if len(scene.motors) > 1:  # a motor catalogue: each motor in turn, the smallest that fits
+        from ..design.catalogue import optimise_catalogue
 
-            catalogue = optimise_catalogue(scene, starts=args.starts, seed=args.seed, workers=args.workers,
-                                           progress=lambda name, done, total: progress(done, total))
-            result = catalogue.best
-        else:
+        catalogue = optimise_catalogue(scene, starts=args.starts, seed=args.seed, workers=args.workers,
+                                       progress=lambda name, done, total: progress(done, total))
+        result = catalogue.best
+    else:
+        try:
             result = optimise(scene, starts=args.starts, seed=args.seed, progress=progress, workers=args.workers)
+        except OptimisationInterrupted as stop:   # Ctrl-C: save the best design of the finished starts
+            save_interrupted(stop, folder, args)
+            raise
     if result.success:
         for path in design_report.write_results(result, folder, workers=args.workers, label="--out",
                                                  animate=not args.no_animation):
@@ -63,3 +65,18 @@ def run(args):
     if not result.success:
         raise SolverError(f"{scene.path}: no optimum: {result.status}. {result.message} "
                           "(nothing was written to the results folder)")
+
+
+def save_interrupted(stop, folder, args):
+    """The best design of the starts that finished before Ctrl-C, written to the results folder
+    as a whole (marked interrupted: result.json's "interrupted", the summary's headline), without
+    the animation; ``stop.saved`` says where, for the final message.  A second Ctrl-C stops the
+    writing and leaves the folder as it was."""
+    from ..report import design as design_report
+
+    stop.saved = None
+    if stop.result is None or not stop.result.success:
+        return
+    design_report.write_results(stop.result, folder, workers=1, label="--out", animate=False)
+    stop.saved = folder
+

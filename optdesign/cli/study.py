@@ -110,6 +110,8 @@ def _constant(text, where):
 
 def run(args):
     from . import common as cli
+    from ..errors import OptdesignError
+    from ..study.results import ClusterLost
     from ..study.study import Study, StudyInterrupted
 
     scene = cli.load_scene(args)
@@ -120,6 +122,9 @@ def run(args):
     try:
         result = study.run(out=out, workers=args.workers, scheduler=args.scheduler,
                            progress=cli.progress_bar("cases"), restart=args.restart, figures=not args.no_figures)
+    except ClusterLost as exc:   # one line: what the journal kept and the command that resumes
+        raise OptdesignError(f"{str(exc).split('; run the same study')[0]}; resume with: "
+                             f"{resume_command(args)}") from None
     except StudyInterrupted as exc:
         for note in exc.result.notes:
             print(f"optdesign study: journal: {note}", file=sys.stderr)
@@ -137,3 +142,13 @@ def run(args):
                        "wall_s": result.wall_s, "files": [str(p) for p in result.paths], "rows": result.rows}))
     else:
         sys.stdout.write((result.folder / "summary.txt").read_text())
+
+
+def resume_command(args) -> str:
+    """The command that resumes this study: the same one, without --restart (which would
+    throw the journal away)."""
+    import shlex
+
+    argv = [a for a in (getattr(args, "argv", None) or sys.argv[1:]) if a != "--restart"]
+    return shlex.join(["optdesign", *argv])
+

@@ -10,10 +10,12 @@ same whatever the order of the starts or the number of workers."""
 from __future__ import annotations
 
 import multiprocessing
+import os
 import time
 
 import numpy as np
 
+from ..errors import OptimisationInterrupted, casadi_messages_hidden, interruptible, resume_after_interrupt, worker_process
 from ..scene import Scene
 from ..scene.arguments import optimise_arguments, scene_argument
 from .clusters import local_optima
@@ -41,14 +43,34 @@ def optimise(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSett
     problem = DesignProblem(scene, settings)
     solver, repair = Solver(problem), Repair(problem)
     t_build = time.perf_counter() - t0
-    plan = draw_plan(problem, starts, seed, x_starts=x_starts)
-    t_plan = time.perf_counter() - t0 - t_build
-    if progress is not None:
-        progress(0, len(plan.points))  # the starts are planned (a caller may stop here: Ctrl-C)
-    runs = solve_starts(solver, repair, plan, workers, progress)
-    reports, solutions = [r for r, _ in runs], [s for _, s in runs]
-    return summarise(problem, solver, reports, solutions,
-                     {"build_s": t_build, "screen_s": t_plan, "total_s": time.perf_counter() - t0}, plan)
+    with interruptible(), casadi_messages_hidden():   # Ctrl-C: stop at once, keep the finished starts
+        plan = draw_plan(problem, starts, seed, x_starts=x_starts)
+        t_plan = time.perf_counter() - t0 - t_build
+        if progress is not None:
+            progress(0, len(plan.points))  # the starts are planned (a caller may stop here: Ctrl-C)
+        try:
+            runs = solve_starts(solver, repair, plan, workers, progress)
+        except KeyboardInterrupt as exc:
+            raise interrupted(problem, solver, plan, getattr(exc, "finished", []), len(plan.points),
+                              {"build_s": t_build, "screen_s": t_plan, "total_s": time.perf_counter() - t0}) from None
+        reports, solutions = [r for r, _ in runs], [s for _, s in runs]
+        return summarise(problem, solver, reports, solutions,
+                         {"build_s": t_build, "screen_s": t_plan, "total_s": time.perf_counter() - t0}, plan)
+
+
+def interrupted(problem, solver, plan, runs, total, timings) -> OptimisationInterrupted:
+    """Ctrl-C after ``runs`` of ``total`` starts finished: the best design of those, marked
+    interrupted (a second Ctrl-C while it is summarised stops at once)."""
+    import dataclasses
+
+    if not any(s is not None for _, s in runs):
+        return OptimisationInterrupted(None, len(runs), total)
+    resume_after_interrupt()
+    result = summarise(problem, solver, [r for r, _ in runs], [s for _, s in runs], timings, plan)
+    note = (f"INTERRUPTED by Ctrl-C after {len(runs)} of {total} starts: the best design of those "
+            f"{len(runs)} starts, not a search of all {total}. ")
+    return OptimisationInterrupted(dataclasses.replace(result, interrupted=True, message=note + result.message),
+                                   len(runs), total)
 
 
 def draw_plan(problem: DesignProblem, starts: int, seed: int, fixed=None, x_starts=None) -> StartPlan:
@@ -78,21 +100,28 @@ def solve_starts(solver: Solver, repair: Repair, plan, workers=1, progress=None)
     workers = max(1, min(int(workers), n))
     if workers == 1 or "fork" not in multiprocessing.get_all_start_methods():
         runs = []
-        for i in range(n):
-            runs.append(solve_start(solver, repair, i, plan.points[i], retry=lambda k, i=i: plan.retry(i, k)))
-            if progress is not None:
-                progress(i + 1, n)
+        try:
+            for i in range(n):
+                runs.append(solve_start(solver, repair, i, plan.points[i], retry=lambda k, i=i: plan.retry(i, k)))
+                if progress is not None:
+                    progress(i + 1, n)
+        except KeyboardInterrupt as exc:   # Ctrl-C: the caller keeps the starts that finished
+            exc.finished = runs
+            raise
         return runs
     global _FORKED
     ctx = multiprocessing.get_context("fork")
     _FORKED = (solver, repair, plan)
     runs = {}
     try:
-        with ctx.Pool(workers) as pool:
+        with ctx.Pool(workers, initializer=worker_process, initargs=(os.getpid(),)) as pool:
             for i, run in pool.imap_unordered(_solve_one, range(n)):  # a worker's exception is raised here
                 runs[i] = run
                 if progress is not None:
                     progress(len(runs), n)
+    except KeyboardInterrupt as exc:   # Ctrl-C: the caller keeps the starts that finished
+        exc.finished = [runs[i] for i in sorted(runs)]
+        raise
     finally:
         _FORKED = None
     return [runs[i] for i in range(n)]

@@ -32,6 +32,8 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from ..errors import check_interrupt
+
 RHO = 1e-2          # proximal weight on the scaled design (|z| <= 1 per variable)
 INTERIOR = 1e-2     # rows' bounds tightened by this (scaled) in phase 1
 # the monotone barrier strategy from IPOPT's default mu_init: from the library's starts it
@@ -116,6 +118,7 @@ class Phase1:
         for rho, (row_lo, row_hi) in ((RHO, (lo, hi)), (0.0, (lbg[self.rows], ubg[self.rows]))):
             res = self.solver(x0=x0, p=np.r_[p, z0, rho], lbx=lbx, ubx=ubx, lbg=row_lo, ubg=row_hi)
             stats = self.solver.stats()
+            check_interrupt()   # a Ctrl-C stops IPOPT as a failed solve: stop here (errors.py)
             iterations += int(stats.get("iter_count", 0))
             x = np.asarray(res["x"]).ravel()
             z = np.clip(x[:nd], pb.lbw[:nd], pb.ubw[:nd])

@@ -5,6 +5,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
+from ..errors import check_interrupt
 from .problem import DesignProblem
 
 IPOPT_BOUND_PUSH = 0.01  # IPOPT's default bound_push and bound_frac, on the design scaled to [0, 1]
@@ -51,6 +52,7 @@ class Repair:
         lb = np.where(np.isfinite(pb.lower), IPOPT_BOUND_PUSH, -np.inf)
         ub = np.where(np.isfinite(pb.upper), 1.0 - IPOPT_BOUND_PUSH, np.inf)
         res = self.solver(x0=z0, p=np.r_[z0, fixed], lbx=lb, ubx=ub, lbg=1e-3, ubg=np.inf)
+        check_interrupt()   # a Ctrl-C stops IPOPT as a failed solve (errors.py)
         if not self.solver.stats()["success"]:
             return None
         return pb.to_x(np.asarray(res["x"]).ravel())

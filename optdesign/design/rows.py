@@ -20,10 +20,11 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from ..errors import SceneError
+from ..errors import ExpressionError, SceneError
 from ..model.mapped import MappedFunction
 from ..scene.expressions import Call, Expression, Name, parse
 from ..scene.cases import is_case_constraint
+from ..scene.where import near_miss
 from .bounds import numeric_bounds
 from .cases import case_constraint_rows, case_objective_rows
 
@@ -74,6 +75,10 @@ def build_quantities(pb):
         pb.objective_kind, what = m.group(1).replace("rms_sweep", "rms"), m.group(2)
         expr = outputs.get(what)
         if expr is None:
+            missing = _missing_output(pb, what, outputs)
+            if missing:
+                raise ExpressionError(f"{scene.path}: [objective] minimise = {pb.objective_text!r}: unknown "
+                                      f"name {what!r}{near_miss(what, set(outputs))}: {missing}")
             expr = mech.value(parse(what, "[objective] minimise"), "[objective] minimise")
         pb.objective_quantity = len(rows)
         rows.append(expr)
@@ -132,6 +137,31 @@ def build_quantities(pb):
     dv = mech.ds(v)
     pb.quantity_derivatives = mech.function("quantities_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)})
     pb._dv = dv
+
+
+# the model's columns that a scene may not have, and why (model/reduction.py: ReducedModel.outputs)
+_WHY_MISSING = {
+    "power": "the drive's speed is 0 ([drive] speed), so no power flows; give [drive] a speed",
+    "static_load": "no static load acts: no [gravity], and no body has a force or torque",
+    "reduced_inertia": "no body has a mass or an inertia",
+    "reduced_inertia_dq": "no body has a mass or an inertia",
+    "inertia_term": "the drive's acceleration is 0 ([drive] acceleration) or no body has a mass",
+    "velocity_term": "the drive's speed is 0 ([drive] speed) or no body has a mass",
+    "efficiency_factor": "the drive has no efficiency below 1 ([drive] efficiency)",
+}
+
+
+def _missing_output(pb, what, outputs) -> str | None:
+    """Why peak(NAME)'s NAME is none of this scene's model columns, with what exists; None when
+    NAME is not a plain name, or names a parameter (an expression: evaluated as such)."""
+    if not re.fullmatch(r"[A-Za-z_]\w*", what) or what in pb.mech.resolved.values or what == pb.scene.sweep.name:
+        return None
+    columns = ", ".join(sorted(outputs))
+    why = _WHY_MISSING.get(what)
+    head = (f"this scene's model has no {what!r} column because {why}" if why else
+            f"it is no column of the model and no parameter")
+    return (f"{head}; the columns here: {columns}; or an expression of the points and parameters, "
+            "e.g. peak(length(D, B))")
 
 
 def lift(pb, expr: Expression, where):

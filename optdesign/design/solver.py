@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import check_interrupt
 from .aggregates import sampled_extreme
 from .certify import ContinuousCheck
 from .problem import DesignProblem
@@ -168,11 +169,13 @@ class Solver:
         if last is not None:
             res = pb.warm_solver(x0=w, p=p, lam_x0=last["lam_x"], lam_g0=last["lam_g"], **bounds)
             stats = pb.warm_solver.stats()
+            check_interrupt()   # a Ctrl-C stops IPOPT as a failed solve: stop here (errors.py)
             iterations += int(stats.get("iter_count", 0))
             if stats["success"]:
                 return res, stats, iterations
         res = pb.solver(x0=w, p=p, **bounds)
         stats = pb.solver.stats()
+        check_interrupt()
         return res, stats, iterations + int(stats.get("iter_count", 0))
 
     def _solution(self, res, x, fixed, s_pts, status, success, iterations, exchanges, certified, sampled, converged):

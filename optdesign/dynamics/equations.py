@@ -46,7 +46,7 @@ import math
 import casadi as ca
 import numpy as np
 
-from ..errors import DeadCentreError
+from ..errors import DeadCentreError, ResultError, SceneError
 from ..kinematics.mechanism import _fmt_s
 from ..scene.expressions import evaluate
 
@@ -198,6 +198,17 @@ def check_inertia(eq, scene, stroke_grid, p):
     no inertia of its own): find the smallest value over the stroke, refined between samples."""
     f = eq.inertia_check.map(len(stroke_grid))
     v = np.asarray(f(stroke_grid[None, :], p)[0]).ravel()
+    bad = np.flatnonzero(~np.isfinite(v))
+    if bad.size:   # NaN/inf: name the scene's first item that is not finite there (model/finite.py)
+        from types import SimpleNamespace
+
+        from ..model.finite import cause
+
+        i = int(bad[0])
+        raise ResultError(
+            f"{scene.path}: the reduced inertia (M_s + J_d k^2) is {'NaN' if np.isnan(v[i]) else 'infinite'} at "
+            f"{scene.sweep.name} = {_fmt_s(stroke_grid[i])} (sample {i + 1} of {len(v)} of the stroke)"
+            + cause(SimpleNamespace(mech=eq.mech, scene=scene), stroke_grid[i], p))
     top = float(np.max(v)) if v.size else 0.0
     where = stroke_grid[int(np.argmin(v))]
     low = float(np.min(v))
@@ -231,7 +242,17 @@ def initial_state(eq, scene, s0, qd0, p):
     if eq.rotary:
         q_of = ca.Function("q", [eq.mech.s, eq.mech.p], [eq.mech.q])
         x0.append(float(np.unwrap([0.0, float(q_of(s0, p))])[1]))
-    return np.array(x0)
+    x0 = np.array(x0)
+    if not hasattr(eq, "output"):   # a duty cycle's phases check each phase's law (dynamics/phases.py)
+        return x0
+    law = eq.output("drive", x0, p)
+    if not math.isfinite(law):   # e.g. 1/qd from rest: the motion could never start
+        raise SceneError(
+            f"{scene.path}: [drive] law = {scene.drive.law.source!r} is {'NaN' if math.isnan(law) else 'infinite'} at "
+            f"the start ({scene.sweep.name} = {_fmt_s(s0)}, q = {eq.output('q', x0, p):.6g}, qd = {qd0:g}): the "
+            "law must be finite at every state the motion reaches; guard a division (e.g. by qd) or start "
+            "with another [simulation] speed")
+    return x0
 
 
 def _golden(f, a, b, iterations=80):

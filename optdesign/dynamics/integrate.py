@@ -29,6 +29,8 @@ import re
 import casadi as ca
 import numpy as np
 
+from ..errors import check_interrupt
+
 DEFAULT_TOLERANCE = 1e-8  # relative, when neither the scene nor the caller gives one
 MAX_STEPS = 20000  # CVODES steps per output point (8 or more per output interval) before it gives up
 SUBSAMPLES = 8     # CVODES output points per output interval at least, at which events are watched
@@ -155,7 +157,9 @@ class Integration:
         try:
             xf = F(x0=x0 / scale, p=p)["xf"].full() * scale[:, None]
         except RuntimeError as exc:
+            check_interrupt(exc)   # a Ctrl-C that CasADi reported as a failed call
             self.counts.add(F.stats(), self.method, failure=str(exc))
             raise IntegratorFailed(str(exc)) from None
         self.counts.add(F.stats(), self.method)
+        check_interrupt()   # a Ctrl-C that CasADi noticed and let pass (it goes on in some callbacks)
         return xf

@@ -23,7 +23,7 @@ import numpy as np
 from ..errors import SolverError
 from ..kinematics.mechanism import _fmt_s
 from .events import Event, at_rest, first_exit, flow_branch, locate, start
-from .integrate import LONGEST, IntegratorFailed
+from .integrate import LONGEST, MAX_STEPS, IntegratorFailed
 
 MAX_EVENTS = 100000   # events in one run
 SAME_INSTANT = 50     # events in a row at one instant (to 1e-12 of an output interval)
@@ -207,6 +207,11 @@ def _failure(run, branch, t_a, t_b, x_a, failure, where):
     hint = {"bdf": "tighten or loosen the tolerance, or check the law and the loads for a blow-up",
             "adams": "use the implicit integrator (integrator = \"bdf\"), which handles stiff cases",
             "rk4": "use more steps per sample or the implicit integrator (integrator = \"bdf\")"}[method]
+    if method != "rk4" and failure and "CV_TOO_MUCH_WORK" in failure:   # the input, not the solver, is the cause
+        what = (f"CVODES needed more than {MAX_STEPS:,} steps for the {t_b - t_a:.3g} s between two of its "
+                "output points")
+        hint = ("if t_end is far longer than the motion you meant to follow (e.g. 1e9 s), shorten it "
+                "(--t-end, [simulation] t_end) or ask for more samples; else " + hint)
     exc = SolverError(
         f"{path}: the {method} integrator failed between t = {t_a:.6g} s and {t_b:.6g} s, from "
         f"{name} = {_fmt_s(x_a[0])}, drive speed {qd:.6g}, d{name}/dt = {x_a[1]:.6g}: {what}; {hint}.")

@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 
-from ..errors import SceneError, SolverError
+from ..errors import SceneError, SolverError, casadi_messages_hidden, interruptible
 from ..kinematics.mechanism import Mechanism
 from ..model.reduction import ReducedModel
 from ..scene import Scene
@@ -69,7 +69,11 @@ class Simulator:
             samples: int | None = None, t_end: float | None = None, error_check: bool = True) -> SimulationResult:
         """Integrate from the scene's start over [0, t_end], to a stroke end or to a stall.
         ``error_check`` False skips RK4's half-step error estimate (for work-precision studies
-        only)."""
+        only).  A Ctrl-C stops it within milliseconds, even inside an integrator call."""
+        with interruptible(), casadi_messages_hidden():
+            return self._run(integrator, tolerance, steps, samples, t_end, error_check)
+
+    def _run(self, integrator, tolerance, steps, samples, t_end, error_check):
         sim = self.scene.simulation
         method = integrator or sim.integrator
         if method not in INTEGRATORS:

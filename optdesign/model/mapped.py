@@ -6,6 +6,8 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
+from ..errors import check_interrupt
+
 
 class MappedFunction:
     """A CasADi Function (s, p) evaluated at a row of sweep values with one parameter vector.
@@ -45,8 +47,8 @@ class MappedFunction:
                 run()
                 if buffer.ret() == 0:
                     return [self._densify(o, j, n) for j, o in enumerate(outs)]
-            except RuntimeError:
-                pass
+            except RuntimeError as exc:
+                check_interrupt(exc)   # a Ctrl-C, not a failed evaluation (errors.py)
         # CasADi's ordinary call: it reports a failure (or returns its NaNs) as it always has
         return [np.asarray(o) for o in mapped(s[None, :], p)]
 

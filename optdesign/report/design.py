@@ -7,7 +7,7 @@ from .design_cases import cases_json, cases_summary
 from . import design_figures
 from .design_figures import FIGURES, write_figures
 from .output import SCHEMA, to_json, write_atomic
-from .units import constraint_scale
+from .units import constraint_scale, peak_quantity
 
 
 def optimisation_json(result) -> dict:
@@ -22,7 +22,7 @@ def optimisation_json(result) -> dict:
         "constraints": result.constraints, "sensitivities": result.sensitivities,
         "starts": [dataclasses.asdict(s) for s in result.starts],
         "optima": [o.as_dict() for o in result.optima], "least_violating": result.least_violating,
-        "start_plan": result.start_plan,
+        "start_plan": result.start_plan, "interrupted": getattr(result, "interrupted", False),
         "timings": result.timings, "settings": dataclasses.asdict(result.settings),
         **cases_json(result),   # with [[cases]]: governing case, duty cycle, drive train (report/design_cases.py)
     }
@@ -39,7 +39,8 @@ def summary(result) -> str:
             lines.append(f"objective = {result.objective:.9g} (certified over the continuous stroke; "
                          f"{result.objective_sampled:.9g} on the scene's samples)")
         if result.peak_certified is not None:
-            lines.append(f"peak |drive| certified = {result.peak_certified:.9g}, sampled = {result.peak_sampled:.9g}")
+            lines.append(f"peak |{peak_quantity(result)}| certified = {result.peak_certified:.9g}, "
+                         f"sampled = {result.peak_sampled:.9g}")
         lines.append("constraints (value, bounds, multiplier = d objective / d active bound):")
         by_name = {c.name: c for c in result.scene.constraints}
         for name, c in result.constraints.items():
@@ -62,6 +63,9 @@ def summary(result) -> str:
 def headline(result) -> str:
     """What the run found, in one phrase: never a plain OPTIMAL for a single start (a local
     optimum), nor a failure where phase 1 found no feasible design (infeasible)."""
+    if getattr(result, "interrupted", False) and result.success:
+        return (f"INTERRUPTED (the best of the {result.starts_total} starts that finished before Ctrl-C; "
+                f"{result.status})")
     if not result.success:
         return "INFEASIBLE (no start could be made feasible)" if result.status == "infeasible" else f"FAILED ({result.status})"
     if result.starts_total == 1:

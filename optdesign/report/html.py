@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .units import constraint_scale, number, parameter_unit, quantity, scaled, sweep_scale
+from .units import constraint_scale, number, parameter_unit, peak_quantity, quantity, scaled, sweep_scale
 
 STYLE = """
 body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, sans-serif; margin: 0; color: #1d2733;
@@ -150,7 +150,11 @@ def _peak(result, analyses) -> str:
         shown = (lambda v: quantity(v, unit, 7)) if unit else (lambda v: number(v, 7))
         parts.append(f"<p id=\"certified\">Objective <b>{_e(shown(result.objective))}</b>, certified over the "
                      f"continuous stroke ({_e(shown(result.objective_sampled))} on the scene's samples alone).</p>")
-    if result.peak_certified is not None and analyses:
+    what = peak_quantity(result)
+    if result.peak_certified is not None and what != "drive":   # peak(NAME) of another quantity
+        parts.append(f"<p>Peak |{_e(what)}| {_e(number(result.peak_certified, 7))} certified "
+                     f"({_e(number(result.peak_sampled, 7))} sampled).</p>")
+    elif result.peak_certified is not None and analyses:
         optimum = analyses[-1][1]
         drive = "N m" if result.scene.drive.kind == "rotary" else "N"
         at = (getattr(optimum, "peak_at", {}) or {}).get("drive")

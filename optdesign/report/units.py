@@ -85,3 +85,12 @@ def quantity(value, unit, digits=4) -> str:
     """A value with its unit, large ones scaled: ``quantity(171492.2, 'N')`` -> '171.5 kN'."""
     factor, shown = scaled([value], unit)
     return f"{number(value * factor, digits)} {shown}".rstrip()
+
+
+def peak_quantity(result) -> str:
+    """What result.peak_certified is the peak of: the objective's peak(NAME), NAME (the drive
+    load for peak(drive), but also e.g. length(D, B) - 3)."""
+    import re
+
+    m = re.match(r"^\s*peak\s*\(\s*(.+?)\s*\)\s*$", result.scene.objective.minimise or "")
+    return m.group(1) if m else "drive"

@@ -138,10 +138,29 @@ class Validator:
                 local |= set(c.unknowns)
             for key, expr in self._expressions_of(c):
                 self._check_expression(where.at(key), expr, local, built)
+            self._check_dyad_lengths(c, where)
             for name in c.defines:
                 first[name] = c.name
             built.extend(c.defines)
         return built
+
+    def _check_dyad_lengths(self, c, where):
+        """A dyad's and a slider's lengths are > 0 where they are numbers of the parameters (a
+        circle of radius 0 or less meets nothing, or meets in a point that turns any way); one
+        that varies along the stroke is checked by the assembly where it is evaluated."""
+        if c.KIND not in ("dyad", "slider"):
+            return
+        for attr, label, kind in c.ROLES:
+            expr = getattr(c, attr)
+            if kind != "expr" or not attr.startswith("length") or expr.points() or self.scene.sweep.name in expr.names():
+                continue
+            key = f"{c.KIND} {label}"
+            value = constant_value(expr, self.scene.parameter_values(), where.at(key))
+            if not value > 0:
+                self._fail(where.at(key), f"expected a length > 0 [m], found {value:g}"
+                                          + (f" ({expr.source} at the parameters' values)" if expr.names() else "")
+                                          + "; a link of length 0 or less cannot be assembled: give its length "
+                                            "as a positive number (the side key picks the solution)")
 
     @staticmethod
     def _use_keys(c):

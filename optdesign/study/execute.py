@@ -19,11 +19,11 @@ import threading
 import time
 from pathlib import Path
 
-from ..errors import OptdesignError
+from ..errors import OptdesignError, worker_process
 from ..report import study as study_figures
 from . import journal as study_journal
 from . import table as study_table
-from .results import StudyInterrupted, StudyResult
+from .results import ClusterLost, StudyInterrupted, StudyResult
 from ..report.folder import NoHardLinks, inspect, replace_folder
 from ..report.output import write_atomic
 from .tasks import run_batch, scene_digest
@@ -45,13 +45,15 @@ def execute(study, folder: Path, workers, scheduler, progress, restart, figures)
             chains.setdefault(c.chain, []).append(c)
         todo = [ch for ch in chains.values() if any(c.id not in journal.records for c in ch)]
         executor = _executor(workers, scheduler, len(todo))
-        computed, interrupted = 0, False
+        computed, interrupted, lost = 0, False, None
         with _CtrlC() as ctrl_c:
             try:
                 computed = _schedule(study, todo, journal, executor, progress, reused, len(cases), ctrl_c)
             except KeyboardInterrupt:
                 interrupted = True
                 computed = executor.stop(journal)
+            except ClusterLost as exc:   # the Dask scheduler is gone: keep what came back
+                lost, computed = exc, executor.finished
             finally:
                 where = executor.describe()
                 executor.close()
@@ -61,6 +63,11 @@ def execute(study, folder: Path, workers, scheduler, progress, restart, figures)
         except OptdesignError as exc:
             raise OptdesignError(f"{exc}; the {len(rows)} finished cases are kept in {journal.path}: run the same "
                                  "study again with the same folder to write them") from None
+    if lost is not None:
+        raise ClusterLost(
+            f"{lost}: {len(rows)} of {len(cases)} cases are finished and kept in {folder / study_journal.JOURNAL}; "
+            "run the same study again with the same folder to resume (finished cases are not redone)",
+            len(rows), len(cases), folder / study_journal.JOURNAL, result)
     if interrupted:
         raise StudyInterrupted(
             f"study interrupted: {len(rows)} of {len(cases)} cases are finished and kept in "
@@ -276,11 +283,6 @@ class _Futures:
         return self.finished
 
 
-def _ignore_sigint():
-    """Pool workers leave Ctrl-C to the parent, which stops the study cleanly."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
 class _Pool(_Futures):
     """A process pool on this machine; each worker builds the scene's model once."""
 
@@ -291,7 +293,9 @@ class _Pool(_Futures):
         methods = multiprocessing.get_all_start_methods()
         ctx = multiprocessing.get_context("fork" if "fork" in methods else "spawn")
         self.workers = workers
-        self.pool = cf.ProcessPoolExecutor(workers, mp_context=ctx, initializer=_ignore_sigint)
+        # workers leave Ctrl-C to the parent, which stops the study cleanly, and die with it
+        self.pool = cf.ProcessPoolExecutor(workers, mp_context=ctx, initializer=worker_process,
+                                           initargs=(os.getpid(),))
 
     def submit(self, cases, tasks):
         self.pending[self.pool.submit(run_batch, tasks)] = cases
@@ -322,7 +326,7 @@ class _Dask(_Futures):
 
     def __init__(self, scheduler):
         super().__init__()
-        self.work_s, self.work_n = 0.0, 0
+        self.work_s, self.work_n, self.lost = 0.0, 0, False
         import distributed
 
         self.distributed = distributed
@@ -336,6 +340,13 @@ class _Dask(_Futures):
                 raise OptdesignError(f"--scheduler {scheduler!r}: cannot reach the Dask scheduler ({exc}); expected "
                                      "an address such as tcp://10.0.0.5:8786") from None
         self.address = self.client.scheduler.address
+        import logging
+
+        # its own log lines ('Failed to reconnect to scheduler ...') would interleave with ours;
+        # a lost scheduler is reported once, as ClusterLost
+        self._logger = logging.getLogger("distributed.client")
+        self._log_level = self._logger.level
+        self._logger.setLevel(logging.CRITICAL)
         try:   # helper processes started on every worker now, while the study is being prepared
             threads = max(self.client.nthreads().values(), default=1)
             self.client.run(prestart, threads)   # returns at once: they start aside
@@ -353,10 +364,14 @@ class _Dask(_Futures):
         self.pending[self.client.submit(run_batch_in_helper, tasks, pure=False)] = cases
 
     def results(self):
-        for case, out in super().results():
-            self.work_s += out["time_s"]
-            self.work_n += 1
-            yield case, out
+        try:
+            for case, out in super().results():
+                self.work_s += out["time_s"]
+                self.work_n += 1
+                yield case, out
+        except (cf.CancelledError, OSError, TimeoutError) as exc:   # FuturesCancelledError, CommClosedError
+            self.lost = True
+            raise ClusterLost(f"the Dask scheduler at {self.address} was lost ({type(exc).__name__})") from None
 
     def _wait_first(self, futures):
         return self.distributed.wait(futures, return_when="FIRST_COMPLETED").done
@@ -368,11 +383,19 @@ class _Dask(_Futures):
         return self.finished
 
     def close(self):
+        if not self.lost:   # a lost client still logs its reconnection failure after this: keep it quiet
+            self._logger.setLevel(self._log_level)
         if self.own:
-            self.client.close()
+            try:
+                self.client.close()
+            except (OSError, TimeoutError, cf.CancelledError):   # the scheduler is gone already
+                pass
 
     def describe(self):
-        n = len(self.client.scheduler_info().get("workers", {}))
+        try:
+            n = len(self.client.scheduler_info().get("workers", {}))
+        except (OSError, TimeoutError, cf.CancelledError, AttributeError):   # the scheduler is gone
+            return f"Dask cluster at {self.address} (lost)"
         return f"Dask cluster at {self.address}, {n} workers"
 
 

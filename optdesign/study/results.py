@@ -5,6 +5,8 @@ import dataclasses
 import math
 from pathlib import Path
 
+from ..errors import OptdesignError
+
 
 class StudyInterrupted(KeyboardInterrupt):
     """A study stopped by Ctrl-C; ``result`` holds what was finished (and kept)."""
@@ -12,6 +14,16 @@ class StudyInterrupted(KeyboardInterrupt):
     def __init__(self, message, result):
         super().__init__(message)
         self.result = result
+
+
+class ClusterLost(OptdesignError):
+    """The Dask scheduler was lost in the middle of a study: every case that had come back is
+    kept in the journal (``finished`` of ``total``, in ``journal``); running the same study
+    again with the same folder resumes it.  ``result`` holds what was finished."""
+
+    def __init__(self, message, finished=0, total=0, journal=None, result=None):
+        super().__init__(message)
+        self.finished, self.total, self.journal, self.result = finished, total, journal, result
 
 
 @dataclasses.dataclass(frozen=True)
