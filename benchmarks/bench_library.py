@@ -352,6 +352,8 @@ def main(argv=None):
     ap.add_argument("--no-variants", action="store_true", help="the default setting only")
     ap.add_argument("--scenes", nargs="*", help="scene names (default: every scene with an objective)")
     ap.add_argument("--out", default=str(ROOT / "results" / "optimise_library.md"))
+    ap.add_argument("--resume", action="store_true",
+                    help="keep the scenes already in the --out's JSON (from a run that stopped) and run the rest")
     args = ap.parse_args(argv)
     from benchfile import cpu_model, git_state
 
@@ -363,7 +365,13 @@ def main(argv=None):
         git = git.split(" with ")[0] + f" with uncommitted changes in {git.count(',') + 1} files under optdesign/"
     data = {"when": datetime.date.today().isoformat(), "git": git,
             "machine": f"{cpu_model()}, {os.cpu_count()} cores", "scenes": {}, "variants": not args.no_variants}
+    if args.resume and Path(args.out).with_suffix(".json").exists():
+        before = json.loads(Path(args.out).with_suffix(".json").read_text())
+        data["scenes"] = before["scenes"]
+        data["git"] = f"{before['git']} (scenes {', '.join(before['scenes'])}); then {git} (the rest)"
     for path in scenes(args.scenes):
+        if path.stem in data["scenes"]:
+            continue
         t0 = time.perf_counter()
         ref = library_reference(path, args.level) if path.stem.startswith("lib_") else shipped_reference(path)
         value, design, source = ref if ref is not None else (None, None, "none")
