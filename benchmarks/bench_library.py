@@ -107,6 +107,8 @@ def dense_peak(path, design):
     import test_optimisation_scenes as ind
 
     scene = optdesign.load(path)
+    if scene.cases:   # an objective over load cases: the evaluator has no cases
+        return None
     st = ind.Stroke(scene, DENSE)
     if st.kind != "peak":
         return None
