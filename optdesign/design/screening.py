@@ -13,7 +13,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from ..model.vectorised import instruction_program
+from ..model.vectorised import instruction_program, run_program
 
 
 class ManyDesigns:
@@ -45,17 +45,9 @@ class ManyDesigns:
         for j in range(f.n_out()):
             outs.append(np.zeros((f.numel_out(j), m)))
         where = [f.sparsity_out(j).find() for j in range(f.n_out())]
-        work = [None] * f.sz_w()
-        with np.errstate(all="ignore"):  # like CasADi's VM: nan/inf without warnings
-            for kind, a, b, c in self.program:
-                if kind == 3:
-                    work[c] = a(work[b[0]], work[b[1]])
-                elif kind == 4:
-                    work[c] = a(work[b])
-                elif kind == 2:
-                    work[c] = a
-                elif kind == 0:
-                    work[c] = columns[a][b]
-                else:
-                    outs[a][where[a][b]] = work[c]
+
+        def store(j, k, value):
+            outs[j][where[j][k]] = value
+
+        run_program(self.program, f.sz_w(), lambda i, k: columns[i][k], store)
         return outs

@@ -55,6 +55,25 @@ def instruction_program(func: ca.Function) -> list:
     return program
 
 
+def run_program(program, n_work, load, store):
+    """Run an :func:`instruction_program` with numpy: ``load(input, nonzero)`` gives an input's
+    value (an array over the samples or designs, or a scalar), ``store(output, nonzero, value)``
+    takes an output's."""
+    work = [None] * n_work
+    with np.errstate(all="ignore"):  # like CasADi's VM: nan/inf without warnings
+        for kind, a, b, c in program:
+            if kind == 3:
+                work[c] = a(work[b[0]], work[b[1]])
+            elif kind == 4:
+                work[c] = a(work[b])
+            elif kind == 2:
+                work[c] = a
+            elif kind == 0:
+                work[c] = load(a, b)
+            else:
+                store(a, b, work[c])
+
+
 class VectorisedSX:
     """A scalar-output SX Function (s, p) -> outputs, run over a row of sweep values.
 
@@ -72,18 +91,10 @@ class VectorisedSX:
 
     def __call__(self, s_row, p) -> dict:
         inputs = (np.asarray(s_row, float).ravel(), np.asarray(p, float).ravel())
-        work = [None] * self.n_work
         out = {}
-        with np.errstate(all="ignore"):  # like CasADi's VM: nan/inf without warnings
-            for kind, a, b, c in self.program:
-                if kind == 3:
-                    work[c] = a(work[b[0]], work[b[1]])
-                elif kind == 4:
-                    work[c] = a(work[b])
-                elif kind == 2:
-                    work[c] = a
-                elif kind == 0:
-                    work[c] = inputs[0] if a == 0 else inputs[1][b]
-                else:
-                    out[self.names[a]] = work[c]
+
+        def store(j, _, value):
+            out[self.names[j]] = value
+
+        run_program(self.program, self.n_work, lambda i, k: inputs[0] if i == 0 else inputs[1][k], store)
         return out
