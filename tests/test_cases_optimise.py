@@ -268,6 +268,8 @@ def test_the_smallest_motor_of_a_catalogue_that_fits():
     assert fits["tiny"] is None and fits["small"] is not None, fits
     assert cat.chosen == "small"
     assert not cat.results["tiny"].success and cat.results["small"].success
+    # the larger motor is not optimised once a smaller one fits
+    assert list(cat.results) == ["tiny", "small"] and cat.not_tried == ("large",)
     assert cat.best.objective == pytest.approx(fits["small"], rel=2e-4)
 
 

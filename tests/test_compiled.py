@@ -231,3 +231,39 @@ def test_another_process_finds_the_same_entry(cache):
                          env=dict(os.environ), check=True).stdout.split()
     assert out == ["BlockedFunction", mine]
     assert sorted((p.name, p.stat().st_mtime_ns) for p in cache.iterdir()) == before
+
+
+
+def test_the_cache_keeps_within_its_size_least_recently_used_out_first(cache, monkeypatch):
+    """Three libraries of 1, 2 and 3 MB last used in the order b, c, a, a limit of 3.5 MB: a new
+    entry (compiled here for real) makes the cache remove the least recently used until it fits
+    (b, then c: 1 MB and the new one left); an entry in use is marked used; a killed compiler's
+    temporary files go once they are stale, a running one's stay; alone above the limit the
+    newest entry is kept."""
+    cache.mkdir(parents=True)
+    now = time.time()
+    for key, size, used in (("external-a", 1_000_000, now - 100), ("external-b", 2_000_000, now - 300),
+                            ("external-c", 3_000_000, now - 200)):
+        (cache / f"{key}.so").write_bytes(b"\0" * size)
+        (cache / f"{key}.json").write_text("{}")
+        os.utime(cache / f"{key}.so", (used, used))
+    stale, fresh = cache / "nlpsol-x.tmp4545.c", cache / "nlpsol-y.fn7833"
+    stale.write_text("int f;")
+    fresh.write_text("graph")
+    os.utime(stale, (now - 2 * compiled.STALE_S,) * 2)
+    monkeypatch.setenv("OPTDESIGN_CACHE_MAX_MB", "3.5")
+    assert isinstance(stroke_evaluator(small_function()), BlockedFunction)   # compiled: a new entry
+    libraries = {p.stem for p in cache.glob("*.so")}
+    new = libraries - {"external-a", "external-b", "external-c"}
+    assert len(new) == 1 and libraries == {"external-a"} | new
+    assert not (cache / "external-b.json").exists() and not (cache / "external-c.json").exists()
+    assert not stale.exists() and fresh.exists()
+    (new_key,) = new
+    old = now - 1000
+    os.utime(cache / f"{new_key}.so", (old, old))
+    assert compiled.lookup(new_key) is not None and (cache / f"{new_key}.so").stat().st_mtime > now - 100
+    monkeypatch.setenv("OPTDESIGN_CACHE_MAX_MB", "0.001")
+    assert compiled.prune(keep=new_key) == ["external-a"] and (cache / f"{new_key}.so").exists()
+    monkeypatch.setenv("OPTDESIGN_CACHE_MAX_MB", "lots")
+    with pytest.warns(compiled.CompileWarning, match="OPTDESIGN_CACHE_MAX_MB='lots' is not a number"):
+        assert compiled.max_bytes() == compiled.CACHE_MAX_BYTES

@@ -10,7 +10,8 @@ Function), the kind of code, the compiler's identity and version, its flags, Cas
 and this module's format; parameter values are inputs of the graphs, not part of them, so
 ``--set`` and a study's cases reuse one entry.  Beside each library a small JSON file holds its
 SHA-256: an entry whose library does not match it (a torn write, a damaged file) or does not
-load is removed and built again.
+load is removed and built again.  The cache keeps within 1 GB (``$OPTDESIGN_CACHE_MAX_MB``):
+the least recently used libraries go first (:func:`prune`).
 
 When.  Compiling takes seconds (a reduced model about 2 s of one core, a design NLP longer), more
 than a single command needs, so by default (``OPTDESIGN_COMPILE=background``) a run that misses
@@ -34,6 +35,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -64,6 +66,15 @@ def flags_for(size: int) -> tuple:
 MAX_SOURCE = 8_000_000
 COMPILER_MEMORY = 3 << 30
 COMPILE_TIMEOUT_S = 900
+
+
+# the cache's size: its libraries at most CACHE_MAX_BYTES (``$OPTDESIGN_CACHE_MAX_MB``), the least
+# recently used removed first when a new one comes in (an NLP's library is 1-10 MB; a day of
+# this project's tests and benchmarks left 764 MB, a third of it a killed compiler's C source);
+# a compiler's temporary files older than STALE_S belong to a process that was killed: removed
+CACHE_MAX_BYTES = 1_000_000_000
+STALE_S = 3600
+_TEMPORARY = re.compile(r"\.(tmp|fn|src|job)\d+")
 
 
 def _limit_memory():
@@ -185,11 +196,64 @@ def lookup(key: str) -> Path | None:
         return None
     try:
         if _sha256(lib) == recorded:
+            _touch(lib)
             return lib
     except OSError:
         pass
     remove(key)   # damaged: built again
     return None
+
+
+def _touch(lib: Path):
+    """Mark ``lib`` as used now (its modification time: what :func:`prune` orders by), at
+    most once a minute."""
+    try:
+        now = time.time()
+        if now - lib.stat().st_mtime > 60:
+            os.utime(lib, (now, now))
+    except OSError:
+        pass
+
+
+def max_bytes() -> int:
+    env = os.environ.get("OPTDESIGN_CACHE_MAX_MB", "").strip()
+    try:
+        return int(float(env) * 1e6) if env else CACHE_MAX_BYTES
+    except ValueError:
+        say_once("max", f"optdesign: OPTDESIGN_CACHE_MAX_MB={env!r} is not a number of megabytes; "
+                        f"using {CACHE_MAX_BYTES / 1e6:g}")
+        return CACHE_MAX_BYTES
+
+
+def prune(keep: str | None = None) -> list:
+    """Keep the cache within :func:`max_bytes`: remove the least recently used libraries
+    (never ``keep``, the one just built) and the temporary files of killed compilers (older
+    than STALE_S); returns the keys removed."""
+    folder, now, limit = cache_dir(), time.time(), max_bytes()
+    entries = []
+    try:
+        files = list(folder.iterdir())
+    except OSError:
+        return []
+    for f in files:
+        try:
+            st = f.stat()
+        except OSError:
+            continue
+        if _TEMPORARY.search(f.name):
+            if now - st.st_mtime > STALE_S:
+                f.unlink(missing_ok=True)
+        elif f.suffix == ".so":
+            entries.append((st.st_mtime, st.st_size, f.stem))
+    total, removed = sum(size for _, size, _ in entries), []
+    for _, size, key in sorted(entries):
+        if total <= limit:
+            break
+        if key != keep:
+            remove(key)
+            total -= size
+            removed.append(key)
+    return removed
 
 
 def remove(key: str):
@@ -308,6 +372,7 @@ def run_job(job: dict, block: bool = True) -> bool:
             os.replace(f"{stem}.so", folder / f"{key}.so")
             _write_atomic(folder / f"{key}.json", json.dumps(meta, indent=1).encode())
             (folder / f"{key}.failed").unlink(missing_ok=True)
+            prune(keep=key)
             return True
         except Exception as exc:   # noqa: BLE001 - any failure means: use the virtual machine
             _write_atomic(folder / f"{key}.failed", f"{type(exc).__name__}: {exc}\n".encode())

@@ -98,13 +98,16 @@ def cases_summary(result) -> str:
 def catalogue_json(catalogue, result_json) -> dict:
     """The JSON of a catalogue's optimisations: each motor's result, the chosen motor."""
     return {"chosen_motor": catalogue.chosen,
-            "catalogue": {name: result_json(r) for name, r in catalogue.results.items()}}
+            "catalogue": {name: result_json(r) for name, r in catalogue.results.items()},
+            "not_tried": list(catalogue.not_tried)}
 
 
 def catalogue_summary(catalogue) -> str:
-    lines = ["motor catalogue (each motor optimised with its limits, smallest rated torque first):"]
+    lines = ["motor catalogue (each motor optimised with its limits, smallest rated torque first, until one fits):"]
     for name, r in catalogue.results.items():
         what = f"objective {r.objective:.9g}" if r.success else f"no feasible optimum ({r.status})"
         lines.append(f"  {name}: {what}")
+    if catalogue.not_tried:
+        lines.append(f"  not optimised (a smaller motor fits): {', '.join(catalogue.not_tried)}")
     lines.append(f"smallest motor that fits: {catalogue.chosen or 'none'}")
     return "\n".join(lines)
