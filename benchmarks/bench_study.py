@@ -15,7 +15,8 @@ them would take minutes, so an evenly spread sample of them is timed and its mea
 
 The 2-process pool and the Dask cluster (the comparison of issue 18: Dask per worker >= 0.9x
 the pool) run alternately, ``--rounds`` times each, in one loop (the shared machine's load falls
-on both); their medians are compared.  Compiled functions come from the disk cache
+on both; which goes first alternates by round); the headline is the median over the rounds of
+each round's ratio (the ratio of the medians is shown beside it).  Compiled functions come from the disk cache
 (``OPTDESIGN_COMPILE=wait``: compiled before the first timed run).
 
 writes its section of results/bench.md (benchmarks/benchfile.py)."""
@@ -139,14 +140,25 @@ def main(argv=None):
         pool_walls, dask_walls, csvs = [], [], set()
         with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                           dashboard_address=None) as cluster:
-            for k in range(args.rounds):   # the pool and Dask in turn
-                w2, _, csv2 = timed_study(study, Path(tmp) / f"w2_{k}", workers=2)
-                wd, _, csvd = timed_study(study, Path(tmp) / f"dask_{k}", scheduler=cluster.scheduler_address)
+            for k in range(args.rounds):   # the pool and Dask in turn, which goes first alternating
+                def pool():
+                    return timed_study(study, Path(tmp) / f"w2_{k}", workers=2)
+
+                def dask():
+                    return timed_study(study, Path(tmp) / f"dask_{k}", scheduler=cluster.scheduler_address)
+                if k % 2:
+                    (wd, _, csvd), (w2, _, csv2) = dask(), pool()
+                else:
+                    (w2, _, csv2), (wd, _, csvd) = pool(), dask()
                 pool_walls.append(w2)
                 dask_walls.append(wd)
                 csvs.update((csv2, csvd))
                 print(f"round {k}: 2 workers {w2:.1f} s, dask {wd:.1f} s", file=sys.stderr)
         w2, wd = statistics.median(pool_walls), statistics.median(dask_walls)
+        # the ratio of each round's two runs, back to back (the shared machine's load changes
+        # between rounds more than within one), and their median
+        paired = [a / b for a, b in zip(pool_walls, dask_walls)]
+        ratio = statistics.median(paired)
         busy = {kind: [CASE_TIMES.get(str(Path(tmp) / f"{kind}_{k}")) for k in range(args.rounds)] for kind in ("w2", "dask")}
         csv2 = csvd = csv1 if csvs == {csv1} else b""
     identical = csv1 == csv2 == csvd
@@ -162,7 +174,7 @@ Written by `python benchmarks/bench_study.py --rounds {args.rounds}` on {time.st
 with other work: the numbers are ratios measured in one run).  Study: {SCENE.name}, 40 tip masses
 mC x 25 jib lengths l = 1,000 optimisations ({ok} successful), warm-started along l in 40 chains of
 25, one IPOPT start per case.  Every run's cases.csv is {'byte-identical' if identical else 'NOT identical'} to the others.
-The pool and Dask ran alternately {args.rounds} times each in one loop (medians; walls: pool
+The pool and Dask ran alternately {args.rounds} times each in one loop (which first alternating by round; walls: pool
 {', '.join(f'{w:.1f}' for w in pool_walls)} s, Dask {', '.join(f'{w:.1f}' for w in dask_walls)} s); the Dask cluster was started once
 before the loop (its start-up is not in the times).
 
@@ -173,11 +185,13 @@ before the loop (its start-up is not in the times).
 | study, Dask LocalCluster, 2 workers (loopback; median) | {wd:.1f} | {1000 / wd:.1f} | {single_total / wd:.1f}x faster |
 | 1,000 x `optimise(load(scene, {{mC, l}}), starts=1)` (mean of {len(times)} timed, x 1,000; the virtual machine: each case's NLP is a graph of its own) | {single_total:.1f} | {1000 / single_total:.1f} | 1 |
 
-**Dask per worker against the local pool: {w2 / wd:.2f}x** (the same 2 workers; goal >= 0.9x: {"met" if w2 / wd >= 0.9 else "NOT met"}).
+**Dask per worker against the local pool: {ratio:.2f}x** (the same 2 workers; the median over the rounds of
+the pool's wall time / Dask's in the same round: {', '.join(f'{r:.2f}' for r in paired)}; the ratio of the medians
+{w2 / wd:.2f}x; goal >= 0.9x: {"met" if ratio >= 0.9 else "NOT met"}).
 Where the difference lies: the sum of the cases' own times (each measured where it ran: a pool worker, a Dask
 worker's helper process) was {busy_text(busy["w2"], pool_walls)} s in the pool's runs and {busy_text(busy["dask"], dask_walls)} s on Dask
 (the share in brackets: the sum over 2 workers x the run's wall time; the rest of the wall time the workers waited,
-for a batch to come or for the client).{not_met_text(w2 / wd, busy, pool_walls, dask_walls)}
+for a batch to come or for the client).{not_met_text(ratio, busy, pool_walls, dask_walls)}
 2 workers against 1: {w1 / w2:.2f}x{" (more than the cores: not a real gain, the shared machine's load varied between the runs)" if w1 / w2 > 2 else ""}.  A single call spends its time building the scene's NLP (CasADi
 graphs, derivatives, IPOPT): mean {np.mean(times) * 1e3:.0f} ms per call (min {np.min(times) * 1e3:.0f}, max
 {np.max(times) * 1e3:.0f}); the study builds once per process and re-solves with new parameter values
