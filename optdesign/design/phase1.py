@@ -83,6 +83,14 @@ class Phase1:
         opts = {k: v for k, v in pb.solver_options.items() if k != "ipopt.expect_infeasible_problem"}
         opts.update({"ipopt.tol": 1e-9, "ipopt.constr_viol_tol": 1e-9, "ipopt.max_iter": 500})
         opts.update(OPTIONS)
+        if sym is ca.MX:
+            # an NLP that holds a cycle's integrals (mapped over every node of every case, MX:
+            # design/cases.needs_mx) has an exact Hessian that costs more than the iterations
+            # it saves; phase 1 only looks for a feasible design, whose quality the objective
+            # phase (exact Hessian) does not depend on (crane_luffing_drive, 4 starts per motor:
+            # the infeasible 4 kW motor 135 -> 60 s of CPU, the 7.5 kW motor 47 -> 47 s, the same
+            # optimum 103.0558)
+            opts["ipopt.hessian_approximation"] = "limited-memory"
         self.solver = ca.nlpsol("phase1", "ipopt", {"x": ca.vertcat(z, a, e_lo, e_hi), "p": ca.vertcat(p, z0, rho),
                                                   "f": f, "g": g}, opts)
         self.g = ca.Function("phase1_check", [nlp["x"], nlp["p"]], [nlp["g"]])
