@@ -36,6 +36,28 @@ def test_quiet(capsys):
     assert out == "" and "error:" in err and "'zz'" in err
 
 
+def test_optdesigns_warnings_print_as_their_line(capsys, monkeypatch):
+    """A CompileWarning (the models left on CasADi's virtual machine) reaches the console as its
+    message alone; another package's warning goes to Python's own handler."""
+    import warnings
+
+    import optdesign.cli.kinematics as command
+    from optdesign.model.compiled import CompileWarning
+
+    def run(args):
+        warnings.warn("optdesign: compiling x failed: it runs on CasADi's virtual machine, slower", CompileWarning)
+        warnings.warn("something else", DeprecationWarning)
+    monkeypatch.setattr(command, "run", run)
+    monkeypatch.setattr(warnings, "showwarning", warnings.showwarning)   # restored afterwards
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")
+        assert cli.main(["kinematics", JIB]) == 0
+    err = capsys.readouterr().err
+    assert "optdesign: compiling x failed: it runs on CasADi's virtual machine, slower\n" in err
+    assert "CompileWarning" not in err and "warnings.warn" not in err
+    assert "\nsomething else\n" not in "\n" + err   # not ours: left to Python's (here pytest's) handler
+
+
 def test_analyse_prints_the_summary_first_and_the_table_on_request(capsys):
     assert cli.main(["analyse", JIB]) == 0
     lines = capsys.readouterr().out.splitlines()

@@ -30,6 +30,7 @@ def parser():
 def main(argv=None):
     from ..report import folder
 
+    plain_warnings()
     try:
         top = parser()
         args = top.parse_args(negative_values_joined(top, sys.argv[1:] if argv is None else list(argv)))   # the options' checks import optdesign.scene (CasADi)
@@ -54,6 +55,25 @@ def main(argv=None):
         print(f"\noptdesign {args.command}: interrupted ({interrupted_outcome(folder.replaced)})", file=sys.stderr)
         return 130
     return 0
+
+
+def plain_warnings():
+    """optdesign's own warnings (a model left on CasADi's virtual machine, ...) printed as the
+    line they are, without the Python file, line number and source line of where they were
+    raised; other packages' warnings as Python prints them."""
+    import warnings
+
+    default = warnings.showwarning
+    if getattr(default, "optdesign", False):
+        return
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if category.__module__.startswith("optdesign"):
+            print(message, file=file or sys.stderr)
+        else:
+            default(message, category, filename, lineno, file, line)
+    show.optdesign = True
+    warnings.showwarning = show
 
 
 def negative_values_joined(top, argv) -> list:
