@@ -267,3 +267,18 @@ def test_the_cache_keeps_within_its_size_least_recently_used_out_first(cache, mo
     monkeypatch.setenv("OPTDESIGN_CACHE_MAX_MB", "lots")
     with pytest.warns(compiled.CompileWarning, match="OPTDESIGN_CACHE_MAX_MB='lots' is not a number"):
         assert compiled.max_bytes() == compiled.CACHE_MAX_BYTES
+
+
+def test_a_graph_too_large_is_not_written_as_c(cache, monkeypatch):
+    """A graph above MAX_GRAPH serialized bytes runs on the virtual machine at once (said once,
+    the reason noted in the cache), with no background compiler and no C written."""
+    f = small_function()
+    monkeypatch.setattr(compiled, "MAX_GRAPH", len(f.serialize()) - 1)
+    monkeypatch.setenv("OPTDESIGN_COMPILE", "background")
+    started = []
+    monkeypatch.setattr(compiled, "_start_background", started.append)
+    with pytest.warns(compiled.CompileWarning, match="virtual machine"):
+        assert compiled.external(f, "small_large", lambda name: pytest.fail("C written")) is None
+    assert not started and not list(cache.glob("*.so"))
+    (failed,) = cache.glob("*.failed")
+    assert "(serialized) is more than this cache compiles" in failed.read_text()

@@ -44,9 +44,8 @@ import warnings
 from pathlib import Path
 
 FORMAT = 1
-# -march=native: the vector instructions of this processor (the key names the processor, so a
-# cache folder shared by different machines keeps one library per kind of processor); IEEE
-# arithmetic kept: no fast-math, no contraction into fused multiply-adds
+# -march=native (the key names the processor: a shared cache folder keeps one library per kind
+# of processor); IEEE arithmetic kept: no fast-math, no contraction into fused multiply-adds
 FLAGS = ("-O1", "-ftree-vectorize", "-march=native", "-fno-math-errno", "-fno-trapping-math",
          "-ffp-contract=off", "-fPIC", "-shared")
 # gcc's optimiser takes minutes on the single straight-line function of a large NLP's Hessian
@@ -59,19 +58,18 @@ def flags_for(size: int) -> tuple:
     return ("-O0", *FLAGS[1:]) if size > LARGE_SOURCE else FLAGS
 
 
-# the compiler's bounds: gcc needed 14.6 GB at -O0 for the exact-Hessian SQP of the press's
-# duty cycle (and was killed by the kernel on a 24 GB machine for the crane's catalogue NLP):
-# a source above MAX_SOURCE is not compiled, and the compiler gets at most COMPILER_MEMORY of
-# address space and COMPILE_TIMEOUT_S, else the entry is marked failed and the VM is used
+# the compiler's bounds (gcc needed 14.6 GB at -O0 for an exact-Hessian SQP of the press's duty
+# cycle): at most MAX_SOURCE of C, COMPILER_MEMORY and COMPILE_TIMEOUT_S, else marked failed
 MAX_SOURCE = 8_000_000
+# a graph serialized in more than MAX_GRAPH is not written as C (crane_luffing_drive's NLP: 40.8
+# MB, 669 MB of C after 80 s; the largest that compiles, level_luffing_cylinder's, 1.3 MB)
+MAX_GRAPH = 4_000_000
 COMPILER_MEMORY = 3 << 30
 COMPILE_TIMEOUT_S = 900
 
 
-# the cache's size: its libraries at most CACHE_MAX_BYTES (``$OPTDESIGN_CACHE_MAX_MB``), the least
-# recently used removed first when a new one comes in (an NLP's library is 1-10 MB; a day of
-# this project's tests and benchmarks left 764 MB, a third of it a killed compiler's C source);
-# a compiler's temporary files older than STALE_S belong to a process that was killed: removed
+# the cache's libraries at most CACHE_MAX_BYTES ($OPTDESIGN_CACHE_MAX_MB; a day of our tests left
+# 764 MB); a compiler's temporary files older than STALE_S are a killed process's: removed
 CACHE_MAX_BYTES = 1_000_000_000
 STALE_S = 3600
 _TEMPORARY = re.compile(r"\.(tmp|fn|src|job)\d+")
@@ -205,8 +203,7 @@ def lookup(key: str) -> Path | None:
 
 
 def _touch(lib: Path):
-    """Mark ``lib`` as used now (its modification time: what :func:`prune` orders by), at
-    most once a minute."""
+    """Mark ``lib`` used now (its mtime: what :func:`prune` orders by), at most once a minute."""
     try:
         now = time.time()
         if now - lib.stat().st_mtime > 60:
@@ -226,9 +223,8 @@ def max_bytes() -> int:
 
 
 def prune(keep: str | None = None) -> list:
-    """Keep the cache within :func:`max_bytes`: remove the least recently used libraries
-    (never ``keep``, the one just built) and the temporary files of killed compilers (older
-    than STALE_S); returns the keys removed."""
+    """Keep the cache within :func:`max_bytes`: the least recently used libraries (never ``keep``)
+    and stale temporary files removed; returns the keys removed."""
     folder, now, limit = cache_dir(), time.time(), max_bytes()
     entries = []
     try:
@@ -276,13 +272,22 @@ def _failed_recently(key: str) -> bool:
     return False
 
 
-def library(key: str, prepare, wait: bool | None = None) -> Path | None:
+def library(key: str, prepare, wait: bool | None = None, graph_bytes: int = 0) -> Path | None:
     """The library of ``key``: from the cache, else built now (``wait``) or in a background
     process (then None: this run uses the virtual machine) from the job ``prepare()`` writes
-    (see :func:`run_job`)."""
+    (see :func:`run_job`); a graph of more than MAX_GRAPH serialized bytes is not compiled."""
     found = lookup(key)
     if found is not None or _failed_recently(key):
         return found
+    if graph_bytes > MAX_GRAPH:
+        try:
+            cache_dir().mkdir(parents=True, exist_ok=True)
+            _write_atomic(cache_dir() / f"{key}.failed", f"OSError: a graph of {graph_bytes / 1e6:.1f} MB (serialized) "
+                          f"is more than this cache compiles ({MAX_GRAPH / 1e6:g} MB)\n".encode())
+        except OSError:
+            pass
+        _failed_recently(key)   # says so once
+        return None
     wait = mode() == "wait" if wait is None else wait
     folder = cache_dir()
     try:
@@ -438,7 +443,8 @@ class _Lock:
 def external(func, name: str, source, wait: bool | None = None):
     """``func`` (a CasADi Function) compiled: a ``ca.external`` of the cached library, or None
     (virtual machine).  ``source(name)`` writes its C (a function named ``name``)."""
-    key = entry_key("external", func.serialize(), {"name": name})
+    graph = func.serialize()
+    key = entry_key("external", graph, {"name": name})
     if key is None:
         return None
 
@@ -447,7 +453,7 @@ def external(func, name: str, source, wait: bool | None = None):
         _write_atomic(c_file, source(name).encode())
         return {"kind": "source", "name": name, "source": str(c_file), "cleanup": [str(c_file)]}
 
-    path = library(key, prepare, wait)
+    path = library(key, prepare, wait, graph_bytes=len(graph))
     return _load(key, lambda: __import__("casadi").external(name, str(path))) if path else None
 
 
@@ -467,7 +473,7 @@ def solver(name: str, plugin: str, nlp, options: dict, wait: bool | None = None)
         return {"kind": "nlpsol", "name": name, "plugin": plugin, "options": functions, "function": str(serial),
                 "cleanup": [str(serial)]}
 
-    path = library(key, prepare, wait) if key is not None else None
+    path = library(key, prepare, wait, graph_bytes=len(graph)) if key is not None else None
     if path is not None:
         loaded = _load(key, lambda: ca.nlpsol(name, plugin, str(path), options))
         if loaded is not None:
