@@ -212,8 +212,9 @@ def write_gif(images, path, fps):
     frames on one palette made from a few of them (10x faster than a palette per frame)."""
     from PIL import Image
 
-    frames = [Image.fromarray(np.ascontiguousarray(im[..., :3])) for im in images]
-    w, h = frames[0].size
+    h, w = images[0].shape[:2]
+    frames = [Image.frombuffer("RGBA", (w, h), np.ascontiguousarray(im), "raw", "RGBA", 0, 1).convert("RGB")
+              for im in images]
     picks = frames[::max(1, len(frames) // 4)][:4]
     mosaic = Image.new("RGB", (w, h * len(picks)))
     for k, f in enumerate(picks):
