@@ -22,7 +22,7 @@ PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
 EXCAVATOR = PROBLEMS / "lib_excavator_boom.toml"
 
 
-def _raw_frames(monkeypatch, scene, frames, plain=False):
+def _raw_frames(monkeypatch, tmp_path, scene, frames, plain=False):
     """The RGB frames as drawn (before the GIF's palette); ``plain``: every artist drawn by
     matplotlib, each frame whole: no sprites, the static parts drawn again in every frame over
     the same background."""
@@ -38,7 +38,7 @@ def _raw_frames(monkeypatch, scene, frames, plain=False):
                 return None if parts == "static" else original(*args, **kwargs, parts="all")
 
             m.setattr(animation, "draw_mechanism", everything)
-        animation.animate(scene, [Path("unused.gif")], frames=frames)
+        animation.animate(scene, [tmp_path / f"{'plain' if plain else 'fast'}.gif"], frames=frames)
     return [np.asarray(k)[..., :3].astype(int) for k in kept]
 
 
@@ -51,10 +51,10 @@ def _near(mask, other, r=2):
     return bool(np.all(grown[mask]))
 
 
-def test_frames_equal_the_plain_drawing(monkeypatch):
+def test_frames_equal_the_plain_drawing(monkeypatch, tmp_path):
     scene = optdesign.load(EXCAVATOR)
-    fast = _raw_frames(monkeypatch, scene, 8)
-    plain = _raw_frames(monkeypatch, scene, 8, plain=True)
+    fast = _raw_frames(monkeypatch, tmp_path, scene, 8)
+    plain = _raw_frames(monkeypatch, tmp_path, scene, 8, plain=True)
     assert len(fast) == len(plain) == 8
     # the first frame draws every text the ordinary way (a text becomes a sprite when it comes
     # back): the same pixels but where a grid line crosses the ground, which is now drawn with

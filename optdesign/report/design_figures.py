@@ -72,7 +72,18 @@ def write_figures(result, folder, workers=1, animate=True) -> list:
         jobs.append((animation, (result, folder, runs[1][1])))
     written = []
     if workers > 1 and "fork" in multiprocessing.get_all_start_methods():
-        import matplotlib.backends.backend_agg  # noqa: F401  (imported once, before the fork)
+        # everything the jobs import, imported once before the fork (else each process imports
+        # matplotlib.figure and the drawing modules again: 0.2 s of CPU each)
+        import matplotlib.backends.backend_agg  # noqa: F401
+        import matplotlib.backends.backend_svg  # noqa: F401
+        import matplotlib.figure  # noqa: F401
+        from matplotlib.font_manager import FontProperties, findfont, get_font
+        from PIL import Image
+
+        from . import animate, checks, mechanism, stroke_plots  # noqa: F401
+
+        Image.preinit()                          # Pillow's PNG and GIF writers
+        get_font(findfont(FontProperties()))     # the font file, read once
 
         context = multiprocessing.get_context("fork")
         children = [context.Process(target=job, args=args) for job, args in jobs]
