@@ -154,3 +154,37 @@ def test_failed_mp4_leaves_no_file(tmp_path, monkeypatch):
         animation.animate(scene, [tmp_path / "a.gif", tmp_path / "a.mp4"], frames=3)
     assert not (tmp_path / "a.mp4").exists()
     assert not list(tmp_path.glob(".*"))
+
+
+def test_caption_word_by_word_equals_the_caption_drawn_whole():
+    """draw_line (words and digits from sprites) against matplotlib drawing the whole line, over
+    frames whose numbers change: the same glyphs within a pixel of the same places."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(6, 1), dpi=80)
+    canvas = FigureCanvasAgg(fig)
+    ax = fig.add_axes([0, 0, 1, 0.5])
+    ax.set_axis_off()
+    canvas.draw()
+    background = canvas.copy_from_bbox(fig.bbox)
+    caption = ax.text(0.5, 1.01, "", transform=ax.transAxes, ha="center", va="bottom", fontsize=8.5, animated=True)
+    texts = sprites.TextSprites(canvas)
+    for i in range(12):
+        caption.set_text(f"theta = {-2.414 + i * 1.37:.4g} deg   drive force {310.2 + i * 3.3:.4g} kN   "
+                         f"transmission {21.6 + i / 7:.3g} deg")
+        canvas.restore_region(background)
+        ax.draw_artist(caption)
+        plain = np.asarray(canvas.buffer_rgba())[..., :3].astype(int)
+        canvas.restore_region(background)
+        texts.draw_line(caption)
+        fast = np.asarray(canvas.buffer_rgba())[..., :3].astype(int)
+        dark_fast, dark_plain = (np.abs(im - 255).sum(axis=2) > 300 for im in (fast, plain))
+        grey_fast, grey_plain = (np.abs(im - 255).sum(axis=2) > 60 for im in (fast, plain))
+        assert dark_plain.sum() > 200
+        # each glyph's core lies on the other's ink, within a pixel (rounded to whole pixels)
+        assert _near(dark_fast, grey_plain, 1) and _near(dark_plain, grey_fast, 1), i
+        ink_fast, ink_plain = (np.argwhere(np.abs(im - 255).sum(axis=2) > 30) for im in (fast, plain))
+        np.testing.assert_allclose(ink_fast.min(axis=0), ink_plain.min(axis=0), atol=1)
+        np.testing.assert_allclose(ink_fast.max(axis=0), ink_plain.max(axis=0), atol=1)
+    assert len(texts.sprites) >= 10            # the digits, the point and the words came back as sprites

@@ -157,7 +157,7 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None, 
         if not shots.assembled[i]:
             text += f"   (does not assemble: [points] {shots.failed[i]})"
         caption.set_text(text)
-        mech_ax.draw_artist(caption)
+        texts.draw_line(caption)     # its words and units from sprites, its numbers drawn
         image = np.asarray(canvas.buffer_rgba()).copy()
         for a in new:
             a.remove()

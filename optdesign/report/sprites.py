@@ -11,7 +11,11 @@ pixel; the artist's clipping kept).  Anything else (a text that changes, an arro
 drawn as before."""
 from __future__ import annotations
 
+import re
+
 import numpy as np
+
+_NUMBER = re.compile(r"^[-+\u2212]?[0-9.]+([eE][-+]?[0-9]+)?$")
 
 
 class TextSprites:
@@ -23,6 +27,8 @@ class TextSprites:
         self.seen: dict = {}       # key -> times drawn the ordinary way
         self.sprites: dict = {}    # key -> (pixels, offset) or None (nothing visible)
         self._scratch = None
+        self._word = None          # the text artist that draw_line moves from word to word
+        self._widths: dict = {}    # (font, dpi) -> {word: width in pixels}
 
     def draw(self, artist):
         renderer = self.canvas.get_renderer()
@@ -52,6 +58,64 @@ class TextSprites:
         renderer.draw_image(gc, int(round(anchor[0] + dx)), int(round(anchor[1] + dy)), pixels)
         gc.restore()
 
+    def draw_line(self, artist):
+        """Draw ``artist``, a text of one line, not rotated (an animation's caption that changes
+        in every frame), word by word and numbers digit by digit, each piece from its sprite
+        once it has come back (:meth:`draw`), placed by the advances of the pieces before it
+        (the font's widths; kerning across a space or between digits is nil).  A text of
+        another kind is drawn as :meth:`draw` does."""
+        from matplotlib.text import Text
+        from matplotlib.transforms import IdentityTransform
+
+        text = artist.get_text()
+        renderer = self.canvas.get_renderer()
+        if ("\n" in text or artist.get_rotation() != 0 or artist.get_bbox_patch() is not None
+                or artist.get_ha() not in ("left", "center", "right") or artist.get_va() not in ("bottom", "baseline")):
+            self.draw(artist)
+            return
+        anchor = _anchor(artist, renderer)
+        if anchor is None or not text.strip():
+            return
+        prop = artist.get_fontproperties()
+        widths = self._widths.setdefault((hash(prop), renderer.dpi), {})
+
+        def ink(s):
+            return renderer.get_text_width_height_descent(s, prop, ismath=False)[0]
+
+        def width(s):   # the advance of a piece: its ink's width between two bars less theirs
+            if s not in widths:
+                widths[s] = ink(f"|{s}|") - widths.setdefault("||", ink("||"))
+            return widths[s]
+
+        pieces = text.split(" ")
+        starts = np.cumsum([0.0] + [width(p) + width(" ") if p else width(" ") for p in pieces])
+        total = starts[-1] - width(" ")
+        left = anchor[0] - {"left": 0.0, "center": 0.5, "right": 1.0}[artist.get_ha()] * total
+        baseline = anchor[1]
+        if artist.get_va() == "bottom":   # matplotlib sets a line's bottom at the descent of "lp"
+            baseline += renderer.get_text_width_height_descent("lp", prop, ismath=False)[2]
+        # whole pixels: every piece then has the same phase on the pixel grid, in its sprite and
+        # wherever it is copied to (the font's advances are whole pixels: hinted)
+        left, baseline = round(left), round(baseline)
+        if self._word is None:
+            self._word = Text(0, 0, "", transform=IdentityTransform(), ha="left", va="baseline")
+            self._word.set_figure(artist.get_figure(root=False))
+        word = self._word
+        word.update_from(artist)
+        word.set_ha("left")
+        word.set_va("baseline")
+        word.set_transform(IdentityTransform())
+        for piece, start in zip(pieces, starts):
+            # a number changes from frame to frame: it is drawn digit by digit (ten sprites)
+            parts = list(piece) if _NUMBER.match(piece) else [piece] if piece else []
+            for part in parts:
+                word.set_text(part)
+                word.set_position((left + start, baseline))
+                self.draw(word)
+                start += width(part)
+        if len(widths) > 500:   # numbers come and go: keep the words
+            widths.clear()
+
     def _make(self, artist, anchor, renderer):
         """The sprite of ``artist``: its pixels drawn alone (unclipped) and their lower-left
         corner's offset from its anchor, in pixels; None when nothing of it is visible, False
@@ -79,7 +143,7 @@ class TextSprites:
             return False          # cut by the canvas' edge here: drawn the ordinary way, tried again later
         # draw_image places an image by its lower-left corner, y up from the canvas' bottom, and
         # takes its rows bottom first
-        pixels = np.ascontiguousarray(buf[r0:r1, c0:c1][::-1])
+        pixels = buf[r0:r1, c0:c1][::-1].copy()    # a copy: the scratch canvas is drawn over next
         return pixels, (c0 - anchor[0], renderer.height - r1 - anchor[1])
 
 
