@@ -106,9 +106,9 @@ def mechanism_figure(designs, paths, suptitle=None) -> list:
     for ax in axes[0]:
         frame_view(ax, [v.ctx for _, v in views], box=box)
     head = textwrap.fill(suptitle, int(12 * width)) if suptitle else ""
-    if head:
-        fig.suptitle(head, fontsize=10)
     fixed_layout(fig, list(axes[0]), max(t.count("\n") + 1 for t in titles), head.count("\n") + 1 if head else 0)
+    if head:   # its top 4 pt below the figure's
+        fig.suptitle(head, fontsize=10, y=1 - 4 / 72 / fig.get_size_inches()[1], va="top")
     return save_figures(fig, paths)
 
 
@@ -160,6 +160,3 @@ def fixed_layout(fig, axes, title_lines, suptitle_lines):
             m[2] += max(0.0, box.y0 - min(t.y0 for t in texts)) / dpi
             m[3] += max(0.0, max(t.y1 for t in texts) - box.y1) / dpi
     place()
-    if fig._suptitle is not None:
-        fig._suptitle.set_y(1 - 4 * pt / H)
-        fig._suptitle.set_va("top")

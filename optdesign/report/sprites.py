@@ -32,11 +32,15 @@ class TextSprites:
 
     def draw(self, artist):
         renderer = self.canvas.get_renderer()
-        key = _key(artist)
+        try:
+            key = _key(artist)
+            if key is not None and artist.get_visible():
+                anchor = _anchor(artist, renderer)
+        except AttributeError:   # a matplotlib without the private pieces used here: draw it plainly
+            key = None
         if key is None or not artist.get_visible():
             artist.draw(renderer)
             return
-        anchor = _anchor(artist, renderer)
         if anchor is None:        # an annotation whose point is outside its axes: not drawn
             return
         if key not in self.sprites:
@@ -54,7 +58,7 @@ class TextSprites:
             return
         pixels, (dx, dy) = sprite
         gc = renderer.new_gc()
-        artist._set_gc_clip(gc)
+        artist._set_gc_clip(gc)   # (present when _make succeeded: it drew the artist)
         renderer.draw_image(gc, int(round(anchor[0] + dx)), int(round(anchor[1] + dy)), pixels)
         gc.restore()
 
@@ -99,7 +103,7 @@ class TextSprites:
         left, baseline = round(left), round(baseline)
         if self._word is None:
             self._word = Text(0, 0, "", transform=IdentityTransform(), ha="left", va="baseline")
-            self._word.set_figure(artist.get_figure(root=False))
+            self._word.set_figure(artist.figure)
         word = self._word
         word.update_from(artist)
         word.set_ha("left")
