@@ -18,6 +18,7 @@ import numpy as np
 
 from .drawing import context, draw_mechanism, draw_paths, frame_view, limits
 from .geometry import Geometry
+from .layout import animation_layout
 from .topology import topology
 from .plots import bound_lines, headroom, mark_peak
 from .sprites import TextSprites
@@ -80,13 +81,12 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None, 
     box = limits([ctx])
     aspect = (box[3] - box[2]) / max(box[1] - box[0], 1e-12)
     side = analysis is not None or trans is not None
-    fig = Figure(figsize=(10.5 if side else 6.5, float(np.clip(5.2 * aspect, 4.2, 7.0))), layout="constrained")
+    fig = Figure(figsize=(10.5 if side else 6.5, float(np.clip(5.2 * aspect, 4.2, 7.0))), dpi=dpi)
     FigureCanvasAgg(fig)
-    grid = fig.add_gridspec(2, 2 if side else 1, width_ratios=[1.25, 1] if side else [1])
-    mech_ax = fig.add_subplot(grid[:, 0])
+    mech_ax = fig.add_axes([0, 0, 1, 1])      # placed by animation_layout below
     markers = []
     if analysis is not None:
-        ax = fig.add_subplot(grid[0, 1] if trans is not None else grid[:, 1])
+        ax = fig.add_axes([0, 0, 1, 1])
         name, base = DRIVE_UNIT[scene.drive.kind]
         drive = analysis.columns["drive"]
         k, shown = scaled(drive, base)
@@ -103,7 +103,7 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None, 
         line = ax.axvline(x[0], color="black", lw=0.8, alpha=0.6)
         markers.append((dot, line, values))
     if trans is not None:
-        ax = fig.add_subplot(grid[1, 1])
+        ax = fig.add_axes([0, 0, 1, 1])
         label, values, tunit, bounds = trans
         ax.plot(curve_s * factor, curve[1], color="#2ca02c", lw=1.6)
         if bounds:
@@ -116,7 +116,8 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None, 
         markers.append((dot, line, values))
     for ax in fig.axes[1:]:
         ax.set_xlabel(f"{scene.sweep.name} [{unit}]" if unit else scene.sweep.name, fontsize=8)
-    fig.suptitle(textwrap.fill(title or scene.title, 90), fontsize=9.5)
+    head = textwrap.fill(title or scene.title, 90)
+    fig.suptitle(head, fontsize=9.5, y=1 - 4 / 72 / fig.get_size_inches()[1], va="top")
     draw_paths(mech_ax, top, ctx)
     frame_view(mech_ax, [ctx], box=box)
     mech_ax.set_title(" ", fontsize=8.5)
@@ -129,9 +130,8 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None, 
     draw_mechanism(mech_ax, top, shots.at(0), ctx, labels=None, loads=False, masses=False, scene=scene,
                    parts="static")
     canvas = fig.canvas
-    fig.set_dpi(dpi)
-    canvas.draw()                       # the layout and every static artist, once
-    fig.set_layout_engine("none")
+    animation_layout(fig, mech_ax, fig.axes[1:], head.count("\n") + 1)
+    canvas.draw()                       # every static artist, once
     background = canvas.copy_from_bbox(fig.bbox)
     # the view is fixed: the moving artists added per frame need not grow the data limits
     mech_ax._update_patch_limits = mech_ax._update_line_limits = lambda artist: None

@@ -12,6 +12,7 @@ import numpy as np
 from .dimensions import dimensions, draw_dimensions
 from .drawing import Context, context, draw_ghost, draw_mechanism, draw_paths, frame_view, limits, panel_size
 from .geometry import Frames, Geometry
+from .layout import fixed_layout
 from .output import new_figure, save_figures
 from .topology import Topology, topology
 
@@ -110,53 +111,3 @@ def mechanism_figure(designs, paths, suptitle=None) -> list:
     if head:   # its top 4 pt below the figure's
         fig.suptitle(head, fontsize=10, y=1 - 4 / 72 / fig.get_size_inches()[1], va="top")
     return save_figures(fig, paths)
-
-
-def fixed_layout(fig, axes, title_lines, suptitle_lines):
-    """Place ``axes`` (side by side, one row) by margins computed from the texts around them:
-    the suptitle's and titles' lines above, the tick labels and axis labels below and to the
-    left (the widest y tick label measured), instead of matplotlib's constrained layout, which
-    measures every text of the drawing at every save (a third of the figure's time).  Each
-    axes keeps its equal scale inside its cell (adjustable box, centred)."""
-    from matplotlib.font_manager import FontProperties
-
-    W, H = fig.get_size_inches()
-    renderer = fig.canvas.get_renderer()
-    ticks = FontProperties(size=7)
-    widest = 0.0
-    for ax in axes:
-        formatter, locs = ax.yaxis.get_major_formatter(), ax.get_yticks()
-        lo, hi = sorted(ax.get_ylim())
-        shown = [t for t in formatter.format_ticks(locs) if t] if len(locs) else []
-        for t, loc in zip(shown, locs):
-            if lo - 1e-9 * (hi - lo) <= loc <= hi + 1e-9 * (hi - lo):
-                widest = max(widest, renderer.get_text_width_height_descent(t, ticks, ismath=False)[0])
-    pt = 1 / 72
-    widest /= renderer.dpi                      # inches
-    # y label (8 pt) + its pad (4 pt) + tick labels + tick pad and length (3.5 + 3.5 pt) + a margin
-    left = (4 + 8 * 1.25 + 4 + 3.5 + 3.5) * pt + widest
-    right = 8 * pt
-    # tick length and pad, tick labels (7 pt), label pad, x label (8 pt), a margin
-    bottom = (3.5 + 3.5 + 7 * 1.25 + 4 + 8 * 1.25 + 5) * pt
-    top = (4 + suptitle_lines * 10 * 1.2 + (4 if suptitle_lines else 0) + title_lines * 9 * 1.2 + 6) * pt
-    cell = W / len(axes)
-    margins = [[left, right, bottom, top] for _ in axes]
-
-    def place():
-        for k, (ax, (l, r, b, t)) in enumerate(zip(axes, margins)):
-            ax.set_position([(k * cell + l) / W, b / H, (cell - l - r) / W, (H - t - b) / H])
-            ax.apply_aspect()
-
-    place()
-    # texts of the drawing that reach out of their axes (a dimension beside the mechanism, a
-    # mass's label) get room: their axes shrink by as much, once
-    dpi = renderer.dpi
-    for ax, m in zip(axes, margins):
-        box = ax.get_window_extent(renderer)
-        texts = [t.get_window_extent(renderer) for t in ax.texts if t.get_visible() and t.get_text()]
-        if texts:
-            m[0] += max(0.0, box.x0 - min(t.x0 for t in texts)) / dpi
-            m[1] += max(0.0, max(t.x1 for t in texts) - box.x1) / dpi
-            m[2] += max(0.0, box.y0 - min(t.y0 for t in texts)) / dpi
-            m[3] += max(0.0, max(t.y1 for t in texts) - box.y1) / dpi
-    place()

@@ -25,7 +25,7 @@ class TextSprites:
     def __init__(self, canvas):
         self.canvas = canvas
         self.seen: dict = {}       # key -> times drawn the ordinary way
-        self.sprites: dict = {}    # key -> (pixels, offset) or None (nothing visible)
+        self.sprites: dict = {}    # key -> (pixels, offset)
         self._scratch = None
         self._word = None          # the text artist that draw_line moves from word to word
         self._widths: dict = {}    # (font, dpi) -> {word: width in pixels}
@@ -43,6 +43,9 @@ class TextSprites:
             return
         if anchor is None:        # an annotation whose point is outside its axes: not drawn
             return
+        self._draw(artist, key, anchor, renderer)
+
+    def _draw(self, artist, key, anchor, renderer):
         if key not in self.sprites:
             if self.seen.get(key, 0) < 1:
                 self.seen[key] = self.seen.get(key, 0) + 1
@@ -53,10 +56,7 @@ class TextSprites:
                 artist.draw(renderer)
                 return
             self.sprites[key] = sprite
-        sprite = self.sprites[key]
-        if sprite is None:
-            return
-        pixels, (dx, dy) = sprite
+        pixels, (dx, dy) = self.sprites[key]
         gc = renderer.new_gc()
         artist._set_gc_clip(gc)   # (present when _make succeeded: it drew the artist)
         renderer.draw_image(gc, int(round(anchor[0] + dx)), int(round(anchor[1] + dy)), pixels)
@@ -109,21 +109,23 @@ class TextSprites:
         word.set_ha("left")
         word.set_va("baseline")
         word.set_transform(IdentityTransform())
+        word.set_text("x")
+        style = _key(word)   # what every piece shares (the text aside): one key computed per line
         for piece, start in zip(pieces, starts):
             # a number changes from frame to frame: it is drawn digit by digit (ten sprites)
             parts = list(piece) if _NUMBER.match(piece) else [piece] if piece else []
             for part in parts:
                 word.set_text(part)
                 word.set_position((left + start, baseline))
-                self.draw(word)
+                self._draw(word, (style, part), (left + start, baseline), renderer)
                 start += width(part)
         if len(widths) > 500:   # numbers come and go: keep the words
             widths.clear()
 
     def _make(self, artist, anchor, renderer):
         """The sprite of ``artist``: its pixels drawn alone (unclipped) and their lower-left
-        corner's offset from its anchor, in pixels; None when nothing of it is visible, False
-        when the canvas cuts it."""
+        corner's offset from its anchor, in pixels; False when the canvas cuts it or it lies
+        outside the canvas (then it is drawn the ordinary way and tried again later)."""
         from matplotlib.backends.backend_agg import RendererAgg
 
         if self._scratch is None or (self._scratch.width, self._scratch.height) != (renderer.width, renderer.height):
@@ -141,7 +143,7 @@ class TextSprites:
         alpha = buf[..., 3]
         rows, cols = np.flatnonzero(alpha.any(axis=1)), np.flatnonzero(alpha.any(axis=0))
         if not len(rows):
-            return None
+            return False          # nothing of it on the canvas here (outside it): tried again later
         r0, r1, c0, c1 = rows[0], rows[-1] + 1, cols[0], cols[-1] + 1
         if r0 == 0 or c0 == 0 or r1 == alpha.shape[0] or c1 == alpha.shape[1]:
             return False          # cut by the canvas' edge here: drawn the ordinary way, tried again later
