@@ -188,3 +188,29 @@ def test_caption_word_by_word_equals_the_caption_drawn_whole():
         np.testing.assert_allclose(ink_fast.min(axis=0), ink_plain.min(axis=0), atol=1)
         np.testing.assert_allclose(ink_fast.max(axis=0), ink_plain.max(axis=0), atol=1)
     assert len(texts.sprites) >= 10            # the digits, the point and the words came back as sprites
+
+
+def test_text_outside_the_canvas_comes_back_when_inside():
+    """A text met twice outside the canvas (an arrow's value below the figure in the first
+    frames) is drawn where it later lies inside, not remembered as nothing."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(3, 2), dpi=80)
+    canvas = FigureCanvasAgg(fig)
+    ax = fig.add_axes([0, 0, 1, 1])
+    ax.set_xlim(0, 3)
+    ax.set_ylim(0, 2)
+    ax.set_axis_off()
+    canvas.draw()
+    background = canvas.copy_from_bbox(fig.bbox)
+    texts = sprites.TextSprites(canvas)
+    for y in (-1.0, -1.0, 1.0, 0.5):
+        canvas.restore_region(background)
+        t = ax.text(1.0, y, "25.5 kN", fontsize=8, clip_on=False)
+        texts.draw(t)
+        t.remove()
+    ink = np.abs(np.asarray(canvas.buffer_rgba())[..., :3].astype(int) - 255).sum(axis=2) > 100
+    assert ink.sum() > 20
+    rows = np.flatnonzero(ink.any(axis=1))
+    assert abs(rows.mean() - 0.75 * 160) < 12      # at y = 0.5 of 2 (rows counted from the top)
