@@ -140,13 +140,15 @@ def main(argv=None):
             "wall time.  Tried: the command line imports nothing heavy until a command needs it (the floor above); "
             "the models and the NLP are compiled once and loaded from the disk cache; the Sobol starts are "
             "scipy.stats.qmc's, cached on disk, so a warm run does not import scipy.stats; the figures are drawn "
-            "without pyplot, the independent ones in forked processes; the drawing has a fixed layout computed once "
-            "(no constrained layout, one draw per file); the animation draws its static parts once, copies the "
-            "texts that recur in every frame from sprites and encodes the MP4 from the GIF's frames while they are "
-            "drawn.  What would be needed: the rest is matplotlib's own cost per artist and per glyph (a frame "
-            "creates and draws about 40 artists; the caption of every frame is laid out glyph by glyph), the "
-            "constrained layout of the load figure, and the solve; a frame renderer that updates artists in place "
-            "instead of creating them, or fewer frames."]
+            "without pyplot, the independent ones in forked processes that find everything imported before the "
+            "fork; the drawing and the animation have fixed layouts computed once (no constrained layout, one draw "
+            "per file); the animation draws its static parts once, copies the texts that recur in every frame "
+            "(names, masses, loads, the caption's words and digits) from sprites and encodes the MP4 from the GIF's "
+            "frames while they are drawn.  What would be needed: the rest is matplotlib's own cost per artist (a "
+            "frame creates and draws about 40 artists), the load figure's constrained layout, the imports "
+            "(matplotlib, CasADi) and the solve, one after the other before the figures can start on two cores; "
+            "a frame renderer that moves artists instead of creating them, or figures started while the starts "
+            "are solved."]
     path = write_section("commands", "\n".join(lines) + "\n")
     print("\n".join(lines))
     print(f"wrote {path}", file=sys.stderr)
