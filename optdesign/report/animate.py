@@ -271,7 +271,8 @@ class Mp4Stream:
             pass
 
     def add(self, image):
-        self.frames.put(np.ascontiguousarray(image).tobytes())
+        """Queue a frame (an RGBA array that is not changed afterwards: written as it is)."""
+        self.frames.put(memoryview(np.ascontiguousarray(image)).cast("B"))
 
     def finish(self):
         self.frames.put(None)
