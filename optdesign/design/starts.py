@@ -24,12 +24,20 @@ feasible is retried.
 
 ``--starts N`` stays N local solves: the screening evaluates the model, it solves nothing
 (about 5,000 designs, 0.1 .. 1 s).
+
+The Sobol points are scipy's (``qmc.Sobol``), but importing scipy.stats takes about 0.8 s, more
+than a short optimise's solves: the points drawn are a pure function of the dimension, the
+number of points, the seed and the versions of scipy and numpy, so they are kept in the user's
+cache folder beside the compiled code (:func:`sobol`) and read back (bit for bit the same) by
+later runs, which then do not import scipy.stats at all.
 """
 from __future__ import annotations
 
+import hashlib
+import json
+
 import casadi as ca
 import numpy as np
-from scipy.stats import qmc
 
 from .screening import ManyDesigns
 
@@ -81,14 +89,95 @@ def box(pb):
 
 def unit_sample(d: int, n: int, rng, method: str = "sobol") -> np.ndarray:
     """``n`` points of the unit cube: scrambled Sobol ('sobol', n rounded up to a power of two
-    and cut), Latin hypercube ('lhs') or independent uniform draws ('uniform')."""
+    and cut), Latin hypercube ('lhs') or independent uniform draws ('uniform').  ``rng``: a
+    seed (an int or a sequence of ints, as for ``np.random.default_rng``; Sobol points are then
+    cached, :func:`sobol`) or a numpy Generator."""
     if method == "sobol":
-        return qmc.Sobol(d, scramble=True, seed=rng).random_base2(int(np.ceil(np.log2(max(n, 2)))))[:n]
+        m = int(np.ceil(np.log2(max(n, 2))))
+        if isinstance(rng, np.random.Generator):
+            return _draw_sobol(d, m, rng)[:n]
+        return sobol(d, m, rng)[:n]
+    rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
     if method == "lhs":
+        from scipy.stats import qmc
+
         return qmc.LatinHypercube(d, seed=rng).random(n)
     if method == "uniform":
         return rng.random((n, d))
     raise ValueError(f"unknown start method {method!r}: expected 'sobol', 'lhs' or 'uniform'")
+
+
+def _draw_sobol(d: int, m: int, rng) -> np.ndarray:
+    from scipy.stats import qmc   # about 0.8 s to import: only when the cache cannot answer
+
+    return qmc.Sobol(d, scramble=True, seed=rng).random_base2(m)
+
+
+def sobol(d: int, m: int, seed) -> np.ndarray:
+    """The 2**m scrambled Sobol points of the d-dimensional unit cube that
+    ``qmc.Sobol(d, scramble=True, seed=np.random.default_rng(seed)).random_base2(m)`` draws,
+    from the cache when an earlier run drew them (the file ``sobol-<key>.npy`` in the cache
+    folder of :mod:`optdesign.model.compiled`, with its key and SHA-256 in ``sobol-<key>.json``;
+    a file that does not match them is drawn again and replaced).  Without a writable cache
+    folder the points are drawn each time."""
+    import scipy
+
+    if seed is None:   # fresh entropy: nothing to cache
+        return _draw_sobol(d, m, np.random.default_rng())
+    # default_rng(0) and default_rng([0]) differ: a sequence stays a list in the key
+    seed_key = [int(v) for v in seed] if np.ndim(seed) else int(seed)
+    key = {"kind": "sobol", "d": int(d), "m": int(m), "seed": seed_key, "scramble": True,
+           "scipy": scipy.__version__, "numpy": np.__version__, "format": 1}
+    name = "sobol-" + hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:32]
+    points = _cached_sobol(name, key)
+    if points is None:
+        points = _draw_sobol(d, m, np.random.default_rng(seed))
+        _store_sobol(name, key, points)
+    return points
+
+
+def _sobol_folder():
+    from ..model.compiled import cache_dir
+
+    return cache_dir()
+
+
+def _cached_sobol(name: str, key: dict):
+    """The points stored under ``name`` if their files are whole and match ``key``, else None."""
+    import io
+
+    try:
+        folder = _sobol_folder()
+        meta = json.loads((folder / f"{name}.json").read_text())
+        data = (folder / f"{name}.npy").read_bytes()
+        if meta.get("key") != key or meta.get("sha256") != hashlib.sha256(data).hexdigest():
+            return None
+        points = np.load(io.BytesIO(data), allow_pickle=False)
+    except (OSError, ValueError, TypeError, AttributeError, EOFError):
+        return None
+    shape = (2 ** key["m"], key["d"])
+    if points.shape != shape or points.dtype != np.float64 or not np.all((points >= 0) & (points < 1)):
+        return None
+    return points
+
+
+def _store_sobol(name: str, key: dict, points: np.ndarray):
+    """Write the points and then their key (the key file last: a torn write is not trusted)."""
+    import io
+
+    from ..model.compiled import _write_atomic
+
+    buf = io.BytesIO()
+    np.save(buf, np.ascontiguousarray(points, dtype=np.float64), allow_pickle=False)
+    data = buf.getvalue()
+    try:
+        folder = _sobol_folder()
+        folder.mkdir(parents=True, exist_ok=True)
+        _write_atomic(folder / f"{name}.npy", data)
+        _write_atomic(folder / f"{name}.json",
+                      json.dumps({"key": key, "sha256": hashlib.sha256(data).hexdigest()}, indent=1).encode())
+    except OSError:
+        pass   # a read-only or full cache folder: the points are drawn again next time
 
 
 def space_filling(pb, n: int, seed: int, method: str = "sobol") -> np.ndarray:
@@ -96,7 +185,7 @@ def space_filling(pb, n: int, seed: int, method: str = "sobol") -> np.ndarray:
     lo, hi = box(pb)
     if n <= 0:
         return np.zeros((0, len(lo)))
-    return lo + (hi - lo) * unit_sample(len(lo), n, np.random.default_rng(seed), method)
+    return lo + (hi - lo) * unit_sample(len(lo), n, seed, method)
 
 
 class Screen:
@@ -185,7 +274,7 @@ def plan_starts(pb, starts: int, seed: int, fixed=None, method: str = "sobol", z
     for level, (k, per, h) in enumerate(ZOOM if zoom is None else zoom):
         z = (cand - lo) / (hi - lo)
         seeds = _distinct(z, rank(f, viol), k, 2 * h)
-        u = unit_sample(d, per * len(seeds), np.random.default_rng([seed, level + 1]), method)
+        u = unit_sample(d, per * len(seeds), [seed, level + 1], method)
         new = np.concatenate([np.clip(z[c] + (2 * u[j * per:(j + 1) * per] - 1) * h, 0.0, 1.0)
                               for j, c in enumerate(seeds)]) if seeds else np.zeros((0, d))
         new = lo + (hi - lo) * new

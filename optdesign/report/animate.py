@@ -18,8 +18,10 @@ import numpy as np
 
 from .drawing import context, draw_mechanism, draw_paths, frame_view, limits
 from .geometry import Geometry
+from .layout import animation_layout
 from .topology import topology
 from .plots import bound_lines, headroom, mark_peak
+from .sprites import TextSprites
 from .units import constraint_scale, scaled, sweep_scale
 
 DRIVE_UNIT = {"rotary": ("drive torque", "N m"), "linear": ("drive force", "N")}
@@ -79,13 +81,12 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None, 
     box = limits([ctx])
     aspect = (box[3] - box[2]) / max(box[1] - box[0], 1e-12)
     side = analysis is not None or trans is not None
-    fig = Figure(figsize=(10.5 if side else 6.5, float(np.clip(5.2 * aspect, 4.2, 7.0))), layout="constrained")
+    fig = Figure(figsize=(10.5 if side else 6.5, float(np.clip(5.2 * aspect, 4.2, 7.0))), dpi=dpi)
     FigureCanvasAgg(fig)
-    grid = fig.add_gridspec(2, 2 if side else 1, width_ratios=[1.25, 1] if side else [1])
-    mech_ax = fig.add_subplot(grid[:, 0])
+    mech_ax = fig.add_axes([0, 0, 1, 1])      # placed by animation_layout below
     markers = []
     if analysis is not None:
-        ax = fig.add_subplot(grid[0, 1] if trans is not None else grid[:, 1])
+        ax = fig.add_axes([0, 0, 1, 1])
         name, base = DRIVE_UNIT[scene.drive.kind]
         drive = analysis.columns["drive"]
         k, shown = scaled(drive, base)
@@ -102,7 +103,7 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None, 
         line = ax.axvline(x[0], color="black", lw=0.8, alpha=0.6)
         markers.append((dot, line, values))
     if trans is not None:
-        ax = fig.add_subplot(grid[1, 1])
+        ax = fig.add_axes([0, 0, 1, 1])
         label, values, tunit, bounds = trans
         ax.plot(curve_s * factor, curve[1], color="#2ca02c", lw=1.6)
         if bounds:
@@ -115,7 +116,8 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None, 
         markers.append((dot, line, values))
     for ax in fig.axes[1:]:
         ax.set_xlabel(f"{scene.sweep.name} [{unit}]" if unit else scene.sweep.name, fontsize=8)
-    fig.suptitle(textwrap.fill(title or scene.title, 90), fontsize=9.5)
+    head = textwrap.fill(title or scene.title, 90)
+    fig.suptitle(head, fontsize=9.5, y=1 - 4 / 72 / fig.get_size_inches()[1], va="top")
     draw_paths(mech_ax, top, ctx)
     frame_view(mech_ax, [ctx], box=box)
     mech_ax.set_title(" ", fontsize=8.5)
@@ -124,19 +126,24 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None, 
     for dot, line, _ in markers:
         dot.set_animated(True)
         line.set_animated(True)
+    # what never moves (ground, fixed guides) is part of the background, drawn once
+    draw_mechanism(mech_ax, top, shots.at(0), ctx, labels=None, loads=False, masses=False, scene=scene,
+                   parts="static")
     canvas = fig.canvas
-    fig.set_dpi(dpi)
-    canvas.draw()                       # the layout and every static artist, once
-    fig.set_layout_engine("none")
+    animation_layout(fig, mech_ax, fig.axes[1:], head.count("\n") + 1)
+    canvas.draw()                       # every static artist, once
     background = canvas.copy_from_bbox(fig.bbox)
+    # the view is fixed: the moving artists added per frame need not grow the data limits
+    mech_ax._update_patch_limits = mech_ax._update_line_limits = lambda artist: None
+    texts = TextSprites(canvas)   # the texts that come back in every frame are copied, not laid out again
 
     def render(i):
         canvas.restore_region(background)
         before = set(mech_ax.get_children())
-        draw_mechanism(mech_ax, top, shots.at(i), ctx, labels="joints", loads=True, scene=scene)
+        draw_mechanism(mech_ax, top, shots.at(i), ctx, labels="joints", loads=True, scene=scene, parts="moving")
         new = sorted((a for a in mech_ax.get_children() if a not in before), key=lambda a: a.get_zorder())
         for a in new:
-            mech_ax.draw_artist(a)
+            texts.draw(a)
         text = f"{scene.sweep.name} = {s[i] * factor:.4g} {unit}".rstrip()
         for dot, line, values in markers:
             dot.set_data([s[i] * factor], [values[i]])
@@ -144,35 +151,45 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None, 
             dot.axes.draw_artist(line)
             dot.axes.draw_artist(dot)
         if analysis is not None:
-            name, base = DRIVE_UNIT[scene.drive.kind]
-            k, shown = scaled(analysis.columns["drive"], base)
             text += f"   {name} {markers[0][2][i]:.4g} {shown}"
         if trans is not None:
             text += f"   transmission {trans[1][i]:.3g} {trans[2]}"
         if not shots.assembled[i]:
             text += f"   (does not assemble: [points] {shots.failed[i]})"
         caption.set_text(text)
-        mech_ax.draw_artist(caption)
+        texts.draw_line(caption)     # its words and units from sprites, its numbers drawn
         image = np.asarray(canvas.buffer_rgba()).copy()
         for a in new:
             a.remove()
         return image
 
-    images = [render(i) for i in range(len(s))]
-    written = []
-    for path in paths:
-        path = Path(path)
-        if path.suffix.lower() == ".png":
-            from PIL import Image
+    paths = [Path(p) for p in paths]
+    mp4 = [p for p in paths if p.suffix.lower() == ".mp4"] if ffmpeg_available() else []
+    w, h = canvas.get_width_height(physical=True)
+    # the MP4 is encoded by ffmpeg while the frames are drawn, from the same frames as the GIF
+    streams = [Mp4Stream(p, w, h, fps) for p in mp4]
+    try:
+        images = []
+        for i in range(len(s)):
+            images.append(render(i))
+            for stream in streams:
+                stream.add(images[-1])
+        written = []
+        for path in paths:
+            if path.suffix.lower() == ".png":
+                from PIL import Image
 
-            _write(path, lambda tmp: Image.fromarray(np.ascontiguousarray(images[0][..., :3])).save(tmp, format="PNG"))
-        elif path.suffix.lower() == ".mp4":
-            if not ffmpeg_available():
-                continue
-            _write(path, lambda tmp: write_mp4(images, tmp, fps))
-        else:
-            _write(path, lambda tmp: write_gif(images, tmp, fps))
-        written.append(path)
+                _write(path, lambda tmp: Image.fromarray(np.ascontiguousarray(images[0][..., :3])).save(tmp, format="PNG"))
+            elif path.suffix.lower() == ".mp4":
+                if path not in mp4:
+                    continue
+                streams[mp4.index(path)].finish()
+            else:
+                _write(path, lambda tmp: write_gif(images, tmp, fps))
+            written.append(path)
+    finally:
+        for stream in streams:
+            stream.abandon()
     return written
 
 
@@ -195,8 +212,9 @@ def write_gif(images, path, fps):
     frames on one palette made from a few of them (10x faster than a palette per frame)."""
     from PIL import Image
 
-    frames = [Image.fromarray(np.ascontiguousarray(im[..., :3])) for im in images]
-    w, h = frames[0].size
+    h, w = images[0].shape[:2]
+    frames = [Image.frombuffer("RGBA", (w, h), np.ascontiguousarray(im), "raw", "RGBA", 0, 1).convert("RGB")
+              for im in images]
     picks = frames[::max(1, len(frames) // 4)][:4]
     mosaic = Image.new("RGB", (w, h * len(picks)))
     for k, f in enumerate(picks):
@@ -206,20 +224,91 @@ def write_gif(images, path, fps):
     frames[0].save(path, format="GIF", save_all=True, append_images=frames[1:], duration=int(1000 / fps), loop=0)
 
 
+FFMPEG_H264 = ("-vcodec", "libx264", "-preset", "veryfast", "-threads", "1", "-pix_fmt", "yuv420p")
+
+
+def _ffmpeg_command(w, h, fps, path):
+    """ffmpeg reading RGBA frames of w x h from its stdin (as matplotlib's FFMpegWriter pipes
+    them) and writing an H.264 MP4 at ``path`` (at the default quality, CRF 23; the 'veryfast'
+    preset on one thread: a third of the CPU of the default preset for a 5 % larger file)."""
+    return ["ffmpeg", "-y", "-loglevel", "error", "-f", "rawvideo", "-vcodec", "rawvideo", "-s", f"{w}x{h}",
+            "-pix_fmt", "rgba", "-framerate", str(fps), "-i", "pipe:", "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2",
+            *FFMPEG_H264, "-f", "mp4", str(path)]
+
+
+class Mp4Stream:
+    """An MP4 written by ffmpeg as its frames come (:meth:`add`), into a temporary file beside
+    ``path`` that :meth:`finish` renames onto it (atomic); a feeding thread keeps the drawing of
+    the next frame from waiting on the pipe.  :meth:`abandon` stops it and removes the
+    temporary file (after :meth:`finish`: nothing to do)."""
+
+    def __init__(self, path, w, h, fps):
+        import queue
+        import subprocess
+        import threading
+
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        fd, self.tmp = tempfile.mkstemp(dir=self.path.parent, prefix=f".{self.path.name}.", suffix=".mp4")
+        os.close(fd)
+        self.proc = subprocess.Popen(_ffmpeg_command(w, h, fps, self.tmp), stdin=subprocess.PIPE,
+                                     stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        self.frames = queue.Queue()
+        self.error = None
+        self.thread = threading.Thread(target=self._feed, daemon=True)
+        self.thread.start()
+
+    def _feed(self):
+        while (frame := self.frames.get()) is not None:
+            if self.error is None:
+                try:
+                    self.proc.stdin.write(frame)
+                except OSError as exc:   # ffmpeg ended early: its message says why (finish)
+                    self.error = exc
+        try:
+            self.proc.stdin.close()
+        except OSError:
+            pass
+
+    def add(self, image):
+        """Queue a frame (an RGBA array that is not changed afterwards: written as it is)."""
+        self.frames.put(memoryview(np.ascontiguousarray(image)).cast("B"))
+
+    def finish(self):
+        self.frames.put(None)
+        self.thread.join()
+        err = self.proc.stderr.read()
+        if self.proc.wait() or self.error is not None:
+            from ..errors import OptdesignError
+
+            raise OptdesignError(f"ffmpeg could not write {self.path}: "
+                                 f"{err.decode(errors='replace').strip() or self.error}")
+        os.chmod(self.tmp, 0o644)
+        os.replace(self.tmp, self.path)
+
+    def abandon(self):
+        if self.thread.is_alive():
+            self.frames.put(None)
+            self.proc.kill()
+            self.thread.join()
+        if self.proc.poll() is None:
+            self.proc.kill()
+        self.proc.wait()
+        self.proc.stderr.close()
+        if os.path.exists(self.tmp):
+            os.unlink(self.tmp)
+
+
 def write_mp4(images, path, fps):
-    """RGBA frames as an H.264 MP4 through ffmpeg (as matplotlib's FFMpegWriter pipes them)."""
-    import subprocess
-
+    """RGBA frames as an H.264 MP4 through ffmpeg (:class:`Mp4Stream`)."""
     h, w = images[0].shape[:2]
-    cmd = ["ffmpeg", "-y", "-loglevel", "error", "-f", "rawvideo", "-vcodec", "rawvideo", "-s", f"{w}x{h}",
-           "-pix_fmt", "rgba", "-framerate", str(fps), "-i", "pipe:", "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2",
-           "-vcodec", "libx264", "-pix_fmt", "yuv420p", "-f", "mp4", path]
-    proc = subprocess.run(cmd, input=b"".join(np.ascontiguousarray(im).tobytes() for im in images),
-                          capture_output=True)
-    if proc.returncode:
-        from ..errors import OptdesignError
-
-        raise OptdesignError(f"ffmpeg could not write {path}: {proc.stderr.decode(errors='replace').strip()}")
+    stream = Mp4Stream(path, w, h, fps)
+    try:
+        for image in images:
+            stream.add(image)
+        stream.finish()
+    finally:
+        stream.abandon()
 
 
 def ffmpeg_available() -> bool:

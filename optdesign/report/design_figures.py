@@ -62,32 +62,54 @@ def animation(result, folder, analysis=None) -> list:
 
 
 def write_figures(result, folder, workers=1, animate=True) -> list:
-    """Every figure and report.html into ``folder``; returns the paths written."""
+    """Every figure and report.html into ``folder``; returns the paths written.  With
+    ``workers`` > 1 the animation (the longest) is forked as soon as the optimum's analysis
+    is made, the drawing once the start's is, and this process draws the load figure."""
+    from ..model.analysis import Analysis
     from .html import write_html
 
     folder = Path(folder)
-    runs = analyses(result)
-    jobs = [(mechanism_figure, (result, folder, runs))]
-    if animate:
-        jobs.append((animation, (result, folder, runs[1][1])))
-    written = []
-    if workers > 1 and "fork" in multiprocessing.get_all_start_methods():
-        import matplotlib.backends.backend_agg  # noqa: F401  (imported once, before the fork)
-
+    scene = result.scene
+    fork = workers > 1 and "fork" in multiprocessing.get_all_start_methods()
+    if fork:
+        _import_for_children()
         context = multiprocessing.get_context("fork")
-        children = [context.Process(target=job, args=args) for job, args in jobs]
-        for child in children:
-            child.start()
-        written.append(load_figure(result, folder, runs))
-        for child, (job, args) in zip(children, jobs):
-            child.join()
-            if child.exitcode != 0:  # the child writes atomically; should it have failed, do it here
-                job(*args)
-    else:
-        written.append(load_figure(result, folder, runs))
-        for job, args in jobs:
-            job(*args)
+    children, jobs = [], []
+
+    def job(target, *args):
+        jobs.append((target, args))
+        if fork:
+            children.append(context.Process(target=target, args=args))
+            children[-1].start()
+
+    optimum = Analysis(scene.with_parameters(**result.design)).run()
+    if animate:
+        job(animation, result, folder, optimum)
+    runs = [("start", Analysis(scene).run()), ("optimum", optimum)]
+    job(mechanism_figure, result, folder, runs)
+    written = [load_figure(result, folder, runs)]
+    for k, (target, args) in enumerate(jobs):
+        if fork:
+            children[k].join()
+            if children[k].exitcode == 0:
+                continue
+        target(*args)   # in this process (a child writes atomically: should it have failed, done here)
     written += [folder / n for n in ("mechanism.png", "mechanism.svg", "animation.gif", "animation.mp4")
                 if (folder / n).exists()]
     written.append(write_html(result, folder, runs, [p.name for p in written]))
     return written
+
+
+def _import_for_children():
+    """Everything the forked figure processes use, imported once before the fork (else each
+    process imports matplotlib.figure and the drawing modules again: 0.2 s of CPU each)."""
+    import matplotlib.backends.backend_agg  # noqa: F401
+    import matplotlib.backends.backend_svg  # noqa: F401
+    import matplotlib.figure  # noqa: F401
+    from matplotlib.font_manager import FontProperties, findfont, get_font
+    from PIL import Image
+
+    from . import animate as _animate, checks, mechanism, stroke_plots  # noqa: F401
+
+    Image.preinit()                          # Pillow's PNG and GIF writers
+    get_font(findfont(FontProperties()))     # the font file, read once

@@ -238,21 +238,30 @@ def _xy(frame, name):
 
 
 def draw_mechanism(ax, top, frame, ctx: Context, labels="joints", loads=True, masses=True, face=LINK_FACE,
-                   edge=LINK_EDGE, stroke=True, scene=None):
+                   edge=LINK_EDGE, stroke=True, scene=None, parts="all"):
     """Draw the mechanism at one position (``frame``: :meth:`Frames.at` of one sample).
 
     ``labels``: 'joints' names the pins and tips, 'all' every point (helpers too), None none;
     ``loads``: weights and applied forces as arrows; ``masses``: centres of mass with their
-    masses (``scene`` gives the bodies' names)."""
+    masses (``scene`` gives the bodies' names).  ``parts``: 'all'; 'static' only what never
+    moves and lies under the rest (ground symbols, fixed guide marks, guides on the ground);
+    'moving' everything else (an animation draws the static parts once, the moving ones per
+    frame: together they are the drawing 'all' makes)."""
     w = ctx.w
+    static, moving = parts in ("all", "static"), parts in ("all", "moving")
     for key, (origin, angle) in frame.guides.items():
         if key in ctx.spans:
             grounded = next((g for _, k, g in top.sliders if k == key), False)
-            guide(ax, frame.points[origin][0], angle[0], ctx.spans[key], w, grounded)
-    for name in top.guides:
+            if (static and grounded) or (moving and not grounded):
+                guide(ax, frame.points[origin][0], angle[0], ctx.spans[key], w, grounded)
+    for name in top.guides if static else ():
         p = frame.points[name][0]
         if np.all(np.isfinite(p)):
             ax.plot(*p, marker="+", color=GROUND, ms=5, zorder=2)
+    if static and not moving:
+        for name in top.ground:
+            ground(ax, frame.points[name][0], w)
+        return
     for a, b in top.bars:
         bar(ax, _xy(frame, a), _xy(frame, b), w, face=face, edge=edge)
     if top.drive is not None:
@@ -261,7 +270,7 @@ def draw_mechanism(ax, top, frame, ctx: Context, labels="joints", loads=True, ma
             cylinder(ax, frame.points[a][0], frame.points[b][0], ctx.lengths, w, stroke=stroke, ctx=ctx)
     for point, key, _ in top.sliders:
         slider_block(ax, frame.points[point][0], frame.guides[key][1][0], w)
-    for name in top.ground:
+    for name in top.ground if static else ():
         ground(ax, frame.points[name][0], w)
     if top.drive is not None and top.drive[0] == "rotary":
         motor(ax, frame.points[top.drive[1][0]][0], w)

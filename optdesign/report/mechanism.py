@@ -12,7 +12,8 @@ import numpy as np
 from .dimensions import dimensions, draw_dimensions
 from .drawing import Context, context, draw_ghost, draw_mechanism, draw_paths, frame_view, limits, panel_size
 from .geometry import Frames, Geometry
-from .output import new_figure, save_figure
+from .layout import fixed_layout
+from .output import new_figure, save_figures
 from .topology import Topology, topology
 
 
@@ -97,16 +98,16 @@ def mechanism_figure(designs, paths, suptitle=None) -> list:
     box = limits([v.ctx for _, v in views])
     w, h = panel_size(box)
     width = w * len(views)
-    fig, axes = new_figure(1, len(views), figsize=(width, h + 0.5), squeeze=False)
+    fig, axes = new_figure(1, len(views), figsize=(width, h + 0.5), layout=None, squeeze=False)
+    titles = []
     for ax, (label, v) in zip(axes[0], views):
-        draw_design(ax, v, title=design_title(label, v.scene))
+        titles.append(design_title(label, v.scene))
+        draw_design(ax, v, title=titles[-1])
     box = limits([v.ctx for _, v in views])  # with the arrows drawn
     for ax in axes[0]:
         frame_view(ax, [v.ctx for _, v in views], box=box)
-    if suptitle:
-        fig.suptitle(textwrap.fill(suptitle, int(12 * width)), fontsize=10)
-    out = []
-    for path in paths:
-        save_figure(fig, path)
-        out.append(Path(path))
-    return out
+    head = textwrap.fill(suptitle, int(12 * width)) if suptitle else ""
+    fixed_layout(fig, list(axes[0]), max(t.count("\n") + 1 for t in titles), head.count("\n") + 1 if head else 0)
+    if head:   # its top 4 pt below the figure's
+        fig.suptitle(head, fontsize=10, y=1 - 4 / 72 / fig.get_size_inches()[1], va="top")
+    return save_figures(fig, paths)

@@ -35,14 +35,15 @@ def write_atomic(path, text: str | bytes) -> Path:
     return path
 
 
-def new_figure(nrows=1, ncols=1, figsize=(7, 4), **subplot_kw):
+def new_figure(nrows=1, ncols=1, figsize=(7, 4), layout="constrained", **subplot_kw):
     """A matplotlib figure and its axes (as ``plt.subplots``) without pyplot: no GUI backend,
     no global figure registry, nothing to close, and ~0.3 s less import time; laid out by
-    matplotlib's constrained layout when it is drawn."""
+    matplotlib's constrained layout when it is drawn (``layout=None``: the caller places the
+    axes, and :func:`save_figures` saves it)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=figsize, layout="constrained")
+    fig = Figure(figsize=figsize, layout=layout)
     FigureCanvasAgg(fig)
     return fig, fig.subplots(nrows, ncols, **subplot_kw)
 
@@ -56,6 +57,19 @@ def save_figure(fig, path):
     tight = None if fig.get_layout_engine() is not None else "tight"
     fig.savefig(buf, format=Path(path).suffix.lstrip(".") or "png", dpi=120, bbox_inches=tight)
     write_atomic(path, buf.getvalue())
+
+
+def save_figures(fig, paths) -> list:
+    """Save a figure whose axes the caller placed (no layout engine: each save is one draw) to
+    each of ``paths`` (PNG, SVG, ...) atomically, as it is (not cropped); returns the paths."""
+    import io
+
+    paths = [Path(p) for p in paths]
+    for path in paths:
+        buf = io.BytesIO()
+        fig.savefig(buf, format=path.suffix.lstrip(".") or "png", dpi=120)
+        write_atomic(path, buf.getvalue())
+    return paths
 
 
 def _clean(value):
