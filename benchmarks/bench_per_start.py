@@ -58,7 +58,7 @@ sys.path.insert(0, str(ROOT))
 from benchmarks.bench_optimise import (CONSTRAINT_KINDS, Judge, SampledModel, ipopt_size_floor,  # noqa: E402
                                        slsqp_start, stroke_constraints)
 from benchmarks.benchfile import cpu_model, git_state, write_section  # noqa: E402
-from optdesign.design import multistart  # noqa: E402
+from optdesign.design import multistart, sqp  # noqa: E402
 from optdesign.design.multistart import draw_plan, solve_start  # noqa: E402
 from optdesign.design.phase1 import Phase1  # noqa: E402
 from optdesign.design.problem import DesignProblem  # noqa: E402
@@ -74,8 +74,9 @@ SQP_OPTIONS = {"qpsol": "qpoases", "qpsol_options": {"printLevel": "none", "erro
                "hessian_approximation": "exact", "max_iter": 300, "tol_pr": 1e-10, "tol_du": 1e-10,
                "print_header": False, "print_iteration": False, "print_status": False, "print_time": False,
                "error_on_fail": False, "show_eval_warnings": False}
+SQP_SOLVER = sqp.sqp_solver   # design/sqp.py's (bench_scene times each one it makes)
 PARTS = ("phase 1: IPOPT own", "phase 1: NLP evaluations", "phase 1: Python", "repair",
-         "IPOPT own", "IPOPT NLP evaluations", "exchange rebuilds", "continuous check", "start evaluations", "rest (Python)")
+         "IPOPT own", "IPOPT NLP evaluations", "SQP own", "SQP NLP evaluations", "SQP set-up", "exchange rebuilds", "continuous check", "start evaluations", "rest (Python)")
 
 
 def library_scenes() -> list:
@@ -120,10 +121,11 @@ class Clock:
 
 
 class TimedNlpsol:
-    """Stands in for an nlpsol: books IPOPT's own work and its NLP evaluations from stats()."""
+    """Stands in for an nlpsol: books the solver's own work and its NLP evaluations from stats()
+    (``name``: 'IPOPT' or 'SQP', the sqpmethod of design/sqp.py)."""
 
-    def __init__(self, solver, clock, prefix=""):
-        self.solver, self.clock, self.prefix = solver, clock, prefix
+    def __init__(self, solver, clock, prefix="", name="IPOPT"):
+        self.solver, self.clock, self.prefix, self.name = solver, clock, prefix, name
         self.iterations = self.calls = 0
 
     def __call__(self, **kwargs):
@@ -135,9 +137,9 @@ class TimedNlpsol:
         nlp_c = sum(v for k, v in st.items() if k.startswith("t_proc_nlp"))
         own_w = st.get("t_wall_total", wall) - nlp_w
         own_c = st.get("t_proc_total", cpu) - nlp_c
-        self.clock.add(self.prefix + "IPOPT own", own_w, own_c)
-        self.clock.add(self.prefix + "IPOPT NLP evaluations", nlp_w, nlp_c)
-        self.clock.add(self.prefix + "IPOPT call", wall, cpu)   # the call itself (for Python between)
+        self.clock.add(f"{self.prefix}{self.name} own", own_w, own_c)
+        self.clock.add(f"{self.prefix}{self.name} NLP evaluations", nlp_w, nlp_c)
+        self.clock.add(f"{self.prefix}{self.name} call", wall, cpu)   # the call itself (for Python between)
         self.iterations += int(st.get("iter_count", 0))
         self.calls += 1
         return out
@@ -155,6 +157,19 @@ def instrument(problem, solver, repair, clock):
     clock.add("tracking build (once)", time.perf_counter() - w, time.process_time() - c)
     problem.solver = TimedNlpsol(problem.solver, clock)
     problem._built["warm solver"] = TimedNlpsol(problem.warm_solver, clock)
+    # the SQP is made fresh for every start that re-solves (design/sqp.py): each one timed
+    sqp_timed, make = TimedNlpsol(None, clock, name="SQP"), SQP_SOLVER
+
+    def fresh_sqp(pb):
+        w, c = time.perf_counter(), time.process_time()
+        made = make(pb)
+        clock.add("SQP set-up", time.perf_counter() - w, time.process_time() - c)
+        if made is None:
+            return None
+        sqp_timed.solver = made
+        return sqp_timed
+    sqp.sqp_solver = fresh_sqp
+    make(problem)   # its library compiled (or loaded) before the starts are timed
     phase1 = problem._once("phase 1", lambda: Phase1(problem))
     phase1.solver = TimedNlpsol(phase1.solver, clock, "phase 1: ")
     clock.wrap(phase1, "__call__", "phase 1 call")
@@ -165,7 +180,7 @@ def instrument(problem, solver, repair, clock):
     clock.wrap(solver, "_initial_w", "start evaluations")
     if getattr(repair, "ok", False):
         clock.wrap(repair, "__call__", "repair")
-    return problem.solver, problem._built["warm solver"], phase1.solver
+    return problem.solver, problem._built["warm solver"], phase1.solver, sqp_timed
 
 
 def parts_of(clock, kind):
@@ -177,6 +192,7 @@ def parts_of(clock, kind):
         "phase 1: IPOPT own": g("phase 1: IPOPT own"), "phase 1: NLP evaluations": g("phase 1: IPOPT NLP evaluations"),
         "phase 1: Python": g("phase 1 call") - g("phase 1: IPOPT call"), "repair": g("repair"),
         "IPOPT own": g("IPOPT own"), "IPOPT NLP evaluations": g("IPOPT NLP evaluations"),
+        "SQP own": g("SQP own"), "SQP NLP evaluations": g("SQP NLP evaluations"), "SQP set-up": g("SQP set-up"),
         "exchange rebuilds": g("exchange rebuilds"), "continuous check": g("continuous check"),
         "start evaluations": g("start evaluations"),
     }
@@ -194,7 +210,9 @@ def comparable(problem) -> str | None:
     return None
 
 
-SOLVERS = ("IPOPT (ours' options)", "sqpmethod + qpOASES, exact Hessian", "sqpmethod + qpOASES, BFGS")
+SOLVERS = ("IPOPT (ours' options)", "sqpmethod + qpOASES, exact Hessian, CasADi's line search and no convexification",
+           "sqpmethod + qpOASES as design/sqp.py sets it (exact Hessian, eigen-clip, line search 20 x 0.5, tol_du 1e-8)",
+           "the same with BFGS")
 
 
 def sqp_comparison(problem, firsts):
@@ -204,10 +222,12 @@ def sqp_comparison(problem, firsts):
     from optdesign.model import compiled
 
     ipopt = problem.solver.solver if isinstance(problem.solver, TimedNlpsol) else problem.solver
-    solvers = dict(zip(SOLVERS, (
-        ipopt, compiled.solver("design_sqp", "sqpmethod", problem._nlp_function, SQP_OPTIONS, wait=True),
-        compiled.solver("design_sqp_bfgs", "sqpmethod", problem._nlp_function,
-                        dict(SQP_OPTIONS, hessian_approximation="limited-memory"), wait=True))))
+    with sqp._c_output_hidden():   # qpOASES's copyright notice
+        solvers = dict(zip(SOLVERS, (
+            ipopt, compiled.solver("design_sqp", "sqpmethod", problem._nlp_function, SQP_OPTIONS, wait=True),
+            compiled.solver("design_sqp", "sqpmethod", problem._nlp_function, sqp.OPTIONS, wait=True),
+            compiled.solver("design_sqp_bfgs", "sqpmethod", problem._nlp_function,
+                            dict(sqp.OPTIONS, hessian_approximation="limited-memory"), wait=True))))
     out = {name: ([], [], []) for name in SOLVERS}
     for w, p, bounds in firsts:
         for name, nlpsol in solvers.items():   # in turn, start by start
@@ -229,7 +249,7 @@ def bench_scene(path: Path, args) -> dict:
     solver, repair = Solver(problem), Repair(problem)
     plan = draw_plan(problem, args.starts, args.seed)
     clock = Clock()
-    ipopt, warm, ph1 = instrument(problem, solver, repair, clock)
+    ipopt, warm, ph1, sqp_timed = instrument(problem, solver, repair, clock)
     why_not = comparable(problem)
     judge = Judge(problem) if why_not is None else None
     model = SampledModel(problem) if why_not is None else None
@@ -244,14 +264,15 @@ def bench_scene(path: Path, args) -> dict:
     solver._start_slots = start_slots
     ours, slsqp = [], []
     for i, x0 in enumerate(plan.points):
-        its0 = ipopt.iterations + warm.iterations + ph1.iterations
-        calls0 = ipopt.calls + warm.calls + ph1.calls
+        its0 = ipopt.iterations + warm.iterations + ph1.iterations + sqp_timed.iterations
+        calls0 = ipopt.calls + warm.calls + ph1.calls + sqp_timed.calls
         w, c = time.perf_counter(), time.process_time()
         report, sol = solve_start(solver, repair, i, x0, retry=lambda k, i=i: plan.retry(i, k))
         wall, cpu = time.perf_counter() - w, time.process_time() - c
         clock.add("starts", wall, cpu)
-        its = ipopt.iterations + warm.iterations + ph1.iterations - its0
-        ours.append({"wall": wall, "cpu": cpu, "iterations": its, "solves": ipopt.calls + warm.calls + ph1.calls - calls0, "value": report.objective if report.success else None,
+        its = ipopt.iterations + warm.iterations + ph1.iterations + sqp_timed.iterations - its0
+        solves = ipopt.calls + warm.calls + ph1.calls + sqp_timed.calls - calls0
+        ours.append({"wall": wall, "cpu": cpu, "iterations": its, "solves": solves, "value": report.objective if report.success else None,
                      "x": None if sol is None else sol.x})
         if why_not is None:
             w, c = time.perf_counter(), time.process_time()
