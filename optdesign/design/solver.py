@@ -1,8 +1,8 @@
 """Solving the design problem from one start: the slots placed on the extrema of the start
 design, IPOPT, then the continuous check (:mod:`.certify`); while some bound or the epigraph
 is exceeded between the sample points, an exchange step moves the slots onto the located
-extrema and solves again, warm, by an active-set SQP with IPOPT as its fallback (:mod:`.sqp`).
-Nothing passes from one start to the next."""
+extrema and solves again (warm).  Nothing passes from one start to the next.  (An active-set SQP
+for these solves, IPOPT its fallback, is measured as an option: :mod:`.sqp`.)"""
 from __future__ import annotations
 
 import numpy as np
@@ -165,9 +165,9 @@ class Solver:
 
     def _nlp(self, w, p, row_bounds, last=None, box=None):
         """One solve of the NLP from ``w`` (warm from the last solution's multipliers after an
-        exchange step), within the variable bounds ``box`` (default the NLP's): a re-solve by
-        sqpmethod first (:mod:`.sqp`), IPOPT from the same point when the SQP's result is not
-        accepted; a start's first solve by IPOPT.
+        exchange step), within the variable bounds ``box`` (default the NLP's): by IPOPT, or
+        under an SQP rule of :mod:`.sqp` by sqpmethod first, IPOPT from the same point when the
+        SQP's result is not accepted.
         Returns (result, stats, iterations: both solvers')."""
         pb = self.pb
         iterations = 0

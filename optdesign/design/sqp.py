@@ -1,19 +1,14 @@
-"""The objective phase's NLP solver on a re-solve: CasADi's ``sqpmethod`` with the active-set
-QP solver qpOASES (bundled with CasADi) first, IPOPT as the fallback from the same point.
+"""An active-set SQP for the objective phase: CasADi's ``sqpmethod`` with the QP solver qpOASES
+(bundled with CasADi), IPOPT the fallback from the same point.  Measured over the scene library
+as an alternative to IPOPT; the tool's rule stays IPOPT (``SOLVER = 'ipopt'``), see below.
 
-Which solves.  A start's first objective solve (from phase 1's feasible design) is IPOPT's; every
-re-solve after an exchange step, and the best start's polish (:mod:`.solver`), is the SQP's, warm
-from the last solution's multipliers.  A re-solve starts next to its answer (a few sample points
-moved, the design within the exchange's step limit), where an active-set SQP needs one to three
-iterations of a small dense QP and IPOPT's interior point 5-20 with a sparse factorisation each.
-The first solve stays IPOPT's because it decides which local optimum a start reaches: the SQP
-descends to the nearest one, IPOPT's barrier path often further, and over the scene library
-IPOPT's first solves reach the global optimum from every start where the SQP's lose one
-(seed1_jib_design's own start ends at a local optimum 0.6 % worse; results/optimise_library.md,
-the rows 'objective phase: ...').
+Why try it.  The design NLPs are small and dense (2-4 design variables, an epigraph variable, a
+few stroke aggregates; 55-160 rows), and an exchange step re-solves near the last solution with
+a few sample points moved: an active-set SQP takes one to three iterations of a small dense QP
+there, where IPOPT's interior point takes 5-20 with a sparse factorisation each.
 
-How the SQP is made as reliable as IPOPT (each setting measured on the library scenes where the
-plain sqpmethod failed, results/per_start.md):
+How the SQP is made as reliable as IPOPT on a solve (each setting measured on the library scenes
+where the plain sqpmethod failed, results/per_start.md):
 
 * ``convexify_strategy = eigen-clip``: the exact Hessian of the Lagrangian is indefinite away
   from a minimum (the mechanisms' kinematics are far from convex), and qpOASES needs a convex QP:
@@ -32,25 +27,42 @@ plain sqpmethod failed, results/per_start.md):
 
 A solve is accepted only when sqpmethod reports success, its design and rows are finite and
 within their bounds (the NLP's tolerance), and it is no worse than its start when the start was
-feasible; otherwise IPOPT solves from the same point, as it did before (:meth:`.solver.Solver._nlp`).
-Phase 1 keeps IPOPT (its elastic NLP has two variables per row: a sparse problem, where an
-interior point is the better tool).
+feasible; otherwise IPOPT solves from the same point (:meth:`.solver.Solver._nlp`).  Phase 1
+keeps IPOPT.  qpOASES hot-starts each QP from the working set of the last QP it solved, in the
+solver's memory, so each start gets a fresh SQP (a shared one made a start's result depend on
+the starts before it), made from the compiled library in the disk cache in 0.3-0.6 ms; on
+CasADi's virtual machine a fresh one costs 30-340 ms of derivative building, more than it
+saves, so without the library the solves are IPOPT's.
 
-``SOLVER`` is the one rule for every scene: 'sqpmethod on re-solves' (above), 'sqpmethod' (the
-SQP first on every objective-phase solve, the first too) or 'ipopt' (IPOPT alone, the rule before
-issue 18); benchmarks/bench_library.py measures the three over the library.
+The rules (``SOLVER``, one for every scene; benchmarks/bench_library.py measures each over the
+library, results/optimise_library.md):
+
+* 'ipopt' (the tool's): every objective-phase solve by IPOPT.
+* 'sqpmethod on re-solves': a start's first solve by IPOPT, every re-solve after an exchange step
+  and the best start's polish by the SQP first.  The same optima from every start; faster where
+  starts take many exchange steps (the toggle press), slower on the rms objectives (IPOPT uses a
+  limited-memory Hessian there, the SQP the exact one), about even elsewhere.
+* 'sqpmethod': the SQP first on a start's first solve too: 1.5-3x less CPU per start, but the
+  first solve decides which local optimum a start reaches: the SQP descends to the nearest one,
+  IPOPT's barrier path often further, and the SQP loses a start to a worse local optimum
+  (seed1_jib_design's own start ends 0.6 % above the global optimum, which IPOPT reaches).
+
+Neither SQP rule is the tool's: besides the measurements above, a run's numbers would then depend
+on whether the compiled library is in the cache (the first run, or a machine without a compiler,
+solves by IPOPT), where today the compiled code gives the same numbers as the virtual machine
+(tests/test_compiled.py).
 """
 from __future__ import annotations
 
 import contextlib
+import io
 import os
-import sys
 
 import numpy as np
 
 from ..model import compiled
 
-SOLVER = "sqpmethod on re-solves"
+SOLVER = "ipopt"
 SOLVERS = ("sqpmethod on re-solves", "sqpmethod", "ipopt")
 
 OPTIONS = {
@@ -90,36 +102,43 @@ def sqp_solver(pb):
 
 
 def _library(pb):
-    """The compiled library of the SQP's functions (compiled now or in the background, as
-    model/compiled.py decides for every NLP), or None."""
-    with _c_output_hidden():
-        compiled.solver("design_sqp", "sqpmethod", pb._nlp_function, OPTIONS)   # compiles when missing
+    """The compiled library of the SQP's functions, or None: looked up in the disk cache, else
+    compiled now or in the background as model/compiled.py decides for every NLP (None for this
+    run when in the background, or with no compiler, or with the cache turned off)."""
     key = compiled.entry_key("nlpsol", pb._nlp_function.serialize(), {"plugin": "sqpmethod"})
-    return None if key is None else compiled.lookup(key)
+    if key is None:
+        return None
+    found = compiled.lookup(key)
+    if found is None:
+        with _c_output_hidden():
+            compiled.solver("design_sqp", "sqpmethod", pb._nlp_function, OPTIONS)   # compiles it (or starts to)
+        found = compiled.lookup(key)
+    return found
 
 
 @contextlib.contextmanager
 def _c_output_hidden():
-    """File descriptor 1 (the C library's stdout) sent to the null device while this runs;
-    the C library's buffer is flushed before it is restored."""
-    try:
-        import ctypes
+    """File descriptor 1 (the C library's stdout) sent to the null device while this runs, the
+    C library's buffer flushed before it is restored, and Python's sys.stdout (where CasADi
+    writes its own messages, such as a solver's header) to nowhere."""
+    with contextlib.redirect_stdout(io.StringIO()):   # CasADi's own messages go through sys.stdout
+        try:
+            import ctypes
 
-        libc = ctypes.CDLL(None)
-        sys.stdout.flush()
-        saved, null = os.dup(1), os.open(os.devnull, os.O_WRONLY)
-    except (OSError, AttributeError, ValueError):   # no file descriptors to redirect (an embedded stdout)
-        yield
-        return
-    try:
-        libc.fflush(None)
-        os.dup2(null, 1)
-        yield
-    finally:
-        libc.fflush(None)
-        os.dup2(saved, 1)
-        os.close(saved)
-        os.close(null)
+            libc = ctypes.CDLL(None)
+            saved, null = os.dup(1), os.open(os.devnull, os.O_WRONLY)
+        except (OSError, AttributeError, ValueError):   # no file descriptors to redirect (an embedded stdout)
+            yield
+            return
+        try:
+            libc.fflush(None)
+            os.dup2(null, 1)
+            yield
+        finally:
+            libc.fflush(None)
+            os.dup2(saved, 1)
+            os.close(saved)
+            os.close(null)
 
 
 def accepted(pb, res, stats, w0, p, bounds) -> bool:
