@@ -351,6 +351,21 @@ def solver_table(data) -> list:
                        f"(lowest {min(rs):.2f}x, highest {max(rs):.2f}x); starts at the global optimum "
                        f"{sum(data['scenes'][n]['runs'][k]['at_global'] for n in data['scenes'] if k in data['scenes'][n]['runs'] and 'at_global' in data['scenes'][n]['runs'][k])}"
                        f" (IPOPT only {sum(data['scenes'][n]['runs'][base]['at_global'] for n in data['scenes'] if base in data['scenes'][n]['runs'] and 'at_global' in data['scenes'][n]['runs'][base])}).")
+    kept = [k for k, rs in ratios.items() if rs and all(
+        data["scenes"][n]["runs"][k]["at_global"] >= data["scenes"][n]["runs"][base]["at_global"]
+        for n in data["scenes"] if k in data["scenes"][n]["runs"] and "at_global" in data["scenes"][n]["runs"][k])
+        and math.exp(statistics.fmean(math.log(r) for r in rs)) > 1.1]
+    same = [n for n, row in data["scenes"].items()
+            if len({row["runs"].get(k, {}).get("iterations") for k in SOLVER_ROWS}) == 1]
+    if same:
+        out.append(f"- The same iterations under every rule (no SQP solve: its compiled library is not in the cache, "
+                   f"e.g. gcc exceeded its memory bound, and without it the solves are IPOPT's): "
+                   f"{', '.join(f'`{n}`' for n in same)}; their time ratios are the machine's noise.")
+    out += ["", "A rule replaces the default only if it loses no start on any scene and is faster per start over the "
+            "library (geometric mean of IPOPT only / the rule above 1.1x: a scene's median CPU per start under the same "
+            "setting varied by up to 75 % between two runs this evening on the shared machine: level-luffing cylinder 37 and 65 ms): "
+            + (", ".join(labels[k] for k in kept) + " qualifies." if kept else "neither SQP rule does, so the objective "
+               "phase keeps IPOPT (design/sqp.py says why each one fails).")]
     return out + [""]
 
 
