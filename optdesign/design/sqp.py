@@ -25,6 +25,11 @@ where the plain sqpmethod failed, results/per_start.md):
   optimum.  The certificate is the continuous check's anyway (:mod:`.certify`), and the rows'
   violation stays IPOPT's (1e-10).
 
+On the library's first objective solves (results/per_start.md) these settings make the SQP succeed
+where the plain one fails (scissor lift 10 of 10 against 0, crank-luffing jib 10 against 1) but
+fail where the plain one succeeds (dump truck hoist and wheel loader: 3 of 10 each); the fallback
+to IPOPT catches those, at the cost of both solves.
+
 A solve is accepted only when sqpmethod reports success, its design and rows are finite and
 within their bounds (the NLP's tolerance), and it is no worse than its start when the start was
 feasible; otherwise IPOPT solves from the same point (:meth:`.solver.Solver._nlp`).  Phase 1
