@@ -43,7 +43,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "tests"), str(ROOT / "tests" / "library"), str(ROOT / "benchmarks")]
 
 import optdesign  # noqa: E402
-from optdesign.design import multistart, nlp, phase1, problem, solver, starts  # noqa: E402
+from optdesign.design import multistart, nlp, phase1, problem, solver, sqp, starts  # noqa: E402
 from optdesign.errors import OptdesignError  # noqa: E402
 from optdesign.report.output import write_atomic  # noqa: E402
 
@@ -229,6 +229,11 @@ def none():
 
 VARIANTS = [
     ("default", "the shipped setting", none()),
+    ("objective phase: sqpmethod on re-solves", "every re-solve after an exchange step (and the polish) by sqpmethod + "
+     "qpOASES first (design/sqp.py), IPOPT from the same point when the SQP's result is not accepted; a start's first "
+     "solve by IPOPT (the tool: IPOPT for every objective-phase solve)", lambda: setting(sqp, "SOLVER", "sqpmethod on re-solves")),
+    ("objective phase: sqpmethod for every solve", "the same on a start's first solve too",
+     lambda: setting(sqp, "SOLVER", "sqpmethod")),
     ("expect_infeasible_problem yes", "the setting before issue 14 (the tool leaves IPOPT's default, no)",
      ipopt_change(expect_infeasible_problem="yes")),
     ("mu_strategy monotone", "objective phase (the tool sets adaptive)", ipopt_change(mu_strategy="monotone")),
@@ -257,14 +262,30 @@ VARIANTS = [
 
 
 # --- one run -----------------------------------------------------------------------------------
+@contextlib.contextmanager
+def start_cpu(times: list):
+    """Each start's CPU time (this process's, ``time.process_time``) appended to ``times``."""
+    original = multistart.solve_start
+
+    def timed(*args, **kwargs):
+        c0 = time.process_time()
+        try:
+            return original(*args, **kwargs)
+        finally:
+            times.append(time.process_time() - c0)
+    with setting(multistart, "solve_start", timed):
+        yield
+
+
 def run(path: Path, glob: float | None) -> dict:
     scene = optdesign.load(path)
-    t0 = time.perf_counter()
+    t0, c0, cpus = time.perf_counter(), time.process_time(), []
     try:
-        res = optdesign.optimise(scene, STARTS, SEED)
+        with start_cpu(cpus):
+            res = optdesign.optimise(scene, STARTS, SEED)
     except OptdesignError as exc:
         return {"refused": str(exc).splitlines()[0][:200]}
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     ok = [s for s in res.starts if s.success and s.objective is not None]
     target = glob if glob is not None and math.isfinite(glob) else res.objective
     at = sum(1 for s in ok if target is not None and abs(s.objective - target) <= AT_GLOBAL * abs(target))
@@ -275,7 +296,8 @@ def run(path: Path, glob: float | None) -> dict:
             failed[key] = failed.get(key, 0) + 1
     return {"success": res.success, "best": res.objective, "design": res.design, "at_global": at,
             "optima": len(res.optima), "failed": failed, "retries": sum(max(len(s.tried) - 1, 0) for s in res.starts),
-            "median_start_s": statistics.median(s.time_s for s in res.starts), "wall_s": wall,
+            "median_start_s": statistics.median(s.time_s for s in res.starts), "wall_s": wall, "cpu_s": cpu,
+            "median_start_cpu_s": statistics.median(cpus) if cpus else None,
             "screen_s": res.timings.get("screen_s"), "peak_certified": res.peak_certified,
             "iterations": sum(s.iterations + s.phase1_iterations for s in res.starts)}
 
@@ -285,8 +307,70 @@ def fmt(v, digits=9):
     return "-" if v is None or (isinstance(v, float) and not math.isfinite(v)) else f"{v:,.{digits}g}"
 
 
+def cpu_ms(run) -> str:
+    v = run.get("median_start_cpu_s")
+    return "-" if v is None else f"{v * 1e3:.0f}"
+
+
+SOLVER_ROWS = ("default", "objective phase: sqpmethod on re-solves", "objective phase: sqpmethod for every solve")
+
+
+def solver_table(data) -> list:
+    """The objective phase's solver, scene by scene: the rules of SOLVER_ROWS (the default,
+    IPOPT only; the SQP on re-solves; the SQP on every solve), starts at the global optimum
+    and the median CPU time per start, each against IPOPT only."""
+    labels = {"default": "default (IPOPT only)", "objective phase: sqpmethod on re-solves": "sqpmethod on re-solves",
+              "objective phase: sqpmethod for every solve": "sqpmethod for every solve"}
+    base = SOLVER_ROWS[0]
+    rows, ratios = [], {k: [] for k in SOLVER_ROWS if k != base}
+    for name, row in data["scenes"].items():
+        runs = {k: row["runs"].get(k) for k in SOLVER_ROWS}
+        if any(r is None or "refused" in r for r in runs.values()):
+            continue
+        cells = []
+        for k in SOLVER_ROWS:
+            r = runs[k]
+            cell = f"{r['at_global']}/{STARTS}, {r['median_start_s'] * 1e3:.0f} ({cpu_ms(r)}), {r['iterations']}"
+            if k != base and r.get("median_start_cpu_s") and runs[base].get("median_start_cpu_s"):
+                ratio = runs[base]["median_start_cpu_s"] / r["median_start_cpu_s"]
+                ratios[k].append(ratio)
+                cell += f", {ratio:.2f}x"
+            cells.append(cell)
+        rows.append(f"| `{name}` | " + " | ".join(cells) + " |")
+    if not rows:
+        return []
+    out = ["## The objective phase's solver, scene by scene", "",
+           "The solver rows of the option table above (each scene runs them one after the other). Each cell: starts at "
+           "the global optimum, median time per start wall (CPU) [ms], iterations of all starts (phase 1's, IPOPT's and "
+           "the SQP's), and the median CPU per start of IPOPT only divided by this rule's (> 1: this rule is faster).", "",
+           "| scene | " + " | ".join(labels[k] for k in SOLVER_ROWS) + " |", "|---|" + "---|" * len(SOLVER_ROWS), *rows, ""]
+    for k, rs in ratios.items():
+        if rs:
+            gm = math.exp(statistics.fmean(math.log(r) for r in rs))
+            out.append(f"- {labels[k]}: CPU per start, IPOPT only / this rule: geometric mean over the scenes {gm:.2f}x "
+                       f"(lowest {min(rs):.2f}x, highest {max(rs):.2f}x); starts at the global optimum "
+                       f"{sum(data['scenes'][n]['runs'][k]['at_global'] for n in data['scenes'] if k in data['scenes'][n]['runs'] and 'at_global' in data['scenes'][n]['runs'][k])}"
+                       f" (IPOPT only {sum(data['scenes'][n]['runs'][base]['at_global'] for n in data['scenes'] if base in data['scenes'][n]['runs'] and 'at_global' in data['scenes'][n]['runs'][base])}).")
+    kept = [k for k, rs in ratios.items() if rs and all(
+        data["scenes"][n]["runs"][k]["at_global"] >= data["scenes"][n]["runs"][base]["at_global"]
+        for n in data["scenes"] if k in data["scenes"][n]["runs"] and "at_global" in data["scenes"][n]["runs"][k])
+        and math.exp(statistics.fmean(math.log(r) for r in rs)) > 1.1]
+    same = [n for n, row in data["scenes"].items()
+            if len({row["runs"].get(k, {}).get("iterations") for k in SOLVER_ROWS}) == 1]
+    if same:
+        out.append(f"- The same iterations under every rule (no SQP solve: its compiled library is not in the cache, "
+                   f"e.g. gcc exceeded its memory bound, and without it the solves are IPOPT's): "
+                   f"{', '.join(f'`{n}`' for n in same)}; their time ratios are the machine's noise.")
+    out += ["", "A rule replaces the default only if it loses no start on any scene and is faster per start over the "
+            "library (geometric mean of IPOPT only / the rule above 1.1x: a scene's median CPU per start under the same "
+            "setting varied by up to 75 % between two runs this evening on the shared machine: level-luffing cylinder 37 and 65 ms): "
+            + (", ".join(labels[k] for k in kept) + " qualifies." if kept else "neither SQP rule does, so the objective "
+               "phase keeps IPOPT (design/sqp.py says why each one fails).")]
+    return out + [""]
+
+
 def report(data) -> str:
-    lines = ["# The optimiser over the whole scene library (issue 14)", "",
+    lines = ["# The optimiser over the whole scene library (issues 14 and 18)", "",
              f"`python benchmarks/bench_library.py` ({data['when']}, {data['git']}; {data['machine']}). "
              f"Every run: `optimise(load(scene), {STARTS}, {SEED})`, one process, the same settings for every scene. "
              f"A start is *at the global optimum* when its certified objective is within {AT_GLOBAL:g} (relative) "
@@ -294,7 +378,7 @@ def report(data) -> str:
              "certification; the one screening per run is its own column).", "",
              "## The default setting, one row per scene", "",
              "| scene | independent global optimum | best found | rel. difference | certified peak vs 20,001 samples | "
-             "starts at global | distinct local optima | failed starts | retries | time per start [ms] | screening [s] |",
+             "starts at global | distinct local optima | failed starts | retries | time per start [ms] wall (CPU) | screening [s] |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for name, row in data["scenes"].items():
         d = row["runs"]["default"]
@@ -308,7 +392,7 @@ def report(data) -> str:
         failed = ", ".join(f"{k} {v}" for k, v in d["failed"].items()) or "none"
         lines.append(f"| `{name}` | {fmt(ref['value'])} | {fmt(d['best'])} | {fmt(rel, 2)} | {fmt(peak_rel, 2)} | "
                      f"{d['at_global']}/{STARTS} | {d['optima']} | {failed} | {d['retries']} | "
-                     f"{d['median_start_s'] * 1e3:.0f} | {fmt(d['screen_s'], 2)} |")
+                     f"{d['median_start_s'] * 1e3:.0f} ({cpu_ms(d)}) | {fmt(d['screen_s'], 2)} |")
     lines += ["", "Independent optima: " + "; ".join(f"`{n}`: {r['reference']['source']}"
                                                     for n, r in data["scenes"].items()), ""]
     if data.get("variants"):
@@ -316,9 +400,11 @@ def report(data) -> str:
                   "Each row runs the whole library with one change from the default. *Sum*: starts at the global "
                   f"optimum over all scenes (of {STARTS} x scenes); *worst*: the fewest on one scene; *>= 18*: scenes "
                   "with at least 18 of 20; *failed*: starts that ended without a certified optimum, by status; "
-                  "*time*: the median over the scenes of the median time per start.", "",
-                  "| change | what | sum | worst (scene) | scenes >= 18/20 | failed | time per start [ms] | wall [s] |",
-                  "|---|---|---|---|---|---|---|---|"]
+                  "*time*: the median over the scenes of the median time per start, wall (CPU: this process's, "
+                  "which leaves out waiting for a core on the shared machine); *wall, CPU*: the whole row's runs.", "",
+                  "| change | what | sum | worst (scene) | scenes >= 18/20 | failed | time per start [ms] wall (CPU) | "
+                  "wall [s] | CPU [s] |",
+                  "|---|---|---|---|---|---|---|---|---|"]
         for name, what, _ in VARIANTS:
             runs = {s: row["runs"].get(name) for s, row in data["scenes"].items()}
             runs = {s: r for s, r in runs.items() if r is not None and "refused" not in r}
@@ -333,9 +419,13 @@ def report(data) -> str:
                     failed[k] = failed.get(k, 0) + v
             med = statistics.median(r["median_start_s"] for r in runs.values())
             wall = sum(r["wall_s"] for r in runs.values())
+            cpus = [r["median_start_cpu_s"] for r in runs.values() if r.get("median_start_cpu_s") is not None]
+            cpu = sum(r.get("cpu_s", math.nan) for r in runs.values())
+            med_cpu = f"{statistics.median(cpus) * 1e3:.0f}" if cpus else "-"
             lines.append(f"| {name} | {what} | {total}/{STARTS * len(runs)} | {worst[1]['at_global']} (`{worst[0]}`) | "
                          f"{good}/{len(runs)} | {', '.join(f'{k} {v}' for k, v in failed.items()) or 'none'} | "
-                         f"{med * 1e3:.0f} | {wall:.0f} |")
+                         f"{med * 1e3:.0f} ({med_cpu}) | {wall:.0f} | {cpu:.0f} |")
+        lines += ["", *solver_table(data)]
         lines += ["", "Per scene (starts at the global optimum):", "",
                   "| change | " + " | ".join(f"`{s.removeprefix('lib_')}`" for s in data["scenes"]) + " |",
                   "|---|" + "---|" * len(data["scenes"])]

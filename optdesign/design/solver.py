@@ -1,12 +1,14 @@
 """Solving the design problem from one start: the slots placed on the extrema of the start
 design, IPOPT, then the continuous check (:mod:`.certify`); while some bound or the epigraph
 is exceeded between the sample points, an exchange step moves the slots onto the located
-extrema and solves again (warm).  Nothing passes from one start to the next."""
+extrema and solves again (warm).  Nothing passes from one start to the next.  (An active-set SQP
+for these solves, IPOPT its fallback, is measured as an option: :mod:`.sqp`.)"""
 from __future__ import annotations
 
 import numpy as np
 
 from ..errors import check_interrupt
+from . import sqp
 from .aggregates import sampled_extreme
 from .certify import ContinuousCheck
 from .problem import DesignProblem
@@ -25,6 +27,7 @@ class Solver:
         # start's result depends on its start point alone, whatever ran before it here.
         # The continuous check at a solution (with its own evaluation of the s-derivatives):
         self.checker = ContinuousCheck(problem)
+        self._sqp = None   # this start's SQP (design/sqp.py), made on its first use
 
     def fixed_values(self, fixed=None):
         pb = self.pb
@@ -37,6 +40,7 @@ class Solver:
         pb, st = self.pb, self.pb.settings
         fixed = self.fixed_values(fixed)
         nd = len(pb.design_names)
+        self._sqp = None   # a fresh SQP for this start: nothing passes from the starts before
         s_pts = np.r_[pb.base_points, pb.initial_slots]
         x_ref, tracking, rows = np.clip(np.asarray(x0, float), pb.lower, pb.upper), np.zeros((pb.n_points, nd)), {}
         w = self._initial_w(x0, fixed, s_pts)
@@ -61,7 +65,7 @@ class Solver:
         step, worst_before = None, np.inf
         for exchange in range(st.max_exchanges + 1):
             box = self._step_box(x_ref, step)
-            res, stats, its = self._ipopt(w, pb.nlp_parameters(fixed, s_pts, x_ref, tracking), pb.row_bounds(s_pts),
+            res, stats, its = self._nlp(w, pb.nlp_parameters(fixed, s_pts, x_ref, tracking), pb.row_bounds(s_pts),
                                           res, box)
             iterations += its
             status = stats["return_status"]
@@ -101,11 +105,12 @@ class Solver:
         nd = len(pb.design_names)
         if not sol.success or not pb.settings.slots:
             return sol
+        self._sqp = None   # a fresh SQP, as for a start
         violations, _, _ = self.continuous_check(sol.x, fixed, sol.w, sol.s_points)
         slots, rows = self._slots(violations, sol.s_points, {}, np.zeros(len(sol.lam_g)))
         s_pts = np.r_[pb.base_points, slots]
         tracking = self._tracking(slots, rows, sol.x, fixed)
-        res, stats, its = self._ipopt(sol.w, pb.nlp_parameters(fixed, s_pts, sol.x, tracking), pb.row_bounds(s_pts),
+        res, stats, its = self._nlp(sol.w, pb.nlp_parameters(fixed, s_pts, sol.x, tracking), pb.row_bounds(s_pts),
                                       {"lam_x": sol.lam_x, "lam_g": sol.lam_g})
         if not stats["success"]:
             return sol
@@ -157,6 +162,31 @@ class Solver:
         lo, hi = box[0][:nd], box[1][:nd]
         tight = 1e-7
         return bool(np.any((lo > pb.lbw[:nd]) & (z <= lo + tight)) or np.any((hi < pb.ubw[:nd]) & (z >= hi - tight)))
+
+    def _nlp(self, w, p, row_bounds, last=None, box=None):
+        """One solve of the NLP from ``w`` (warm from the last solution's multipliers after an
+        exchange step), within the variable bounds ``box`` (default the NLP's): by IPOPT, or
+        under an SQP rule of :mod:`.sqp` by sqpmethod first, IPOPT from the same point when the
+        SQP's result is not accepted.
+        Returns (result, stats, iterations: both solvers')."""
+        pb = self.pb
+        iterations = 0
+        if sqp.use_sqp(first=last is None) and self._sqp is None:
+            made = sqp.sqp_solver(pb)   # one per start (see sqp.sqp_solver); None: no library, IPOPT
+            self._sqp = False if made is None else made
+        if sqp.use_sqp(first=last is None) and self._sqp is not False:
+            lbx, ubx = (pb.lbw, pb.ubw) if box is None else box
+            bounds = {"lbx": lbx, "ubx": ubx, "lbg": row_bounds[0], "ubg": row_bounds[1]}
+            solver = self._sqp
+            warm = {} if last is None else {"lam_x0": last["lam_x"], "lam_g0": last["lam_g"]}
+            res = solver(x0=w, p=p, **bounds, **warm)
+            stats = solver.stats()
+            check_interrupt()
+            iterations += int(stats.get("iter_count", 0))
+            if sqp.accepted(pb, res, stats, w, p, bounds):
+                return res, stats, iterations
+        res, stats, its = self._ipopt(w, p, row_bounds, last, box)
+        return res, stats, iterations + its
 
     def _ipopt(self, w, p, row_bounds, last=None, box=None):
         """One IPOPT solve: warm from the last solution's multipliers after an exchange step
