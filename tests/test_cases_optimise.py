@@ -326,3 +326,24 @@ def test_analyse_reports_a_case_constraint_in_its_case():
     assert set(cases["empty down"].constraints) == {"braking torque"} and not cases["loaded up"].constraints
     c = cases["empty down"]
     assert np.allclose(c.constraints["braking torque"], c.columns["drive"] / 1000, rtol=1e-14, atol=0)
+
+
+def test_the_catalogue_on_the_command_line(tmp_path, monkeypatch, capsys):
+    """`optdesign optimise` of a catalogue: a progress bar per motor, named, and the summary says
+    which motors were tried and which were left out once a smaller one fits."""
+    import optdesign.cli.optimise as command
+    from optdesign.cli import main as cli
+
+    path = tmp_path / "catalogue.toml"
+    text = CRANK.replace("GRAVITY", str(G)).replace("EFFICIENCY", "")   # as _only_ratio: i free, mc = 10
+    text = text.replace("mc = { value = 10.0, min = 0.0, max = 60.0 }", "mc = 10.0").replace(
+        "i = 20.0", "i = { value = 20.0, min = 2.0, max = 200.0 }")
+    assert "mc = 10.0" in text and "min = 2.0" in text
+    path.write_text(text + CATALOGUE + '\n[objective]\nminimise = "rms_time(motor_torque)"\n')
+    labels = []
+    monkeypatch.setattr(command, "progress_bar", lambda what: labels.append(what) or (lambda done, total: None))
+    assert cli.main(["optimise", str(path), "--starts", "2", "--workers", "1", "--no-animation",
+                     "--out", str(tmp_path / "out")]) == 0
+    out = capsys.readouterr().out
+    assert labels[-2:] == ["starts, tiny, motor 1 of 3", "starts, small, motor 2 of 3"]
+    assert "not optimised (a smaller motor fits): large" in out and "smallest motor that fits: small" in out

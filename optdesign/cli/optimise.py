@@ -41,8 +41,15 @@ def run(args):
     if len(scene.motors) > 1:  # a motor catalogue: each motor in turn, the smallest that fits
         from ..design.catalogue import optimise_catalogue
 
+        bars = {}   # one bar per motor, named
+
+        def motor_progress(label, done, total):
+            if label not in bars:
+                bars[label] = progress_bar(f"starts, {label}")
+            if bars[label] is not None:
+                bars[label](done, total)
         catalogue = optimise_catalogue(scene, starts=args.starts, seed=args.seed, workers=args.workers,
-                                       progress=lambda name, done, total: progress(done, total))
+                                       progress=motor_progress)
         result = catalogue.best
     else:
         try:
