@@ -42,6 +42,11 @@ from __future__ import annotations
 import os
 
 os.environ.setdefault("OPTDESIGN_COMPILE", "wait")   # the cached compiled NLP, as every later run has it
+# one BLAS thread: on these small problems numpy's OpenBLAS threads gain nothing, and after
+# SLSQP's calls they kept spinning on the second core while the next start ran (this process's
+# CPU time was twice its wall time for ours and SLSQP-FD alike, and ours' wall time 1.35x longer
+# on seed1_jib); optdesign's own optimise does not start them (CPU time = wall time)
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
 import datetime  # noqa: E402
