@@ -9,6 +9,7 @@ yoke (y = r sin theta) and a counterweight mc at radius rc opposite the crank pi
 inertia M = m r^2 cos^2 theta + mc rc^2, static load Q = (m r - mc rc) g cos theta, drive torque
 T_S = c (M theta'' + 1/2 M' theta'^2 + Q).
 """
+import json
 import math
 
 import numpy as np
@@ -347,3 +348,9 @@ def test_the_catalogue_on_the_command_line(tmp_path, monkeypatch, capsys):
     out = capsys.readouterr().out
     assert labels[-2:] == ["starts, tiny, motor 1 of 3", "starts, small, motor 2 of 3"]
     assert "not optimised (a smaller motor fits): large" in out and "smallest motor that fits: small" in out
+    # the results folder holds the catalogue's outcome as the console printed it
+    folder = tmp_path / "out"
+    assert "smallest motor that fits: small" in (folder / "summary.txt").read_text()
+    doc = json.loads((folder / "result.json").read_text())
+    assert doc["chosen_motor"] == "small" and doc["not_tried"] == ["large"] and list(doc["catalogue"]) == ["tiny", "small"]
+    assert doc["catalogue"]["small"]["objective"] == doc["objective"]

@@ -59,16 +59,10 @@ def run(args):
             raise
     if result.success:
         for path in design_report.write_results(result, folder, workers=args.workers, label="--out",
-                                                 animate=not args.no_animation):
+                                                 animate=not args.no_animation, catalogue=catalogue):
             print(f"wrote {path}", file=sys.stderr)
-    if catalogue is not None:
-        from ..report.design_cases import catalogue_json, catalogue_summary
-
-        emit(args, lambda: {**design_report.optimisation_json(result),
-                            **catalogue_json(catalogue, design_report.optimisation_json)},
-             lambda: catalogue_summary(catalogue) + "\n\n" + design_report.summary(result))
-    else:
-        emit(args, lambda: design_report.optimisation_json(result), lambda: design_report.summary(result))
+    emit(args, lambda: design_report.result_texts(result, catalogue)[0],
+         lambda: design_report.result_texts(result, catalogue)[1])
     if not result.success:
         raise SolverError(f"{scene.path}: no optimum: {result.status}. {result.message} "
                           "(nothing was written to the results folder)")

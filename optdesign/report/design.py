@@ -124,19 +124,33 @@ def _fmt(v, factor=1.0):
 FILES = ("result.json", "summary.txt") + FIGURES
 
 
-def write_results(result, folder, workers=1, label="results folder", animate=True) -> list:
+def write_results(result, folder, workers=1, label="results folder", animate=True, catalogue=None) -> list:
     """Replace ``folder`` as a whole (:func:`optdesign.report.folder.replace_folder`) by one
     holding result.json, summary.txt, the figures, the optimum's animation (unless not
-    ``animate``) and report.html (:mod:`.design_figures`); returns the paths."""
+    ``animate``) and report.html (:mod:`.design_figures`); returns the paths.  With a motor
+    ``catalogue`` (design/catalogue.py) its outcome (each motor tried, the chosen one, those not
+    tried) heads the summary and is in result.json, as the command prints them."""
     from .folder import replace_folder
 
-    return replace_folder(folder, lambda tmp: _write_results(result, tmp, workers, animate), FILES, label=label)
+    return replace_folder(folder, lambda tmp: _write_results(result, tmp, workers, animate, catalogue), FILES,
+                          label=label)
 
 
-def _write_results(result, folder, workers, animate=True) -> list:
+def result_texts(result, catalogue=None) -> tuple:
+    """(the JSON document, the summary) of an optimisation, with its catalogue's outcome if any."""
+    if catalogue is None:
+        return optimisation_json(result), summary(result)
+    from .design_cases import catalogue_json, catalogue_summary
+
+    return ({**optimisation_json(result), **catalogue_json(catalogue, optimisation_json)},
+            catalogue_summary(catalogue) + "\n\n" + summary(result))
+
+
+def _write_results(result, folder, workers, animate=True, catalogue=None) -> list:
     written = [folder / "result.json", folder / "summary.txt"]
-    write_atomic(written[0], to_json(optimisation_json(result)) + "\n")
-    write_atomic(written[1], summary(result) + "\n")
+    document, text = result_texts(result, catalogue)
+    write_atomic(written[0], to_json(document) + "\n")
+    write_atomic(written[1], text + "\n")
     return written + write_figures(result, folder, workers, animate)
 
 
