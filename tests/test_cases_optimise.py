@@ -348,6 +348,8 @@ def test_the_catalogue_on_the_command_line(tmp_path, monkeypatch, capsys):
     out = capsys.readouterr().out
     assert labels[-2:] == ["starts, tiny, motor 1 of 3", "starts, small, motor 2 of 3"]
     assert "not optimised (a smaller motor fits): large" in out and "smallest motor that fits: small" in out
+    tiny = next(line for line in out.splitlines() if line.startswith("  tiny:"))
+    assert "no feasible optimum" in tiny and "the least-violating design exceeds" in tiny
     # the results folder holds the catalogue's outcome as the console printed it
     folder = tmp_path / "out"
     assert "smallest motor that fits: small" in (folder / "summary.txt").read_text()

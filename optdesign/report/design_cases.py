@@ -106,6 +106,10 @@ def catalogue_summary(catalogue) -> str:
     lines = ["motor catalogue (each motor optimised with its limits, smallest rated torque first, until one fits):"]
     for name, r in catalogue.results.items():
         what = f"objective {r.objective:.9g}" if r.success else f"no feasible optimum ({r.status})"
+        least = getattr(r, "least_violating", None)
+        if not r.success and least and least.get("violated"):   # what the least-violating design breaks
+            what += "; the least-violating design exceeds " + ", ".join(
+                f"{name} by {by:.4g}" for name, by in least["violated"].items()) + " (in their units)"
         lines.append(f"  {name}: {what}")
     if catalogue.not_tried:
         lines.append(f"  not optimised (a smaller motor fits): {', '.join(catalogue.not_tried)}")
