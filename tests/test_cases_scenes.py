@@ -90,3 +90,8 @@ def test_press_thermal_optimum(press):
     rms = [analyse(scene.with_parameters(**dict(result.design, i=float(x)))).cases.duty["rms_time"]["motor_torque"]
            for x in np.linspace(0.8 * i, i, 5)]
     assert all(a > b for a, b in zip(rms, rms[1:])), rms
+    # an inactive two-sided constraint is reported at its extreme nearer a bound: the forming
+    # stroke's motor speed in [-300, 300] runs from rest to the s-curve's top crank speed, 4 rad/s
+    # times the ratio (the scene's [profiles.forming]), not at the rest's 0
+    forming = result.constraints["motor speed in case 'forming stroke'"]
+    assert forming["active"] is None and forming["value"] == pytest.approx(4.0 * i, rel=1e-6)

@@ -45,8 +45,9 @@ def constraint_report(pb: DesignProblem, sol: Solution, factor: float) -> dict:
     """Each named constraint: its extreme values over the continuous stroke (min and max, each
     located and refined, active or not: :meth:`~.certify.ContinuousCheck.extremes`), its bounds,
     and its multiplier as dJ*/d(active bound) in physical units (0 when inactive).  ``value``
-    is the extreme at the active bound, else the one on the bounded side (the min when both
-    sides are bounded); a stroke constraint's value is its expression with every max(...)/min(...)
+    is the extreme at the active bound, else the one on the bounded side (when both sides are
+    bounded, the extreme nearer its bound: a motor's speed in [-300, 300] that runs 0 .. 200 rad/s
+    is reported as 200, not 0); a stroke constraint's value is its expression with every max(...)/min(...)
     at its continuous extreme."""
     out = {}
     for name, kind, start, n in pb.g_blocks:
@@ -69,6 +70,8 @@ def constraint_report(pb: DesignProblem, sol: Solution, factor: float) -> dict:
                 lo, hi = (hi, lo) if pb.k_sign < 0 else (lo, hi)
             entry.update({"min": lo, "max": hi})
             upper_side = entry["active"] == "upper" or (entry["active"] is None and entry["lower"] is None)
+            if entry["active"] is None and None not in (entry["lower"], entry["upper"], lo, hi):
+                upper_side = entry["upper"] - hi < lo - entry["lower"]   # the extreme nearer its bound
             entry["value"] = hi if lo is None or (upper_side and hi is not None) else lo
         out[name] = entry
     for j, name in enumerate(pb.design_names):
