@@ -45,7 +45,11 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import casadi as ca
+# one BLAS thread (as bench_per_start.py): numpy's OpenBLAS threads spun on the second core after
+# SLSQP's calls and slowed the next method's start; set before numpy is imported
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import casadi as ca  # noqa: E402
 import numpy as np
 from scipy.optimize import NonlinearConstraint, differential_evolution, minimize
 
