@@ -268,3 +268,25 @@ def test_a_warning_from_ipopt_does_not_reach_the_terminal(capsys):
         print("ours")
     captured = capsys.readouterr()
     assert captured.out == "ours\n" and "CasADi" not in captured.err
+
+
+@pytest.mark.parametrize("then", [None, SystemError])
+def test_a_ctrl_c_swallowed_inside_the_work_is_raised_when_it_ends(then):
+    """CasADi's SWIG conversions can swallow the handler's KeyboardInterrupt (taken for 'not
+    convertible') or turn it into SystemError ('returned a result with an exception set'): the
+    front door's interruptible() raises the Ctrl-C when its work ends instead of losing it."""
+    from optdesign.errors import interrupt_pending, interruptible
+
+    with pytest.raises(KeyboardInterrupt):
+        with interruptible():
+            try:
+                os.kill(os.getpid(), signal.SIGINT)   # the handler raises here...
+                time.sleep(1.0)
+            except KeyboardInterrupt:
+                pass                                  # ...and a conversion swallows it
+            assert interrupt_pending()
+            if then is not None:
+                raise then("<built-in function DM_elements> returned a result with an exception set")
+    assert not interrupt_pending()
+    with interruptible():   # the next run is undisturbed
+        pass
