@@ -5,6 +5,7 @@ while they are drawn.  References: the same frames drawn artist by artist with m
 the GIF's frames read back from the MP4."""
 from __future__ import annotations
 
+import os
 import shutil
 import subprocess
 from pathlib import Path
@@ -146,14 +147,22 @@ def test_mp4_holds_the_gifs_frames(tmp_path):
 
 
 def test_failed_mp4_leaves_no_file(tmp_path, monkeypatch):
-    if shutil.which("ffmpeg") is None:
-        pytest.skip("ffmpeg is not on PATH")
+    """An ffmpeg that fails after writing part of its file (a stand-in first on PATH, so that the
+    test runs with or without a real ffmpeg): a specific error, no MP4 and no temporary file."""
+    fake = tmp_path / "bin" / "ffmpeg"
+    fake.parent.mkdir()
+    fake.write_text('#!/bin/sh\nfor last; do :; done\nprintf partial > "$last"\nhead -c 100000 >/dev/null\n'
+                    'echo "Unknown encoder" >&2\nexit 1\n')
+    fake.chmod(0o755)
+    monkeypatch.setenv("PATH", f"{fake.parent}:{os.environ['PATH']}")
+    assert shutil.which("ffmpeg") == str(fake)
+    out = tmp_path / "out"
+    out.mkdir()
     scene = optdesign.load(EXCAVATOR)
-    monkeypatch.setattr(animation, "FFMPEG_H264", ("-vcodec", "no_such_codec"))
-    with pytest.raises(optdesign.OptdesignError, match="ffmpeg could not write"):
-        animation.animate(scene, [tmp_path / "a.gif", tmp_path / "a.mp4"], frames=3)
-    assert not (tmp_path / "a.mp4").exists()
-    assert not list(tmp_path.glob(".*"))
+    with pytest.raises(optdesign.OptdesignError, match="ffmpeg could not write .*Unknown encoder"):
+        animation.animate(scene, [out / "a.gif", out / "a.mp4"], frames=3)
+    assert not (out / "a.mp4").exists()
+    assert not [p for p in out.iterdir() if p.name != "a.gif"]   # no temporary file left
 
 
 def test_caption_word_by_word_equals_the_caption_drawn_whole():
