@@ -61,8 +61,8 @@ def run(args):
         for path in design_report.write_results(result, folder, workers=args.workers, label="--out",
                                                  animate=not args.no_animation, catalogue=catalogue):
             print(f"wrote {path}", file=sys.stderr)
-    emit(args, lambda: design_report.result_texts(result, catalogue)[0],
-         lambda: design_report.result_texts(result, catalogue)[1])
+    emit(args, lambda: design_report.result_json(result, catalogue),
+         lambda: design_report.result_summary(result, catalogue))
     if not result.success:
         raise SolverError(f"{scene.path}: no optimum: {result.status}. {result.message} "
                           "(nothing was written to the results folder)")

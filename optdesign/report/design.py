@@ -136,21 +136,28 @@ def write_results(result, folder, workers=1, label="results folder", animate=Tru
                           label=label)
 
 
-def result_texts(result, catalogue=None) -> tuple:
-    """(the JSON document, the summary) of an optimisation, with its catalogue's outcome if any."""
+def result_json(result, catalogue=None) -> dict:
+    """The JSON document of an optimisation, with its motor catalogue's outcome if any."""
     if catalogue is None:
-        return optimisation_json(result), summary(result)
-    from .design_cases import catalogue_json, catalogue_summary
+        return optimisation_json(result)
+    from .design_cases import catalogue_json
 
-    return ({**optimisation_json(result), **catalogue_json(catalogue, optimisation_json)},
-            catalogue_summary(catalogue) + "\n\n" + summary(result))
+    return {**optimisation_json(result), **catalogue_json(catalogue, optimisation_json)}
+
+
+def result_summary(result, catalogue=None) -> str:
+    """The summary of an optimisation, headed by its motor catalogue's outcome if any."""
+    if catalogue is None:
+        return summary(result)
+    from .design_cases import catalogue_summary
+
+    return catalogue_summary(catalogue) + "\n\n" + summary(result)
 
 
 def _write_results(result, folder, workers, animate=True, catalogue=None) -> list:
     written = [folder / "result.json", folder / "summary.txt"]
-    document, text = result_texts(result, catalogue)
-    write_atomic(written[0], to_json(document) + "\n")
-    write_atomic(written[1], text + "\n")
+    write_atomic(written[0], to_json(result_json(result, catalogue)) + "\n")
+    write_atomic(written[1], result_summary(result, catalogue) + "\n")
     return written + write_figures(result, folder, workers, animate)
 
 
