@@ -1,6 +1,7 @@
 """`optdesign optimise SCENE`: minimise the scene's objective over its design variables."""
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
 
@@ -28,9 +29,21 @@ def run(args):
     from ..report import design as design_report
 
     folder = Path(args.out or Path("optdesign-results") / Path(args.scene).stem)
-    results_folder(folder, "--out", design_report.FILES)   # before the solver's imports (scipy: 1 s)
-    from ..design import optimise
+    results_folder(folder, "--out", design_report.FILES)   # before the solver's imports
+    from ..report.figure_process import FigureProcess
+
     scene = load_scene(args)
+    # matplotlib and the drawing modules are imported by a forked process during the solve
+    with FigureProcess() if args.workers > 1 else contextlib.nullcontext() as figures:
+        solve_and_write(args, scene, folder, figures)
+
+
+def solve_and_write(args, scene, folder, figures):
+    """Optimise (a catalogue motor by motor), write the results folder (``figures``: the
+    :class:`~optdesign.report.figure_process.FigureProcess` that draws them, or None) and print."""
+    from ..design import optimise
+    from ..report import design as design_report
+
     bar = progress_bar("starts")
 
     def progress(done, total):
@@ -59,7 +72,8 @@ def run(args):
             raise
     if result.success:
         for path in design_report.write_results(result, folder, workers=args.workers, label="--out",
-                                                 animate=not args.no_animation, catalogue=catalogue):
+                                                 animate=not args.no_animation, catalogue=catalogue,
+                                                 figures=figures):
             print(f"wrote {path}", file=sys.stderr)
     emit(args, lambda: design_report.result_json(result, catalogue),
          lambda: design_report.result_summary(result, catalogue))

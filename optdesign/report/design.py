@@ -124,16 +124,19 @@ def _fmt(v, factor=1.0):
 FILES = ("result.json", "summary.txt") + FIGURES
 
 
-def write_results(result, folder, workers=1, label="results folder", animate=True, catalogue=None) -> list:
+def write_results(result, folder, workers=1, label="results folder", animate=True, catalogue=None,
+                  figures=None) -> list:
     """Replace ``folder`` as a whole (:func:`optdesign.report.folder.replace_folder`) by one
     holding result.json, summary.txt, the figures, the optimum's animation (unless not
     ``animate``) and report.html (:mod:`.design_figures`); returns the paths.  With a motor
     ``catalogue`` (design/catalogue.py) its outcome (each motor tried, the chosen one, those not
-    tried) heads the summary and is in result.json, as the command prints them."""
+    tried) heads the summary and is in result.json, as the command prints them.  ``figures``: a
+    :class:`~.figure_process.FigureProcess` made ready while the result was computed, to draw
+    the figures (when it cannot, they are drawn here)."""
     from .folder import replace_folder
 
-    return replace_folder(folder, lambda tmp: _write_results(result, tmp, workers, animate, catalogue), FILES,
-                          label=label)
+    return replace_folder(folder, lambda tmp: _write_results(result, tmp, workers, animate, catalogue, figures),
+                          FILES, label=label)
 
 
 def result_json(result, catalogue=None) -> dict:
@@ -154,11 +157,12 @@ def result_summary(result, catalogue=None) -> str:
     return catalogue_summary(catalogue) + "\n\n" + summary(result)
 
 
-def _write_results(result, folder, workers, animate=True, catalogue=None) -> list:
+def _write_results(result, folder, workers, animate=True, catalogue=None, figures=None) -> list:
     written = [folder / "result.json", folder / "summary.txt"]
     write_atomic(written[0], to_json(result_json(result, catalogue)) + "\n")
     write_atomic(written[1], result_summary(result, catalogue) + "\n")
-    return written + write_figures(result, folder, workers, animate)
+    drawn = figures.write(result, folder, workers, animate) if figures is not None else None
+    return written + (drawn if drawn is not None else write_figures(result, folder, workers, animate))
 
 
 load_figure, mechanism_figure = design_figures.load_figure, design_figures.mechanism_figure

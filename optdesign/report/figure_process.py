@@ -1,0 +1,94 @@
+"""A process that gets ready to draw a result's figures while the result is being computed.
+
+Importing matplotlib, Pillow and the drawing modules costs a third of a second of CPU, which
+an optimisation's command would otherwise spend after the solve, on the user's time.
+:class:`FigureProcess` forks as soon as the scene is loaded: the child imports them while the
+parent solves (on the other core), then waits for the result; :meth:`FigureProcess.write`
+sends it and gets back the paths of the figures written (:func:`.design_figures.write_figures`,
+whose own forks then start from a process that has everything imported).
+
+Where anything goes wrong with the process (it was killed, a Ctrl-C reached it, the platform
+cannot fork), :meth:`~FigureProcess.write` returns None and the caller draws in its own process:
+the figures never depend on it.  An error while drawing (ffmpeg failing, a full disk) is raised
+in the parent as it would be there."""
+from __future__ import annotations
+
+import multiprocessing
+import os
+import pickle
+import traceback
+from pathlib import Path
+
+from ..errors import OptdesignError
+
+
+class FigureProcess:
+    """A forked process, ready to draw the figures of one optimisation result (use as a
+    context manager: the process ends with the block, whether it drew or not)."""
+
+    def __init__(self):
+        self._proc = None
+        if "fork" not in multiprocessing.get_all_start_methods():
+            return
+        context = multiprocessing.get_context("fork")
+        self._conn, theirs = context.Pipe()
+        self._proc = context.Process(target=_serve, args=(theirs, self._conn))   # not a daemon: it forks
+        self._proc.start()
+        theirs.close()
+
+    def write(self, result, folder, workers, animate) -> list | None:
+        """The figures of ``result`` written into ``folder`` by the process (paths), or None
+        when the process is not there to draw them (then nothing was written)."""
+        if self._proc is None:
+            return None
+        try:
+            self._conn.send((result, str(folder), workers, animate))
+            kind, value = self._conn.recv()
+        except (EOFError, OSError, pickle.PicklingError):
+            return None
+        finally:
+            self.close()
+        if kind == "error":
+            raise value
+        return [Path(p) for p in value]
+
+    def close(self):
+        if self._proc is None:
+            return
+        proc, self._proc = self._proc, None
+        self._conn.close()           # the child, waiting for a result, reads the end of the pipe and exits
+        proc.join(timeout=2)
+        if proc.is_alive():
+            proc.kill()
+            proc.join()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+def _serve(conn, parents):
+    """The child: import, wait for one result, draw its figures, send the paths (or the error)."""
+    parents.close()                  # so that the parent's exit ends the wait (EOFError)
+    try:
+        from .design_figures import _import_for_children, write_figures
+
+        _import_for_children()
+        job = conn.recv()
+        result, folder, workers, animate = job
+        try:
+            reply = ("ok", [str(p) for p in write_figures(result, Path(folder), workers, animate)])
+        except OptdesignError as exc:
+            reply = ("error", exc)
+        except Exception:            # a bug: its traceback, in the parent's error
+            reply = ("error", RuntimeError("drawing the figures failed:\n" + traceback.format_exc()))
+        try:
+            conn.send(reply)
+        except (pickle.PicklingError, TypeError, AttributeError):
+            conn.send(("error", OptdesignError(str(reply[1]))))
+    except BaseException:            # the parent is gone, or Ctrl-C: the parent draws, or stops
+        pass
+    finally:
+        os._exit(0)
