@@ -456,7 +456,9 @@ def main(argv=None):
     if "uncommitted" in git:  # other people work in the same tree: say how much, not which
         git = git.split(" with ")[0] + f" with uncommitted changes in {git.count(',') + 1} files under optdesign/"
     data = {"when": datetime.date.today().isoformat(), "git": git,
-            "machine": f"{cpu_model()}, {os.cpu_count()} cores", "scenes": {}, "variants": not args.no_variants}
+            "machine": f"{cpu_model()}, {os.cpu_count()} cores, load average at the start "
+                       f"{', '.join(f'{v:.1f}' for v in os.getloadavg())}",
+            "scenes": {}, "variants": not args.no_variants}
     if args.resume and Path(args.out).with_suffix(".json").exists():
         before = json.loads(Path(args.out).with_suffix(".json").read_text())
         data["scenes"] = before["scenes"]
