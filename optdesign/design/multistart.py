@@ -46,9 +46,9 @@ def optimise(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSett
     with interruptible(), casadi_messages_hidden():   # Ctrl-C: stop at once, keep the finished starts
         plan = draw_plan(problem, starts, seed, x_starts=x_starts)
         t_plan = time.perf_counter() - t0 - t_build
-        if progress is not None:
-            progress(0, len(plan.points))  # the starts are planned (a caller may stop here: Ctrl-C)
         try:
+            if progress is not None:
+                progress(0, len(plan.points))  # the starts are planned (a caller may stop here: Ctrl-C)
             runs = solve_starts(solver, repair, plan, workers, progress)
         except KeyboardInterrupt as exc:
             raise interrupted(problem, solver, plan, getattr(exc, "finished", []), len(plan.points),
