@@ -145,6 +145,36 @@ def test_ctrl_c_in_a_catalogue_from_python_carries_the_catalogue_so_far(scene_pa
     assert optimise_catalogue(scene, starts=1, workers=1).interrupted is None
 
 
+def test_ctrl_c_while_the_last_motors_starts_are_summarised_keeps_them(scene_path, monkeypatch):
+    """Ctrl-C after small's last start, while its starts are summarised (the best one polished):
+    the best design of all of them, marked interrupted, and small chosen."""
+    from optdesign.design import multistart
+    from optdesign.design.catalogue import optimise_catalogue
+
+    summarise, calls = multistart.summarise, []
+
+    def interrupted_once(*args, **kw):
+        calls.append(len(args[2]))
+        if len(calls) == 2:   # tiny's summary, then small's: Ctrl-C inside it
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(1.0)
+        return summarise(*args, **kw)
+    monkeypatch.setattr(multistart, "summarise", interrupted_once)
+    scene = optdesign.load(scene_path)
+    with pytest.raises(KeyboardInterrupt) as caught:
+        optimise_catalogue(scene, starts=3, workers=1)
+    stop = caught.value
+    assert isinstance(stop, OptimisationInterrupted), "the Ctrl-C while summarising lost the finished starts"
+    assert calls == [3, 3, 3] and (stop.finished, stop.total) == (3, 3)
+    assert stop.catalogue.chosen == "small" and stop.catalogue.interrupted_starts == (3, 3)
+    assert stop.result.interrupted and stop.result.starts_total == 3
+    assert stop.result.message.startswith("INTERRUPTED by Ctrl-C after 3 of 3 starts, once all had finished")
+    monkeypatch.setattr(multistart, "summarise", summarise)
+    alone = optdesign.optimise(only(scene, "small"), starts=3, workers=1)   # the same starts, uninterrupted
+    assert stop.result.design["i"] == pytest.approx(alone.design["i"], rel=1e-9)
+    assert stop.result.objective == pytest.approx(alone.objective, rel=1e-9)
+
+
 @pytest.mark.parametrize("motor, done", [("small", 1), ("small", 0), ("tiny", 0)])
 def test_ctrl_c_in_a_catalogue_on_the_command_line(scene_path, tmp_path, monkeypatch, capsys, motor, done):
     """Interrupted after small's first start: small is chosen, its design saved with the figures
