@@ -175,7 +175,8 @@ def catalogue_outcome(exc, replaced) -> str:
     unfit = f"; {', '.join(unfit)} {'does' if len(unfit) == 1 else 'do'} not fit" if unfit else ""
     if cat.chosen is not None:
         return (f"{head}{unfit}; {cat.chosen!r} fits, the smallest that does: the best design of its "
-                f"{exc.finished} finished starts, with the catalogue's outcome, {where}")
+                f"{exc.finished} finished start{'s' if exc.finished != 1 else ''}, with the catalogue's outcome, "
+                f"{where}")
     return (f"{head}, none with a feasible design{unfit}; no motor was found to fit: the catalogue's outcome "
             f"so far {where}")
 

@@ -149,4 +149,8 @@ def catalogue_summary(catalogue) -> str:
                      "to fit)")
     else:
         lines.append(f"smallest motor that fits: {catalogue.chosen or 'none'}")
+    if catalogue.best is not None:   # what the rest of the summary is
+        name = catalogue.best.scene.motors[0].name
+        why = "the smallest that fits" if name == catalogue.chosen else "the last motor decided; it does not fit"
+        lines.append(f"below: the optimisation with motor {name!r} ({why})")
     return "\n".join(lines)

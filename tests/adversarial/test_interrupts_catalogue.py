@@ -218,17 +218,18 @@ def test_ctrl_c_in_a_catalogue_on_the_command_line(scene_path, tmp_path, monkeyp
         assert doc["catalogue"]["small"]["design"] == stop.result.design
         assert doc["message"].startswith("INTERRUPTED by Ctrl-C after 1 of 3 starts")
         assert "small: INTERRUPTED by Ctrl-C after 1 of 3 starts: fits" in summary
-        assert "smallest motor that fits: small" in summary
+        assert "smallest motor that fits: small\nbelow: the optimisation with motor 'small' (the smallest that fits)" \
+            in summary
         assert (out / "mechanism.png").exists() and (out / "drive_and_constraints.png").exists()
         assert line.endswith(f"tiny does not fit; 'small' fits, the smallest that does: the best design of its 1 "
-                             f"finished starts, with the catalogue's outcome, was written to {out}, replaced as a "
+                             f"finished start, with the catalogue's outcome, was written to {out}, replaced as a "
                              "whole and marked interrupted in result.json and summary.txt)"), line
     else:
         assert stop.result is None
         assert doc["interrupted_motor"] == {"name": "small", "starts_finished": 0, "starts_total": 3, "fits": False}
         assert doc["chosen_motor"] is None and doc["success"] is False and list(doc["catalogue"]) == ["tiny"]
-        assert "smallest motor that fits: none found (the catalogue was interrupted before a motor was found to fit)" \
-            in summary
+        assert ("smallest motor that fits: none found (the catalogue was interrupted before a motor was found to fit)\n"
+                "below: the optimisation with motor 'tiny' (the last motor decided; it does not fit)") in summary
         assert sorted(p.name for p in out.iterdir()) == ["result.json", "summary.txt"]   # no design to draw
         assert line.endswith(f"tiny does not fit; no motor was found to fit: the catalogue's outcome so far was "
                              f"written to {out}, replaced as a whole and marked interrupted in result.json and "
@@ -281,5 +282,6 @@ def test_ctrl_c_in_a_catalogue_through_the_command_line(scene_path, tmp_path):
     assert doc["success"] is True and doc["starts_total"] == finished
     assert doc["design"] == doc["catalogue"]["small"]["design"]
     assert doc["message"].startswith(f"INTERRUPTED by Ctrl-C after {finished} of 16 starts")
-    assert f"the best design of its {finished} finished starts, with the catalogue's outcome, was written to {out}" in line
+    assert (f"the best design of its {finished} finished start{'s' if finished > 1 else ''}, with the catalogue's "
+            f"outcome, was written to {out}") in line
     assert took < 15, f"{took:.2f} s to stop and save"
