@@ -135,11 +135,14 @@ def resume_after_interrupt():
 
 class OptimisationInterrupted(KeyboardInterrupt):
     """Ctrl-C during ``optimise``: ``result`` is the best design of the starts that finished
-    before it (an OptimisationResult marked ``interrupted``), or None when none had."""
+    before it (an OptimisationResult marked ``interrupted``), or None when none had.  From a
+    motor catalogue (``optimise_catalogue``), ``result``, ``finished`` and ``total`` are the
+    interrupted motor's and ``catalogue`` is the catalogue so far (a CatalogueResult whose
+    ``best`` is None when nothing was decided); from a plain ``optimise``, ``catalogue`` is None."""
 
-    def __init__(self, result=None, finished=0, total=0):
+    def __init__(self, result=None, finished=0, total=0, catalogue=None):
         super().__init__()
-        self.result, self.finished, self.total = result, finished, total
+        self.result, self.finished, self.total, self.catalogue = result, finished, total, catalogue
 
 
 def worker_process(parent=None):

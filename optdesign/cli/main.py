@@ -135,7 +135,10 @@ class quiet:
 def interrupted_outcome(replaced, exc=None) -> str:
     """What an interrupted command left behind, truthfully: every folder it replaced was
     replaced as a whole, every other one is as it was; for optimise, how many starts had
-    finished and whether the best of them was saved (``exc``: an OptimisationInterrupted)."""
+    finished and whether the best of them was saved (``exc``: an OptimisationInterrupted); for a
+    motor catalogue, which motor was interrupted and what of the catalogue was saved."""
+    if getattr(exc, "catalogue", None) is not None:
+        return catalogue_outcome(exc, replaced)
     finished = getattr(exc, "finished", None)
     if isinstance(finished, int):
         saved = getattr(exc, "saved", None)
@@ -151,6 +154,31 @@ def interrupted_outcome(replaced, exc=None) -> str:
         return "nothing was written: every results folder is as it was"
     return ("the new results were written before the interrupt, each folder replaced as a whole: "
             + ", ".join(str(p) for p in replaced))
+
+
+def catalogue_outcome(exc, replaced) -> str:
+    """An interrupted motor catalogue: the motor interrupted after how many of its starts, and
+    what was saved where (the chosen motor's design, or the outcome of the motors decided)."""
+    from ..report.design_cases import motor_outcomes
+
+    cat = exc.catalogue
+    outcomes = motor_outcomes(cat)
+    place = next(k for k, (name, _, _) in enumerate(outcomes) if name == cat.interrupted)
+    head = f"motor catalogue: interrupted while optimising motor {cat.interrupted!r} ({place + 1} of {len(outcomes)}) " + (
+        f"after {exc.finished} of {exc.total} of its starts" if exc.total else "before its starts were planned")
+    saved = getattr(exc, "saved", None)
+    if saved is None or not _same(saved, replaced):
+        return (f"{head}{', none with a feasible design and no motor decided' if cat.best is None else ''}; "
+                f"{interrupted_outcome(replaced)}")
+    where = f"was written to {saved}, replaced as a whole and marked interrupted in result.json and summary.txt"
+    unfit = [name for name, outcome, _ in outcomes if outcome == "does not fit"]
+    unfit = f"; {', '.join(unfit)} {'does' if len(unfit) == 1 else 'do'} not fit" if unfit else ""
+    if cat.chosen is not None:
+        return (f"{head}{unfit}; {cat.chosen!r} fits, the smallest that does: the best design of its "
+                f"{exc.finished} finished start{'s' if exc.finished != 1 else ''}, with the catalogue's outcome, "
+                f"{where}")
+    return (f"{head}, none with a feasible design{unfit}; no motor was found to fit: the catalogue's outcome "
+            f"so far {where}")
 
 
 def _same(path, replaced) -> bool:

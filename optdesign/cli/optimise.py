@@ -51,25 +51,25 @@ def solve_and_write(args, scene, folder, figures):
             bar(done, total)
 
     catalogue = None
-    if len(scene.motors) > 1:  # a motor catalogue: each motor in turn, the smallest that fits
-        from ..design.catalogue import optimise_catalogue
+    try:
+        if len(scene.motors) > 1:  # a motor catalogue: each motor in turn, the smallest that fits
+            from ..design.catalogue import optimise_catalogue
 
-        bars = {}   # one bar per motor, named
+            bars = {}   # one bar per motor, named
 
-        def motor_progress(label, done, total):
-            if label not in bars:
-                bars[label] = progress_bar(f"starts, {label}")
-            if bars[label] is not None:
-                bars[label](done, total)
-        catalogue = optimise_catalogue(scene, starts=args.starts, seed=args.seed, workers=args.workers,
-                                       progress=motor_progress)
-        result = catalogue.best
-    else:
-        try:
+            def motor_progress(label, done, total):
+                if label not in bars:
+                    bars[label] = progress_bar(f"starts, {label}")
+                if bars[label] is not None:
+                    bars[label](done, total)
+            catalogue = optimise_catalogue(scene, starts=args.starts, seed=args.seed, workers=args.workers,
+                                           progress=motor_progress)
+            result = catalogue.best
+        else:
             result = optimise(scene, starts=args.starts, seed=args.seed, progress=progress, workers=args.workers)
-        except OptimisationInterrupted as stop:   # Ctrl-C: save the best design of the finished starts
-            save_interrupted(stop, folder, args)
-            raise
+    except OptimisationInterrupted as stop:   # Ctrl-C: save what finished
+        save_interrupted(stop, folder, args)
+        raise
     if result.success:
         for path in design_report.write_results(result, folder, workers=args.workers, label="--out",
                                                  animate=not args.no_animation, catalogue=catalogue,
@@ -85,13 +85,17 @@ def solve_and_write(args, scene, folder, figures):
 def save_interrupted(stop, folder, args):
     """The best design of the starts that finished before Ctrl-C, written to the results folder
     as a whole (marked interrupted: result.json's "interrupted", the summary's headline), without
-    the animation; ``stop.saved`` says where, for the final message.  A second Ctrl-C stops the
-    writing and leaves the folder as it was."""
+    the animation; ``stop.saved`` says where, for the final message.  A motor catalogue's
+    (``stop.catalogue``) is saved with its outcome so far (the motors decided, the one
+    interrupted, those not tried) once a motor was decided or the interrupted one's finished
+    starts found a feasible design; with no motor found to fit, result.json and summary.txt
+    alone.  A second Ctrl-C stops the writing and leaves the folder as it was."""
     from ..report import design as design_report
 
     stop.saved = None
-    if stop.result is None or not stop.result.success:
+    catalogue = stop.catalogue
+    result = stop.result if catalogue is None else catalogue.best
+    if result is None or (catalogue is None and not result.success):
         return
-    design_report.write_results(stop.result, folder, workers=1, label="--out", animate=False)
+    design_report.write_results(result, folder, workers=1, label="--out", animate=False, catalogue=catalogue)
     stop.saved = folder
-

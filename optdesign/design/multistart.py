@@ -46,16 +46,17 @@ def optimise(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSett
     with interruptible(), casadi_messages_hidden():   # Ctrl-C: stop at once, keep the finished starts
         plan = draw_plan(problem, starts, seed, x_starts=x_starts)
         t_plan = time.perf_counter() - t0 - t_build
-        if progress is not None:
-            progress(0, len(plan.points))  # the starts are planned (a caller may stop here: Ctrl-C)
+        runs = []
         try:
+            if progress is not None:
+                progress(0, len(plan.points))  # the starts are planned (a caller may stop here: Ctrl-C)
             runs = solve_starts(solver, repair, plan, workers, progress)
-        except KeyboardInterrupt as exc:
-            raise interrupted(problem, solver, plan, getattr(exc, "finished", []), len(plan.points),
+            reports, solutions = [r for r, _ in runs], [s for _, s in runs]
+            return summarise(problem, solver, reports, solutions,
+                             {"build_s": t_build, "screen_s": t_plan, "total_s": time.perf_counter() - t0}, plan)
+        except KeyboardInterrupt as exc:   # during the starts, or while all of them are summarised
+            raise interrupted(problem, solver, plan, getattr(exc, "finished", runs), len(plan.points),
                               {"build_s": t_build, "screen_s": t_plan, "total_s": time.perf_counter() - t0}) from None
-        reports, solutions = [r for r, _ in runs], [s for _, s in runs]
-        return summarise(problem, solver, reports, solutions,
-                         {"build_s": t_build, "screen_s": t_plan, "total_s": time.perf_counter() - t0}, plan)
 
 
 def interrupted(problem, solver, plan, runs, total, timings) -> OptimisationInterrupted:
@@ -68,7 +69,9 @@ def interrupted(problem, solver, plan, runs, total, timings) -> OptimisationInte
     resume_after_interrupt()
     result = summarise(problem, solver, [r for r, _ in runs], [s for _, s in runs], timings, plan)
     note = (f"INTERRUPTED by Ctrl-C after {len(runs)} of {total} starts: the best design of those "
-            f"{len(runs)} starts, not a search of all {total}. ")
+            f"{len(runs)} starts, not a search of all {total}. " if len(runs) < total else
+            f"INTERRUPTED by Ctrl-C after {total} of {total} starts, once all had finished: the best design "
+            f"of all {total}. ")
     return OptimisationInterrupted(dataclasses.replace(result, interrupted=True, message=note + result.message),
                                    len(runs), total)
 

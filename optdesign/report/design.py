@@ -130,7 +130,9 @@ def write_results(result, folder, workers=1, label="results folder", animate=Tru
     holding result.json, summary.txt, the figures, the optimum's animation (unless not
     ``animate``) and report.html (:mod:`.design_figures`); returns the paths.  With a motor
     ``catalogue`` (design/catalogue.py) its outcome (each motor tried, the chosen one, those not
-    tried) heads the summary and is in result.json, as the command prints them.  ``figures``: a
+    tried) heads the summary and is in result.json, as the command prints them; an unsuccessful
+    ``result`` (a catalogue interrupted before a motor was found to fit) has no design to draw:
+    result.json and summary.txt alone.  ``figures``: a
     :class:`~.figure_process.FigureProcess` made ready while the result was computed, to draw
     the figures (when it cannot, they are drawn here)."""
     from .folder import replace_folder
@@ -161,6 +163,8 @@ def _write_results(result, folder, workers, animate=True, catalogue=None, figure
     written = [folder / "result.json", folder / "summary.txt"]
     write_atomic(written[0], to_json(result_json(result, catalogue)) + "\n")
     write_atomic(written[1], result_summary(result, catalogue) + "\n")
+    if not result.success:   # no design to draw
+        return written
     drawn = figures.write(result, folder, workers, animate) if figures is not None else None
     return written + (drawn if drawn is not None else write_figures(result, folder, workers, animate))
 

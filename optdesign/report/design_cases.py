@@ -96,22 +96,61 @@ def cases_summary(result) -> str:
 
 
 def catalogue_json(catalogue, result_json) -> dict:
-    """The JSON of a catalogue's optimisations: each motor's result, the chosen motor."""
+    """The JSON of a catalogue's optimisations: each motor's result, the chosen motor, each
+    motor's outcome (``motors``: name -> "fits", "does not fit", "interrupted" or "not tried",
+    in the order tried); interrupted by Ctrl-C, ``interrupted`` is true and
+    ``interrupted_motor`` says which motor after how many of its starts."""
+    stopped = catalogue.interrupted
     return {"chosen_motor": catalogue.chosen,
             "catalogue": {name: result_json(r) for name, r in catalogue.results.items()},
-            "not_tried": list(catalogue.not_tried)}
+            "not_tried": list(catalogue.not_tried),
+            "motors": {name: outcome for name, outcome, _ in motor_outcomes(catalogue)},
+            "interrupted": stopped is not None,
+            "interrupted_motor": None if stopped is None else {
+                "name": stopped, "starts_finished": catalogue.interrupted_starts[0],
+                "starts_total": catalogue.interrupted_starts[1], "fits": catalogue.chosen == stopped}}
 
 
-def catalogue_summary(catalogue) -> str:
-    lines = ["motor catalogue (each motor optimised with its limits, smallest rated torque first, until one fits):"]
+def motor_outcomes(catalogue) -> list:
+    """(name, outcome, what) of each motor in the order tried: outcome "fits", "does not fit",
+    "interrupted" (Ctrl-C while it was optimised) or "not tried"; ``what`` in words."""
+    out = []
     for name, r in catalogue.results.items():
+        if name == catalogue.interrupted:
+            continue
         what = f"objective {r.objective:.9g}" if r.success else f"no feasible optimum ({r.status})"
         least = getattr(r, "least_violating", None)
         if not r.success and least and least.get("violated"):   # what the least-violating design breaks
             what += "; the least-violating design exceeds " + ", ".join(
-                f"{name} by {by:.4g}" for name, by in least["violated"].items()) + " (in their units)"
-        lines.append(f"  {name}: {what}")
+                f"{c} by {by:.4g}" for c, by in least["violated"].items()) + " (in their units)"
+        out.append((name, "fits" if r.success else "does not fit", what))
+    if catalogue.interrupted is not None:
+        done, total = catalogue.interrupted_starts
+        starts = f"after {done} of {total} starts" if total else "before its starts were planned"
+        r = catalogue.results.get(catalogue.interrupted)
+        what = (f"INTERRUPTED by Ctrl-C {starts}: fits, objective {r.objective:.9g}, the best design of those "
+                "starts (a feasible design; a search of all its starts may find a better one)" if r is not None
+                and r.success else f"INTERRUPTED by Ctrl-C {starts}, none with a feasible design: undecided")
+        out.append((catalogue.interrupted, "interrupted", what))
+    out += [(name, "not tried", "") for name in catalogue.not_tried]
+    return out
+
+
+def catalogue_summary(catalogue) -> str:
+    stopped = catalogue.interrupted is not None
+    lines = [f"motor catalogue{' INTERRUPTED by Ctrl-C' if stopped else ''} (each motor optimised with its limits, "
+             "smallest rated torque first, until one fits):"]
+    lines += [f"  {name}: {what}" for name, outcome, what in motor_outcomes(catalogue) if outcome != "not tried"]
     if catalogue.not_tried:
-        lines.append(f"  not optimised (a smaller motor fits): {', '.join(catalogue.not_tried)}")
-    lines.append(f"smallest motor that fits: {catalogue.chosen or 'none'}")
+        why = "a smaller motor fits" if catalogue.chosen else "interrupted before them"
+        lines.append(f"  not optimised ({why}): {', '.join(catalogue.not_tried)}")
+    if catalogue.chosen is None and stopped:
+        lines.append("smallest motor that fits: none found (the catalogue was interrupted before a motor was found "
+                     "to fit)")
+    else:
+        lines.append(f"smallest motor that fits: {catalogue.chosen or 'none'}")
+    if catalogue.best is not None:   # what the rest of the summary is
+        name = catalogue.best.scene.motors[0].name
+        why = "the smallest that fits" if name == catalogue.chosen else "the last motor decided; it does not fit"
+        lines.append(f"below: the optimisation with motor {name!r} ({why})")
     return "\n".join(lines)

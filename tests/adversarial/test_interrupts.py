@@ -50,13 +50,13 @@ def cpu_seconds(pid) -> float:
 
 def wait_for_starts(proc, workers, timeout=120):
     """Until the starts are being solved (past the imports, the build and the plan of the starts,
-    however loaded the machine): the pool's workers exist, or this process has spent 9 s of CPU
-    (the start-up, build and the plan of 2,000 starts take about 4-6 s of it; the 2,000 starts
-    another ~30 s)."""
+    however loaded the machine): the pool's workers exist (besides the process that draws the
+    figures, forked before the build), or this process has spent 9 s of CPU (the start-up, build
+    and the plan of 2,000 starts take about 4-6 s of it; the 2,000 starts another ~30 s)."""
     t0 = time.monotonic()
     while time.monotonic() - t0 < timeout and proc.poll() is None:
         if workers > 1:
-            if subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True, text=True).stdout.split():
+            if len(subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True, text=True).stdout.split()) > workers:
                 return
         elif cpu_seconds(proc.pid) >= 9.0:
             return
