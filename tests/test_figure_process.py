@@ -76,3 +76,15 @@ def test_the_process_ends_when_nothing_is_drawn():
         proc = figures._proc
         assert proc.is_alive()
     assert not proc.is_alive() and proc.exitcode == 0
+
+
+def test_a_result_that_cannot_be_sent_is_drawn_here(result, tmp_path):
+    import copy
+
+    odd = copy.copy(result)
+    object.__setattr__(odd, "note", lambda: "a lambda cannot be pickled")
+    with FigureProcess() as figures:
+        proc = figures._proc
+        written = design_report.write_results(odd, tmp_path / "out", workers=1, figures=figures)
+    assert {"report.html", *DRAWN} <= {p.name for p in written}
+    assert not proc.is_alive()

@@ -42,9 +42,12 @@ class FigureProcess:
         if self._proc is None:
             return None
         try:
-            self._conn.send((result, str(folder), workers, animate))
+            try:
+                self._conn.send((result, str(folder), workers, animate))
+            except (pickle.PicklingError, TypeError, AttributeError):   # pickled before anything is sent
+                return None
             kind, value = self._conn.recv()
-        except (EOFError, OSError, pickle.PicklingError):
+        except (EOFError, OSError):
             return None
         finally:
             self.close()
