@@ -309,3 +309,20 @@ def test_a_length_sweep_is_not_shown_in_degrees():
     with pytest.raises(AssemblyError) as info:
         optdesign.analyse(optdesign.loads(text, "packaging_fourbar.toml"))
     assert "theta = 0 (0 deg)" in str(info.value)
+
+
+@pytest.mark.parametrize("scene, objective, says", [
+    ("packaging_fourbar", "peak drive", "unexpected 'drive'"),        # a missing parenthesis
+    ("lift_table", "peak(torque)", "'torque' is not a column"),      # a name from another tool
+    ("lift_table", "rms_time(drive, raise)", "rms_time is over the whole duty cycle"),
+])
+def test_objective_mistakes_name_the_file(tmp_path, scene, objective, says):
+    """Every objective error starts with the scene's file, like every other error (these
+    three said only '[objective] minimise ...')."""
+    text = (DATA / f"{scene}.toml").read_text().replace('minimise = "peak(drive)"', f'minimise = "{objective}"')
+    path = tmp_path / f"{scene}.toml"
+    path.write_text(text)
+    with pytest.raises(optdesign.OptdesignError) as info:
+        optdesign.optimise(optdesign.load(path), starts=1)
+    msg = str(info.value)
+    assert msg.startswith(f"{path}: [objective] minimise") and says in msg, msg
