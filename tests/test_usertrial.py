@@ -326,3 +326,24 @@ def test_objective_mistakes_name_the_file(tmp_path, scene, objective, says):
         optdesign.optimise(optdesign.load(path), starts=1)
     msg = str(info.value)
     assert msg.startswith(f"{path}: [objective] minimise") and says in msg, msg
+
+
+def test_draw_with_another_scenes_result_names_both(tmp_path, capsys):
+    """`draw CRANE --design FOURBAR/result.json` (a user's slip between folders) said only
+    "cannot set parameter 'r': the scene has no parameter 'r'"; it now also says that the
+    result seems to be of another scene, which one, and what to give (exit 2, nothing drawn)."""
+    import json
+
+    from optdesign.cli import main as cli
+
+    result = tmp_path / "result.json"
+    result.write_text(json.dumps({"file": "packaging_fourbar.toml", "design": {"r": 0.05, "xO4": 0.22, "yO4": 0.0}}))
+    out = tmp_path / "crane.png"
+    crane = str(DATA / "forestry_crane_boom.toml")
+    assert cli.main(["draw", crane, "--design", str(result), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "Traceback" not in err
+    assert "the scene has no parameter 'r'" in err
+    assert "its design (r, xO4, yO4) is not this scene's (xD, yD, b)" in err
+    assert "the result of another scene (made from packaging_fourbar.toml)" in err and f"an optimisation of {crane}" in err
+    assert not out.exists()
