@@ -347,3 +347,14 @@ def test_draw_with_another_scenes_result_names_both(tmp_path, capsys):
     assert "its design (r, xO4, yO4) is not this scene's (xD, yD, b)" in err
     assert "the result of another scene (made from packaging_fourbar.toml)" in err and f"an optimisation of {crane}" in err
     assert not out.exists()
+
+
+def test_gravity_written_with_a_sign_is_refused():
+    """g = -9.81 (a user writing the direction into the number) was accepted and turned the
+    crane's weight upwards: a cylinder force of the wrong sign, reported as a result."""
+    text = (DATA / "forestry_crane_boom.toml").read_text().replace("g = 9.81", "g = -9.81")
+    with pytest.raises(optdesign.SceneError) as info:
+        optdesign.loads(text, "crane.toml")
+    msg = str(info.value)
+    assert msg.startswith("crane.toml, line ") and "[gravity] g" in msg and "write g = 9.81" in msg
+    optdesign.loads(text.replace("g = -9.81", "g = 0"), "crane.toml")   # no weight: allowed
