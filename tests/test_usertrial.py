@@ -358,3 +358,19 @@ def test_gravity_written_with_a_sign_is_refused():
     msg = str(info.value)
     assert msg.startswith("crane.toml, line ") and "[gravity] g" in msg and "write g = 9.81" in msg
     optdesign.loads(text.replace("g = -9.81", "g = 0"), "crane.toml")   # no weight: allowed
+
+
+def test_analyse_summary_of_load_cases_leaves_the_samples_to_table(capsys):
+    """README: analyse prints a summary, 'and the table over every sample with --table'; with
+    [[cases]] the summary printed the cases' 101-row table too.  Now only --table does."""
+    from optdesign.cli import main as cli
+
+    path = str(DATA / "lift_table.toml")
+    assert cli.main(["analyse", path]) == 0
+    summary = capsys.readouterr().out
+    assert "drive[raise]" not in summary and "every sample: --table" in summary
+    assert "case 'raise': forward, profile lift" in summary and "governing cases:" in summary
+    assert cli.main(["analyse", path, "--table"]) == 0
+    table = capsys.readouterr().out
+    header = next(line for line in table.splitlines() if "drive[raise]" in line)
+    assert "t[lower]" in header and len(table.splitlines()) > len(summary.splitlines()) + 100

@@ -57,9 +57,10 @@ def cases_json(result) -> dict:
 
 
 # --- table -----------------------------------------------------------------------------------
-def cases_table(result) -> str:
-    """The table's section on the load cases: the scene's samples with columns per case, then
-    per case its peaks, the governing case of each peak, the duty cycle and the drive train."""
+def cases_table(result, samples: bool = True) -> str:
+    """The table's section on the load cases: the scene's samples with columns per case (not
+    with ``samples`` false: the summary), then per case its peaks, the governing case of each
+    peak, the duty cycle and the drive train."""
     cr = _cases(result)
     if cr is None:
         return ""
@@ -72,8 +73,12 @@ def cases_table(result) -> str:
         for key in ("t", "drive", "motor_torque", "rod_buckling"):
             if key in c.columns:
                 cols[f"{key}[{tag}]"] = c.columns[key][c.on_samples]
-    lines = ["", "", "load cases (each over the scene's samples plus its profile's phase boundaries, taken from "
-             "both sides; the table shows the scene's samples)", table(cols), ""]
+    if samples:
+        lines = ["", "", "load cases (each over the scene's samples plus its profile's phase boundaries, taken from "
+                 "both sides; the table shows the scene's samples)", table(cols), ""]
+    else:
+        lines = ["", "", "load cases (each over the scene's samples plus its profile's phase boundaries, taken from "
+                 "both sides; every sample: --table)"]
     for name, c in cr.cases.items():
         settings = ", ".join(f"{k} = {v:.6g}" for k, v in c.overrides.items())
         lines.append(f"case {name!r}: {c.direction}, {'profile ' + c.profile if c.profile else '[drive] speed'}, "
