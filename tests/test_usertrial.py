@@ -374,3 +374,15 @@ def test_analyse_summary_of_load_cases_leaves_the_samples_to_table(capsys):
     table = capsys.readouterr().out
     header = next(line for line in table.splitlines() if "drive[raise]" in line)
     assert "t[lower]" in header and len(table.splitlines()) > len(summary.splitlines()) + 100
+
+
+@pytest.mark.parametrize("written, says", [
+    ('"40 degrees"', 'write 40 degrees as "40 deg"'),     # said: 'as a number in SI units'
+    ('"40\u00b0"', 'write degrees as deg, e.g. "25 deg"'),   # said: only 'unexpected character'
+])
+def test_degrees_written_another_way_get_the_deg_hint(written, says):
+    text = (DATA / "packaging_fourbar.toml").read_text().replace('min = "40 deg"', f"min = {written}")
+    with pytest.raises(optdesign.SceneError) as info:
+        optdesign.loads(text, "arm.toml")
+    msg = str(info.value)
+    assert msg.startswith("arm.toml, line ") and "'transmission angle', min" in msg and says in msg, msg

@@ -262,9 +262,10 @@ class _Parser:
             m = _TOKEN.match(text, pos)
             if not m or m.end() == pos:
                 bad = text[pos:].strip()[:1]
+                degrees = "; write degrees as deg, e.g. \"25 deg\"" if bad == "\u00b0" else ""
                 self._fail(
                     f"unexpected character {bad!r} at position {text.index(bad, pos)}"
-                    " (an expression holds numbers, names, + - * / ^, parentheses and function calls)")
+                    f" (an expression holds numbers, names, + - * / ^, parentheses and function calls){degrees}")
             kind = m.lastgroup
             value = m.group(kind)
             if kind == "num" and not math.isfinite(float(value)):
