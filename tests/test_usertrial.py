@@ -386,3 +386,24 @@ def test_degrees_written_another_way_get_the_deg_hint(written, says):
         optdesign.loads(text, "arm.toml")
     msg = str(info.value)
     assert msg.startswith("arm.toml, line ") and "'transmission angle', min" in msg and says in msg, msg
+
+
+def test_an_optimum_at_a_lock_up_is_said_in_the_summary():
+    """The lift table without its crank-rod angle constraint: `optimise` (20 starts, 34 s) took
+    the crank and the rod into line at the top of the stroke (assembly of A: margin 2.7e-9,
+    active) and printed OPTIMAL with no word on it; at that design the raise's energy came out
+    as -1120 J (the trapezoid over a crank speed per metre of 17,000).  The summary now says
+    what the active margin means.  (The result here is the crane's, with the constraint of the
+    lift table's run put in: a real run takes too long for this file.)"""
+    import dataclasses
+
+    from optdesign.report.design import summary
+
+    res = optdesign.optimise(optdesign.load(DATA / "forestry_crane_boom.toml"), starts=1)
+    assert not any("note:" in line for line in summary(res).splitlines())
+    locked = {"kind": "margin", "lower": 0.0, "upper": None, "multiplier": 1.36, "active": "lower",
+              "min": 2.68e-09, "max": 0.0089, "value": 2.68e-09}
+    res = dataclasses.replace(res, constraints={**res.constraints, "assembly of A": locked})
+    notes = [line for line in summary(res).splitlines() if "note:" in line]
+    assert len(notes) == 1 and "takes A to its limit position" in notes[0] and "2.68e-09" in notes[0]
+    assert "transmission angle at A" in notes[0]
