@@ -407,3 +407,19 @@ def test_an_optimum_at_a_lock_up_is_said_in_the_summary():
     notes = [line for line in summary(res).splitlines() if "note:" in line]
     assert len(notes) == 1 and "takes A to its limit position" in notes[0] and "2.68e-09" in notes[0]
     assert "transmission angle at A" in notes[0]
+
+
+def test_rod_buckling_ratio_prints_without_a_unit(tmp_path, capsys):
+    """The crane with load cases and a [cylinder] rod: the summary printed the buckling
+    utilisation as 'peak |rod_buckling| = 1.2917431 1 at theta = ...' (its unit, '1')."""
+    from optdesign.cli import main as cli
+
+    text = (DATA / "forestry_crane_boom.toml").read_text().replace("m_log = 500.0", "m_log = 500.0\nd_rod = 0.05")
+    text += ('\n[profiles.luff]\nkind = "trapezoidal"\nspeed = "8 deg"\nacceleration = "20 deg"\n'
+             'deceleration = "20 deg"\n\n[[cases]]\nname = "raise log"\ndirection = "forward"\nprofile = "luff"\n\n'
+             '[cylinder]\npressure = 24e6\nmodulus = 210e9\nbuckling_safety = 3.5\nlength_factor = 1.0\nrod = "d_rod"\n')
+    path = tmp_path / "crane_cases.toml"
+    path.write_text(text)
+    assert cli.main(["analyse", str(path)]) == 0
+    lines = [line for line in capsys.readouterr().out.splitlines() if "peak |rod_buckling|" in line]
+    assert len(lines) == 2 and all(" 1 at " not in line and " 1:" not in line for line in lines), lines
