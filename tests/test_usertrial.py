@@ -315,6 +315,8 @@ def test_a_length_sweep_is_not_shown_in_degrees():
     ("packaging_fourbar", "peak drive", "unexpected 'drive'"),        # a missing parenthesis
     ("lift_table", "peak(torque)", "'torque' is not a column"),      # a name from another tool
     ("lift_table", "rms_time(drive, raise)", "rms_time is over the whole duty cycle"),
+    # a design term beside a case term: said "unknown function 'peak'; known functions: ..."
+    ("lift_table", "peak(drive) + 1000*r", "'1000*r' is not a term of a load-case objective"),
 ])
 def test_objective_mistakes_name_the_file(tmp_path, scene, objective, says):
     """Every objective error starts with the scene's file, like every other error (these

@@ -53,7 +53,13 @@ def parse_objective(text, case_names, path="<python>"):
     or None when ``text`` is not of that form (a stroke expression then); errors name the
     scene's ``path``."""
     terms = []
-    for part in _split(text):
+    parts = _split(text)
+    odd = [part.strip() for part in parts if not _TERM.match(part)]
+    if odd and len(odd) < len(parts):   # some terms of the form, some not: say which
+        raise SceneError(f"{path}: [objective] minimise = {text!r}: {odd[0]!r} is not a term of a load-case "
+                         "objective; expected a sum of peak(NAME), peak(NAME, CASE) and rms_time(NAME), each "
+                         "with an optional coefficient >= 0 (e.g. \"2*peak(drive) + rms_time(drive)\")")
+    for part in parts:
         m = _TERM.match(part)
         if not m:
             return None
