@@ -425,3 +425,13 @@ def test_rod_buckling_ratio_prints_without_a_unit(tmp_path, capsys):
     assert cli.main(["analyse", str(path)]) == 0
     lines = [line for line in capsys.readouterr().out.splitlines() if "peak |rod_buckling|" in line]
     assert len(lines) == 2 and all(" 1 at " not in line and " 1:" not in line for line in lines), lines
+
+
+
+def test_a_zero_for_the_letter_o_in_a_point_name_is_pointed_out():
+    """'angle(A, B, 04)' (the rocker pivot is O4) said only 'found 4'."""
+    text = (DATA / "packaging_fourbar.toml").read_text().replace('expr = "angle(A, B, O4)"', 'expr = "angle(A, B, 04)"')
+    with pytest.raises(optdesign.SceneError) as info:
+        optdesign.loads(text, "arm.toml")
+    msg = str(info.value)
+    assert msg.startswith("arm.toml, line ") and "found 4" in msg and "the digit 0 written for the letter O?" in msg

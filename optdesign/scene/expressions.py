@@ -376,7 +376,10 @@ class _Parser:
                            + ("s" if n != 1 else ""))
             for a in args:
                 if not isinstance(a, Name) or a.name in CONSTANTS:
-                    self._fail(f"{func}() takes point names as arguments, found {_describe(a)}")
+                    zero = isinstance(a, Num) and re.search(r"(?<![\w.])0\d", self.text)   # '04' for 'O4'
+                    self._fail(f"{func}() takes point names as arguments, found {_describe(a)}"
+                               + (" (a point name starts with a letter: the digit 0 written for the letter O?)"
+                                  if zero else ""))
         elif func in UNARY and n != 1:
             self._fail(f"{func}() takes 1 argument, found {n}")
         elif func == "atan2" and n != 2:
