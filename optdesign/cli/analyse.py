@@ -53,6 +53,6 @@ def summary_chunks(report, result):
     from ..report.checks import summary_lines
 
     yield "\n".join(summary_lines(result)) + "\n\nin SI, over the continuous stroke:"
-    for chunk in report.analysis_peaks_chunks(result):   # (the violations are in the summary already)
+    for chunk in report.analysis_peaks_chunks(result, case_samples=False):   # (the violations are in the summary already)
         yield "\n".join(line for line in chunk.split("\n") if not line.startswith("violated: "))
     yield "\n(every sample: --table; as CSV with units: --csv FILE; as JSON: --json)"

@@ -35,8 +35,17 @@ def scene_with_design(args):
     if not isinstance(design, dict) or not all(isinstance(v, (int, float)) for v in design.values()):
         raise OptdesignError(f"--design {path}: no 'design' table of numbers in it (expected the result.json of "
                              "`optdesign optimise`)")
-    return scene.with_parameters(**design)
-
+    variables = [q.name for q in scene.parameters if q.is_design]
+    try:
+        return scene.with_parameters(**design)
+    except OptdesignError as exc:
+        if all(name in variables for name in design):
+            raise
+        made = f" (made from {data['file']})" if isinstance(data.get("file"), str) else ""
+        raise OptdesignError(
+            f"--design {path}: {exc}; its design ({', '.join(design)}) is not this scene's "
+            f"({', '.join(variables) or 'none'}): is the result of another scene{made}? Give the "
+            f"result.json of an optimisation of {args.scene}") from None
 
 def default_file(args, suffix) -> Path:
     """optdesign-results/<scene name><suffix>, e.g. optdesign-results/truck_crane-draw.png."""

@@ -48,23 +48,30 @@ _TERM = re.compile(r"^\s*(?:(\d+\.?\d*(?:[eE][+-]?\d+)?|\.\d+)\s*\*\s*)?(peak|rm
 NAMES = ("drive", "power", "static_load", "motor_torque", "motor_load_torque", "motor_speed", "rod_buckling")
 
 
-def parse_objective(text, case_names):
+def parse_objective(text, case_names, path="<python>"):
     """The terms of a cases objective: [(coefficient, 'peak'|'rms_time', NAME, case or None)],
-    or None when ``text`` is not of that form (a stroke expression then)."""
+    or None when ``text`` is not of that form (a stroke expression then); errors name the
+    scene's ``path``."""
     terms = []
-    for part in _split(text):
+    parts = _split(text)
+    odd = [part.strip() for part in parts if not _TERM.match(part)]
+    if odd and len(odd) < len(parts):   # some terms of the form, some not: say which
+        raise SceneError(f"{path}: [objective] minimise = {text!r}: {odd[0]!r} is not a term of a load-case "
+                         "objective; expected a sum of peak(NAME), peak(NAME, CASE) and rms_time(NAME), each "
+                         "with an optional coefficient >= 0 (e.g. \"2*peak(drive) + rms_time(drive)\")")
+    for part in parts:
         m = _TERM.match(part)
         if not m:
             return None
         coef = float(m.group(1)) if m.group(1) else 1.0
         case = m.group(4) or m.group(5) or (m.group(6).strip() if m.group(6) else None)
         if m.group(3) not in NAMES:
-            raise SceneError(f"[objective] minimise = {text!r}: {m.group(3)!r} is not a column of a load case; "
+            raise SceneError(f"{path}: [objective] minimise = {text!r}: {m.group(3)!r} is not a column of a load case; "
                              f"expected one of {', '.join(NAMES)}")
         if case is not None and case not in case_names:
-            raise SceneError(f"[objective] minimise = {text!r}: no case {case!r}; cases: {', '.join(case_names)}")
+            raise SceneError(f"{path}: [objective] minimise = {text!r}: no case {case!r}; cases: {', '.join(case_names)}")
         if case is not None and m.group(2) == "rms_time":
-            raise SceneError(f"[objective] minimise = {text!r}: rms_time is over the whole duty cycle, not one case")
+            raise SceneError(f"{path}: [objective] minimise = {text!r}: rms_time is over the whole duty cycle, not one case")
         terms.append((coef, m.group(2), m.group(3), case))
     return terms or None
 
@@ -142,7 +149,7 @@ def case_objective_rows(pb, rows, Block, k_ref) -> bool:
     (one per case), case_peaks (the other cases' epigraph rows), time_terms.  ``Block`` is
     :class:`.rows.Block`, ``k_ref()`` the scale of k = dq/ds (:mod:`.rows` passes both)."""
     names = [c.name for c in pb.scene.cases]
-    terms = parse_objective(pb.objective_text, names)
+    terms = parse_objective(pb.objective_text, names, pb.scene.path)
     if terms is None:
         return False
     models = case_models(pb)
@@ -158,7 +165,7 @@ def case_objective_rows(pb, rows, Block, k_ref) -> bool:
     else:
         pb.objective_kind = "mix"
     if len(peaks) > 1:
-        raise SceneError(f"[objective] minimise = {pb.objective_text!r}: at most one peak(...) term (one epigraph)")
+        raise SceneError(f"{pb.scene.path}: [objective] minimise = {pb.objective_text!r}: at most one peak(...) term (one epigraph)")
     pb.case_peaks = []
     pb.time_terms = [t for t in terms if t[1] == "rms_time"]
     first = True

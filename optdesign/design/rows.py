@@ -79,7 +79,7 @@ def build_quantities(pb):
             if missing:
                 raise ExpressionError(f"{scene.path}: [objective] minimise = {pb.objective_text!r}: unknown "
                                       f"name {what!r}{near_miss(what, set(outputs))}: {missing}")
-            expr = mech.value(parse(what, "[objective] minimise"), "[objective] minimise")
+            expr = mech.value(parse(what, f"{scene.path}: [objective] minimise"), f"{scene.path}: [objective] minimise")
         pb.objective_quantity = len(rows)
         rows.append(expr)
         if what in ("drive", "power") and pb.objective_kind == "peak":
@@ -93,7 +93,7 @@ def build_quantities(pb):
                                0, -math.inf, math.inf, 1.0))
     else:
         pb.objective_kind = "expression"
-        pb.objective_expr = lift(pb, parse(pb.objective_text, "[objective] minimise"), "objective")
+        pb.objective_expr = lift(pb, parse(pb.objective_text, f"{scene.path}: [objective] minimise"), "objective")
         if not pb.aggregates:
             raise SceneError(
                 f"{scene.path}: [objective] minimise = {pb.objective_text!r}: expected peak(NAME), "

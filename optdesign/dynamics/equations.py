@@ -207,7 +207,7 @@ def check_inertia(eq, scene, stroke_grid, p):
         i = int(bad[0])
         raise ResultError(
             f"{scene.path}: the reduced inertia (M_s + J_d k^2) is {'NaN' if np.isnan(v[i]) else 'infinite'} at "
-            f"{scene.sweep.name} = {_fmt_s(stroke_grid[i])} (sample {i + 1} of {len(v)} of the stroke)"
+            f"{scene.sweep.name} = {_fmt_s(stroke_grid[i], scene)} (sample {i + 1} of {len(v)} of the stroke)"
             + cause(SimpleNamespace(mech=eq.mech, scene=scene), stroke_grid[i], p))
     top = float(np.max(v)) if v.size else 0.0
     where = stroke_grid[int(np.argmin(v))]
@@ -218,7 +218,7 @@ def check_inertia(eq, scene, stroke_grid, p):
     if not top > 0 or low <= 1e-12 * top:
         name, unit = scene.sweep.name, "kg m^2 (rotor)" if eq.rotary else "kg (moving piston and rod)"
         raise DeadCentreError(
-            f"{scene.path}: [drive] the reduced inertia vanishes at {name} = {_fmt_s(where)} "
+            f"{scene.path}: [drive] the reduced inertia vanishes at {name} = {_fmt_s(where, scene)} "
             f"(smallest M_s + J_d k^2 = {low:.3g}, largest {top:.3g}): no mass moves with the drive "
             "there, so any drive torque or force gives an infinite acceleration (a dead centre of the "
             f"one-element model). Give the drive its own inertia ([drive] inertia, {unit}), or "
@@ -232,7 +232,7 @@ def initial_state(eq, scene, s0, qd0, p):
     if abs(k0) < 1e-12:
         if qd0 != 0:
             raise DeadCentreError(
-                f"{scene.path}: [simulation] start: {scene.sweep.name} = {_fmt_s(s0)} is a dead "
+                f"{scene.path}: [simulation] start: {scene.sweep.name} = {_fmt_s(s0, scene)} is a dead "
                 f"centre of the drive (dq/d{scene.sweep.name} = 0), where the drive cannot have the "
                 f"speed {qd0:g}; start elsewhere or with speed = 0")
         sd0 = 0.0
@@ -249,7 +249,7 @@ def initial_state(eq, scene, s0, qd0, p):
     if not math.isfinite(law):   # e.g. 1/qd from rest: the motion could never start
         raise SceneError(
             f"{scene.path}: [drive] law = {scene.drive.law.source!r} is {'NaN' if math.isnan(law) else 'infinite'} at "
-            f"the start ({scene.sweep.name} = {_fmt_s(s0)}, q = {eq.output('q', x0, p):.6g}, qd = {qd0:g}): the "
+            f"the start ({scene.sweep.name} = {_fmt_s(s0, scene)}, q = {eq.output('q', x0, p):.6g}, qd = {qd0:g}): the "
             "law must be finite at every state the motion reaches; guard a division (e.g. by qd) or start "
             "with another [simulation] speed")
     return x0

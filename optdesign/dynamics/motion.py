@@ -57,7 +57,7 @@ class _Samples:
 
 def run_motion(run, grid, where):
     """The motion of ``run`` (:class:`~.integrate.Integration`) over the output ``grid`` (equally
-    spaced from 0); ``where`` = (scene path, sweep name) for messages."""
+    spaced from 0); ``where`` = (scene path, sweep name, scene) for messages."""
     n, m = len(grid) - 1, run.subsamples
     dt = grid[1] - grid[0]
     out, events = _Samples(), []
@@ -118,7 +118,7 @@ def run_motion(run, grid, where):
         if len(events) > MAX_EVENTS or same >= SAME_INSTANT:
             raise SolverError(f"{where[0]}: {len(events)} events (reversals, power-flow switches) by t = "
                               f"{event.t:.9g} s, {same + 1} of them at that instant: the motion chatters there "
-                              f"({where[1]} = {_fmt_s(event.x[0])}, d{where[1]}/dt = {event.x[1]:.6g}); check the "
+                              f"({where[1]} = {_fmt_s(event.x[0], where[2])}, d{where[1]}/dt = {event.x[1]:.6g}); check the "
                               "law and the efficiency")
         if j <= n and grid[j] - event.t <= 1e-12 * dt:  # the event falls on a grid time: it replaces it
             j += 1
@@ -198,7 +198,7 @@ def _pointwise(run, x, H, c, m):
 
 
 def _failure(run, branch, t_a, t_b, x_a, failure, where):
-    path, name = where
+    path, name = where[:2]
     qd = run.eq.output("qd", x_a, run.p, branch.c)
     method = run.method
     what = ("its solution blew up (NaN or inf): the fixed step is beyond RK4's stability limit, the "
@@ -214,7 +214,7 @@ def _failure(run, branch, t_a, t_b, x_a, failure, where):
                 "(--t-end, [simulation] t_end) or ask for more samples; else " + hint)
     exc = SolverError(
         f"{path}: the {method} integrator failed between t = {t_a:.6g} s and {t_b:.6g} s, from "
-        f"{name} = {_fmt_s(x_a[0])}, drive speed {qd:.6g}, d{name}/dt = {x_a[1]:.6g}: {what}; {hint}.")
+        f"{name} = {_fmt_s(x_a[0], where[2])}, drive speed {qd:.6g}, d{name}/dt = {x_a[1]:.6g}: {what}; {hint}.")
     exc.state, exc.span, exc.branch = np.array(x_a, float), float(t_b - t_a), branch  # for :mod:`.phases`
     return exc
 

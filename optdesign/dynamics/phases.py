@@ -54,7 +54,7 @@ class PhasedSimulator:
         self.mech = mech = Mechanism(scene)
         self.model = model = ReducedModel(mech)
         self.resolved = res = mech.resolved
-        self.where = (scene.path, scene.sweep.name)
+        self.where = (scene.path, scene.sweep.name, scene)
         lo, hi = res.start, res.stop
         self.lo, self.hi = min(lo, hi), max(lo, hi)
         self.stroke_grid = np.linspace(self.lo, self.hi, max(scene.sweep.samples, 2001))
@@ -191,7 +191,7 @@ class PhasedSimulator:
             gap = abs(x[0] - profile.s_begin)
             if gap > CONNECT * (self.hi - self.lo):
                 raise SceneError(f"{self.scene.path}: {where}: the phases do not connect: the controller's profile starts "
-                                 f"at {self.scene.sweep.name} = {_fmt_s(profile.s_begin)}, but the phase starts at "
+                                 f"at {self.scene.sweep.name} = {_fmt_s(profile.s_begin, self.scene)}, but the phase starts at "
                                  f"t = {t0:.9g} s with {self._state(x)}; end the phase before at the profile's start, "
                                  "or track a profile that starts there")
         if ph.kind == "brake" and direction == 0.0:
@@ -212,7 +212,7 @@ class PhasedSimulator:
             target = self.resolved.constant(ph.until_value, f"{where}, until.position")
             if abs(target - x[0]) <= 1e-12 * (self.hi - self.lo):
                 raise SceneError(f"{self.scene.path}: {where}, until.position: the phase starts where it ends "
-                                 f"({self.scene.sweep.name} = {_fmt_s(target)}, t = {t0:.9g} s); the phases do not "
+                                 f"({self.scene.sweep.name} = {_fmt_s(target, self.scene)}, t = {t0:.9g} s); the phases do not "
                                  "connect: end the phase before elsewhere, or remove this one")
             run.phase_end = ("position", math.copysign(1.0, target - x[0]), target)
         else:
@@ -267,7 +267,7 @@ class PhasedSimulator:
                    "held": f"the mechanism is held at rest until t_end = {t_end:g} s",
                    "stroke end": f"the motion reached the stroke's end '{motion.stop_end}' before the phase's end",
                    "stalled": "the self-locking drive holds the mechanism at rest before the phase's end"}[stop]
-            goal = {"position": f"{self.scene.sweep.name} = {_fmt_s(run.phase_end[2]) if ph.until == 'position' else ''}",
+            goal = {"position": f"{self.scene.sweep.name} = {_fmt_s(run.phase_end[2], self.scene) if ph.until == 'position' else ''}",
                     "rest": "a rest", "time": "its time", "profile": "its profile's end"}[ph.until]
             raise SceneError(f"{self.scene.path}: {where}: the phase never reaches its end ({goal}): {why}, at "
                              f"t = {t_at:.9g} s with {self._state(last)}; check the phase's law and its end, or "
@@ -277,7 +277,7 @@ class PhasedSimulator:
         if ph.until == "profile" and abs(last[0] - profile.s_end) > CONNECT * (self.hi - self.lo):
             raise SceneError(f"{self.scene.path}: {where}: the motion did not follow the profile: at its end "
                              f"(t = {t0 + T[-1]:.9g} s) {self._state(last)}, against the profile's end "
-                             f"{self.scene.sweep.name} = {_fmt_s(profile.s_end)}{self._saturated(piece)}; the next "
+                             f"{self.scene.sweep.name} = {_fmt_s(profile.s_end, self.scene)}{self._saturated(piece)}; the next "
                              "phase could not start where it should. Give a stronger motor or another gear ratio "
                              "(the sized one: simulate --design RESULT_JSON), or a slower profile")
         integrals = {name: float(last[n_base + 1 + i]) for i, name in enumerate(QUADRATURES)}
@@ -394,7 +394,7 @@ class PhasedSimulator:
 
     def _state(self, x):
         name = self.scene.sweep.name
-        return f"{name} = {_fmt_s(x[0])}, d{name}/dt = {x[1]:.6g}"
+        return f"{name} = {_fmt_s(x[0], self.scene)}, d{name}/dt = {x[1]:.6g}"
 
 
 class _FirstLaw:

@@ -61,7 +61,7 @@ class Simulator:
         self.x0 = initial_state(eq, scene, self.s_start, self.qd_start, mech.parameter_values)
         # tolerances are relative to the stroke length and a reference sweep rate (the scene's t_end)
         self.scale = state_scales(self.x0, self.lo, self.hi, self.t_end, self.rotary)
-        self.where = (scene.path, scene.sweep.name)
+        self.where = (scene.path, scene.sweep.name, scene)
         self._integrators = {}  # compiled integrators, by method, tolerance and output points
         self.build_time = time.perf_counter() - t0
 

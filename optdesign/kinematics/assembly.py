@@ -43,10 +43,32 @@ LOCKUP_MARGIN = 1e-10
 LOOP_LOCKUP = math.sqrt(LOCKUP_MARGIN)
 
 
-def fmt_s(value) -> str:
+def fmt_s(value, scene) -> str:
     """A sweep value in messages: 10 significant digits (a located position is meant to be
-    read to 1e-9), and in degrees."""
-    return f"{value:.10g} ({math.degrees(value):.6g} deg)"
+    read to 1e-9), and in degrees too unless the sweep is a length (:func:`sweep_is_length`)."""
+    return f"{value:.10g}" if sweep_is_length(scene) else f"{value:.10g} ({math.degrees(value):.6g} deg)"
+
+
+# The fields of each construction that hold a length (or a coordinate): a sweep that appears in
+# one of them is a length (a cylinder's length, a platform's height), not an angle.
+_LENGTH_FIELDS = {"Fixed": ("x", "y"), "Polar": ("length",), "Dyad": ("length_p", "length_q"),
+                  "Slider": ("length",), "Attach": ("a", "b"), "Loop": ("lengths",)}
+
+
+def sweep_is_length(scene) -> bool:
+    """True when the sweep is a length: its range not written with deg or pi, and the sweep
+    variable used in a construction's length or coordinate.  Otherwise (a crank angle, a jib
+    angle, also in radians as plain numbers) messages show its values in degrees too."""
+    sweep = scene.sweep
+    if any(w in getattr(e, "source", "") for e in (sweep.start, sweep.stop) for w in ("deg", "pi")):
+        return False
+    for c in scene.points:
+        for name in _LENGTH_FIELDS.get(type(c).__name__, ()):
+            value = getattr(c, name, None)
+            for e in value if isinstance(value, (tuple, list)) else (value,):
+                if hasattr(e, "names") and sweep.name in e.names():
+                    return True
+    return False
 
 
 @dataclass(frozen=True)
@@ -186,21 +208,21 @@ class AssemblyCheck:
         v = T[i, k]
         if math.isnan(v):
             return self._failure(i, s_values[k], direction, (
-                f"cannot be evaluated at {self._name} = {fmt_s(s_values[k])} (its margin is NaN: a "
+                f"cannot be evaluated at {self._name} = {fmt_s(s_values[k], self.mech.scene)} (its margin is NaN: a "
                 "point it is built from does not assemble there). Check the constructions it uses."))
         if v >= -limit or m.kind == "dyad centres":
             return self._touch(i, s_values[k], v, direction)
         if k == 0 or not T[i, k - 1] > limit:
             return self._failure(i, s_values[k], direction, (
-                f"cannot assemble at {self._name} = {fmt_s(s_values[k])}: {self._meet(m)} "
+                f"cannot assemble at {self._name} = {fmt_s(s_values[k], self.mech.scene)}: {self._meet(m)} "
                 f"(relative margin {v:.3g} < 0). Change its lengths or narrow the sweep."))
         s0 = _crossing(lambda s: sign[i] * self._relative(s, p, i), s_values[k - 1], s_values[k])
         if m.kind == "loop":
             return self._singular(i, s0, direction)
         return self._failure(i, s0, direction, (
-            f"cannot assemble past {self._name} = {fmt_s(s0)}: it reaches its limit position there "
+            f"cannot assemble past {self._name} = {fmt_s(s0, self.mech.scene)}: it reaches its limit position there "
             f"and {self._meet(m)} beyond it (relative margin {v:.3g} < 0 at the sample "
-            f"{self._name} = {fmt_s(s_values[k])}). Change its lengths or narrow the sweep."))
+            f"{self._name} = {fmt_s(s_values[k], self.mech.scene)}). Change its lengths or narrow the sweep."))
 
     def _continuous_failure(self, i, e, s_values, p, sign, direction):
         m, _, limit = self.rows[i]
@@ -215,28 +237,28 @@ class AssemblyCheck:
             return self._singular(i, s0, direction)
         s1 = _crossing(relative, _next_sample(s_values, e.s, direction), e.s)
         return self._failure(i, s0, direction, (
-            f"cannot assemble from {self._name} = {fmt_s(s0)} to {fmt_s(s1)}, between two samples: "
+            f"cannot assemble from {self._name} = {fmt_s(s0, self.mech.scene)} to {fmt_s(s1, self.mech.scene)}, between two samples: "
             f"{self._meet(m)} there (relative margin down to {e.value:.3g} at {self._name} = "
-            f"{fmt_s(e.s)}; the samples alone miss it). Change its lengths or narrow the sweep."))
+            f"{fmt_s(e.s, self.mech.scene)}; the samples alone miss it). Change its lengths or narrow the sweep."))
 
     def _touch(self, i, s, value, direction):
         m, _, limit = self.rows[i]
         if m.kind == "dyad centres":
             return self._failure(i, s, direction, (
-                f"has its two centres at one place at {self._name} = {fmt_s(s)} (squared distance "
+                f"has its two centres at one place at {self._name} = {fmt_s(s, self.mech.scene)} (squared distance "
                 f"{value:.3g} <= {limit:g} of the sum of its squared lengths): its circles are one "
                 "circle and its point is not determined there (a kite or parallelogram folding). "
                 "Narrow the sweep so that it stops short of this position, or change its lengths."))
         what = ("is at a singular position (its closure's Jacobian is singular: a locking position)"
                 if m.kind == "loop" else "is at its limit (lock-up) position")
         return self._failure(i, s, direction, (
-            f"{what} at {self._name} = {fmt_s(s)} (relative margin {value:.3g} <= {limit:g}): "
+            f"{what} at {self._name} = {fmt_s(s, self.mech.scene)} (relative margin {value:.3g} <= {limit:g}): "
             "its velocities are infinite there. Narrow the sweep so that it stops short of this "
             "position, or change its lengths."))
 
     def _singular(self, i, s, direction):
         return self._failure(i, s, direction, (
-            f"passes a singular (locking) position at {self._name} = {fmt_s(s)}: its closure's "
+            f"passes a singular (locking) position at {self._name} = {fmt_s(s, self.mech.scene)}: its closure's "
             "Jacobian changes sign there, so the loop folds onto another branch or locks. Narrow "
             "the sweep so that it stops short of this position, or change its lengths."))
 
@@ -249,7 +271,6 @@ class AssemblyCheck:
     @property
     def _name(self):
         return self.mech.scene.sweep.name
-
     @staticmethod
     def _meet(m):
         return {"dyad": "its circles do not meet", "slider": "its circle and line do not meet",
@@ -270,7 +291,7 @@ class AssemblyCheck:
                 k = int(bad[0])
                 failures.append(_Failure(direction * s_values[k], order, float(s_values[k]), loop.loop.name, (
                     f"{path}: [points] {loop.loop.name} (loop): Newton's method does not close the "
-                    f"loop at {name} = {fmt_s(s_values[k])} (residual {r[k]:.3g}). The loop cannot "
+                    f"loop at {name} = {fmt_s(s_values[k], self.mech.scene)} (residual {r[k]:.3g}). The loop cannot "
                     "assemble there, or the initial guesses lead elsewhere: check the lengths, the "
                     "sweep range and the unknowns' guesses.")))
                 continue
@@ -283,8 +304,8 @@ class AssemblyCheck:
                     k = int(bad[0][1])
                     failures.append(_Failure(direction * s_values[k], order, float(s_values[k]), loop.loop.name, (
                         f"{path}: [points] {loop.loop.name} (loop): the solution jumps to another "
-                        f"assembly branch between {name} = {fmt_s(s_values[k])} and "
-                        f"{fmt_s(s_values[k + 1])}. Give initial guesses that follow the branch (they "
+                        f"assembly branch between {name} = {fmt_s(s_values[k], self.mech.scene)} and "
+                        f"{fmt_s(s_values[k + 1], self.mech.scene)}. Give initial guesses that follow the branch (they "
                         "may use the sweep variable), or narrow the sweep.")))
         return failures
 

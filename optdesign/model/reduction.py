@@ -303,7 +303,7 @@ class ReducedModel:
         what = "crank angle" if self.rotary else "actuator length"
         pins = "-".join(self.scene.drive.pins)
         raise DeadCentreError(
-            f"{self.scene.path}: [drive] dead centre at {self.scene.sweep.name} = {_fmt_s(where)}: the "
+            f"{self.scene.path}: [drive] dead centre at {self.scene.sweep.name} = {_fmt_s(where, self.scene)}: the "
             f"drive coordinate ({what} {pins}) stops moving there (dq/d{self.scene.sweep.name} = 0), so "
             "the reduced inertia and load are infinite. Narrow the sweep to exclude it, or move the "
             "drive's pins so that q changes monotonically over the stroke.", s=float(where))

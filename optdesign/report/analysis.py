@@ -112,8 +112,9 @@ def analysis_table_chunks(result):
     yield from analysis_peaks_chunks(result)
 
 
-def analysis_peaks_chunks(result):
-    """The lines after the table (peaks, constraints, violations, cases), also printed alone."""
+def analysis_peaks_chunks(result, case_samples: bool = True):
+    """The lines after the table (peaks, constraints, violations, cases), also printed alone
+    (the summary: then without the cases' samples, ``case_samples`` false)."""
     lines = [""]
     sweep = result.scene.sweep.name
     for k, v in result.peaks.items():
@@ -136,7 +137,7 @@ def analysis_peaks_chunks(result):
                  "acceleration given in [drive])")
     lines += [f"violated: {violation_text(result, v)}" for v in violations(result)]   # report/checks.py
     yield "\n" + "\n".join(lines)
-    yield cases_table(result)   # with [[cases]] (report/cases.py)
+    yield cases_table(result, case_samples)   # with [[cases]] (report/cases.py)
 
 
 FIGURES = ("drive.png", "reduced_inertia.png", "constraints.png") + CASE_FIGURES

@@ -26,6 +26,12 @@ UNITS = {
 }
 
 
+def _unit(units, key) -> str:
+    """' UNIT' after a number in the console; nothing for a ratio (rod_buckling: '1')."""
+    unit = units.get(key, "")
+    return f" {unit}" if unit and unit != "1" else ""
+
+
 def _cases(result):
     return getattr(result, "cases", None)
 
@@ -57,9 +63,10 @@ def cases_json(result) -> dict:
 
 
 # --- table -----------------------------------------------------------------------------------
-def cases_table(result) -> str:
-    """The table's section on the load cases: the scene's samples with columns per case, then
-    per case its peaks, the governing case of each peak, the duty cycle and the drive train."""
+def cases_table(result, samples: bool = True) -> str:
+    """The table's section on the load cases: the scene's samples with columns per case (not
+    with ``samples`` false: the summary), then per case its peaks, the governing case of each
+    peak, the duty cycle and the drive train."""
     cr = _cases(result)
     if cr is None:
         return ""
@@ -72,15 +79,19 @@ def cases_table(result) -> str:
         for key in ("t", "drive", "motor_torque", "rod_buckling"):
             if key in c.columns:
                 cols[f"{key}[{tag}]"] = c.columns[key][c.on_samples]
-    lines = ["", "", "load cases (each over the scene's samples plus its profile's phase boundaries, taken from "
-             "both sides; the table shows the scene's samples)", table(cols), ""]
+    if samples:
+        lines = ["", "", "load cases (each over the scene's samples plus its profile's phase boundaries, taken from "
+                 "both sides; the table shows the scene's samples)", table(cols), ""]
+    else:
+        lines = ["", "", "load cases (each over the scene's samples plus its profile's phase boundaries, taken from "
+                 "both sides; every sample: --table)"]
     for name, c in cr.cases.items():
         settings = ", ".join(f"{k} = {v:.6g}" for k, v in c.overrides.items())
         lines.append(f"case {name!r}: {c.direction}, {'profile ' + c.profile if c.profile else '[drive] speed'}, "
                      f"efficiency {c.efficiency}{', set ' + settings if settings else ''}; "
                      f"stroke time {c.duration:.6g} s")
         for key, value in c.peaks.items():
-            lines.append(f"  peak |{key}| = {value:.8g} {units.get(key, '')} at {sweep} = {c.peak_at[key]['s']:.8g}")
+            lines.append(f"  peak |{key}| = {value:.8g}{_unit(units, key)} at {sweep} = {c.peak_at[key]['s']:.8g}")
         for key, v in c.constraints.items():
             lines.append(f"  constraint {key!r}: min {np.min(v):.8g} at {sweep} = {c.columns['s'][np.argmin(v)]:.8g}, "
                          f"max {np.max(v):.8g} at {sweep} = {c.columns['s'][np.argmax(v)]:.8g}")
@@ -89,7 +100,7 @@ def cases_table(result) -> str:
                          f"{c.integrals['energy']:.8g} J (driving {c.integrals['energy_driving']:.8g} J)")
     lines.append("governing cases:")
     for key, g in cr.governing.items():
-        lines.append(f"  peak |{key}| = {g['value']:.8g} {units.get(key, '')}: case {g['case']!r} at {sweep} = {g['s']:.8g}")
+        lines.append(f"  peak |{key}| = {g['value']:.8g}{_unit(units, key)}: case {g['case']!r} at {sweep} = {g['s']:.8g}")
     lines += _duty_lines(cr.duty, units) + _train_lines(cr.train, kind)
     return "\n".join(lines)
 
@@ -104,7 +115,7 @@ def _duty_lines(duty, units):
             return f"hold at the {s['at']} of {s['case']} {s['time']:.4g} s"
         return f"dwell {s['time']:.4g} s"
     steps = ", ".join(step(s) for s in duty["steps"])
-    rms = "; ".join(f"{k} {v:.8g} {units.get(k, '')}" for k, v in duty["rms_time"].items())
+    rms = "; ".join(f"{k} {v:.8g}{_unit(units, k)}" for k, v in duty["rms_time"].items())
     return [f"duty cycle: {duty['cycle_time']:.8g} s ({steps})",
             f"  RMS over the cycle's time: {rms}",
             f"  energy per cycle {duty['energy']:.8g} J (driving {duty['energy_driving']:.8g} J), mean power "

@@ -50,6 +50,7 @@ def summary(result) -> str:
             lines.append(f"  {name}: {_fmt(c['value'], f)} in [{_fmt(c['lower'], f)}, {_fmt(c['upper'], f)}]"
                          f"{' ' + unit if unit else ''}  multiplier {_fmt(c['multiplier'], 1 / f)}{per}"
                          + (f" ({c['active']} active)" if c["active"] else ""))
+        lines += _lockup_notes(result)
         if result.sensitivities:
             lines.append("sensitivities d objective / d parameter:")
             lines += [f"  {k}: {v:.6g}" for k, v in result.sensitivities.items()]
@@ -58,6 +59,20 @@ def summary(result) -> str:
     lines.append(f"time: {result.timings.get('total_s', float('nan')):.3f} s "
                  f"(build {result.timings.get('build_s', float('nan')):.3f} s)")
     return "\n".join(lines)
+
+
+def _lockup_notes(result) -> list:
+    """A note per active assembly margin: the optimum takes that construction to its limit
+    position (its two links in line), where the mechanism locks or toggles and its velocities
+    are infinite; the peak is then only as good as the model next to a singularity."""
+    out = []
+    for name, c in result.constraints.items():
+        if c.get("kind") == "margin" and c.get("active") and name.startswith("assembly of "):
+            point = name[len("assembly of "):]
+            out.append(f"  note: the optimum takes {point} to its limit position (its links in line, margin "
+                       f"{c['value']:.3g}) in the stroke: a lock-up or toggle, where its velocities are infinite; "
+                       f"keep it clear with a constraint (a transmission angle at {point}) or narrow the sweep")
+    return out
 
 
 def headline(result) -> str:

@@ -262,9 +262,10 @@ class _Parser:
             m = _TOKEN.match(text, pos)
             if not m or m.end() == pos:
                 bad = text[pos:].strip()[:1]
+                degrees = "; write degrees as deg, e.g. \"25 deg\"" if bad == "\u00b0" else ""
                 self._fail(
                     f"unexpected character {bad!r} at position {text.index(bad, pos)}"
-                    " (an expression holds numbers, names, + - * / ^, parentheses and function calls)")
+                    f" (an expression holds numbers, names, + - * / ^, parentheses and function calls){degrees}")
             kind = m.lastgroup
             value = m.group(kind)
             if kind == "num" and not math.isfinite(float(value)):
@@ -375,7 +376,10 @@ class _Parser:
                            + ("s" if n != 1 else ""))
             for a in args:
                 if not isinstance(a, Name) or a.name in CONSTANTS:
-                    self._fail(f"{func}() takes point names as arguments, found {_describe(a)}")
+                    zero = isinstance(a, Num) and re.search(r"(?<![\w.])0\d", self.text)   # '04' for 'O4'
+                    self._fail(f"{func}() takes point names as arguments, found {_describe(a)}"
+                               + (" (a point name starts with a letter: the digit 0 written for the letter O?)"
+                                  if zero else ""))
         elif func in UNARY and n != 1:
             self._fail(f"{func}() takes 1 argument, found {n}")
         elif func == "atan2" and n != 2:

@@ -41,6 +41,8 @@ def hint(number_text: str, unit: str) -> str:
         float(number_text)
     except ValueError:
         return head + tail
+    if unit.lower() in ("degree", "degrees", "degs", "grad"):
+        return f"{head}: write {number_text} {unit} as \"{number_text} deg\"{tail}"
     known = UNITS.get(unit) or UNITS.get(unit.replace(" ", ""))
     if known is None:
         return f"{head}: write {number_text} {unit} as a number in SI units{tail}"

@@ -43,7 +43,12 @@ class Validator:
         built = self._check_points(names)
         self._check_bodies(names, built)
         if self.scene.gravity is not None:
-            self._check_expression(Where("gravity", key="g"), self.scene.gravity.g, set(values), [])
+            where = Where("gravity", key="g")
+            self._check_expression(where, self.scene.gravity.g, set(values), [])
+            g = constant_value(self.scene.gravity.g, values, where)
+            if not g >= 0:   # a sign written for the direction would turn the weight upwards
+                self._fail(where, f"expected the magnitude of gravity >= 0 [m/s^2], found {g:g}: it acts "
+                                  f"along -y by definition; write g = {abs(g):g}")
         if self.scene.drive is not None:
             self._check_drive(values, built)
         self._check_constraints(values, names, built)
