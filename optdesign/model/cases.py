@@ -157,14 +157,8 @@ class CaseAnalysis:
         results, evaluated = {}, {}
         for cm, (names, function) in zip(self.cases, self.functions):
             p_case = cm.case_parameters(np.asarray(p_values, float))
-            nodes, on_sample = self._nodes(cm)
-            values = dict(zip(names, (np.asarray(v, float).ravel() for v in function(nodes, p_case))))
-            if self.mech.scene.drive.kind == "rotary":
-                values["q"] = np.unwrap(values["q"])
-            if cm.profile is not None and cm.profile.law_speed is not None:
-                check_law(cm.profile, nodes, np.abs(values["sd"]), cm.name)
-            times = CaseTimes.of(cm, nodes, values)
-            values["t"] = times.t
+            nodes, on_sample = case_nodes(self.s_values, cm.profile)
+            values, times = self._evaluate(cm, names, function, nodes, p_case)
             hold = values.pop("hold_load")
             constraints = {k.split(":", 1)[1]: values.pop(k) for k in list(values) if k.startswith("constraint:")}
             ends = {"start": hold[np.argmin(np.abs(nodes - cm.begins_at(np.sign(values["k"][0]))))],
@@ -177,7 +171,10 @@ class CaseAnalysis:
                     i = int(np.argmax(np.abs(columns[key])))
                     peaks[key] = float(abs(columns[key][i]))
                     peak_at[key] = {"s": float(nodes[i]), "value": float(columns[key][i])}
-            integrals = case_integrals(times, columns, cm.profile.sigma if cm.profile is not None else 1.0)
+            sigma = cm.profile.sigma if cm.profile is not None else 1.0
+            integrals = case_integrals(times, columns, sigma)
+            if integrals:
+                integrals["unresolved"] = self._unresolved(cm, names, function, p_case, integrals, sigma)
             profile = None if cm.case.profile is None else (cm.case.profile if isinstance(cm.case.profile, str)
                                                             else f"inline {cm.profile.shape.kind}")
             results[cm.name] = CaseResult(cm.name, cm.case.direction, profile, cm.case.efficiency,
@@ -199,8 +196,42 @@ class CaseAnalysis:
             train = cylinder_report(self.mech.scene, values, results)
         return CasesResult(results, governing_cases(results), duty, train)
 
-    def _nodes(self, cm):
-        return case_nodes(self.s_values, cm.profile)
+    def _evaluate(self, cm, names, function, nodes, p_case):
+        """The case's outputs at ``nodes`` (q unwrapped for a crank) and its times."""
+        values = dict(zip(names, (np.asarray(v, float).ravel() for v in function(nodes, p_case))))
+        if self.mech.scene.drive.kind == "rotary":
+            values["q"] = np.unwrap(values["q"])
+        if cm.profile is not None and cm.profile.law_speed is not None:
+            check_law(cm.profile, nodes, np.abs(values["sd"]), cm.name)
+        times = CaseTimes.of(cm, nodes, values)
+        values["t"] = times.t
+        return values, times
+
+    def _unresolved(self, cm, names, function, p_case, integrals, sigma) -> dict:
+        """The integrals over time that the samples do not resolve: each one's value from every
+        other sample of the scene's (the rule's error falls as the square of the spacing, so
+        on a load that the samples follow the two differ by a small fraction of a percent) when
+        it differs from the value on all of them by more than RESOLUTION of the larger; {} when
+        every one agrees.  A load that changes faster than the samples, as next to a lock-up
+        where the drive turns ever faster for the same motion of the output, gives
+        integrals that are not the stroke's (name -> {value, samples, half_value, half_samples})."""
+        s = self.s_values
+        if len(s) < 5:
+            return {}
+        half = s[::2] if len(s) % 2 else np.r_[s[:-1:2], s[-1]]
+        nodes, _ = case_nodes(half, cm.profile)
+        values, times = self._evaluate(cm, names, function, nodes, p_case)
+        coarse = case_integrals(times, {"s": nodes, **values}, sigma)
+        out = {}
+        for key, scale in (("energy", max(abs(integrals["energy"]), integrals["energy_driving"])),
+                           ("rms_time", integrals["rms_time"])):
+            a, b = integrals[key], coarse[key]
+            if abs(a - b) > RESOLUTION * max(scale, abs(b)):
+                out[key] = {"value": a, "samples": len(s), "half_value": b, "half_samples": len(half)}
+        return out
+
+
+RESOLUTION = 0.01   # an integral over time that changes by more than this fraction with half the samples
 
 
 def case_nodes(s, profile):

@@ -98,11 +98,26 @@ def cases_table(result, samples: bool = True) -> str:
         if c.integrals:
             lines.append(f"  RMS over its time {c.integrals['rms_time']:.8g} {units['drive']}, energy "
                          f"{c.integrals['energy']:.8g} J (driving {c.integrals['energy_driving']:.8g} J)")
+            lines += unresolved_lines(c.integrals.get("unresolved"), units)
     lines.append("governing cases:")
     for key, g in cr.governing.items():
         lines.append(f"  peak |{key}| = {g['value']:.8g}{_unit(units, key)}: case {g['case']!r} at {sweep} = {g['s']:.8g}")
     lines += _duty_lines(cr.duty, units) + _train_lines(cr.train, kind)
     return "\n".join(lines)
+
+
+def unresolved_lines(unresolved, units) -> list:
+    """What the case's samples do not resolve (model/cases.py ``_unresolved``): its integrals
+    from half the samples, a warning and what to do."""
+    if not unresolved:
+        return []
+    shown = {"energy": ("energy", "J"), "rms_time": ("RMS over its time", units["drive"])}
+    parts = [f"{shown[key][0]} {u['value']:.6g} {shown[key][1]} on {u['samples']} samples, "
+             f"{u['half_value']:.6g} {shown[key][1]} on {u['half_samples']}" for key, u in unresolved.items()]
+    return [f"  WARNING: not resolved by the samples ({'; '.join(parts)}): the drive's load changes faster than "
+            "the samples follow, as next to a lock-up, where the drive turns ever faster for the same motion of "
+            "the output; these integrals (and the duty cycle's) are not the stroke's: use more samples "
+            "(--samples, [sweep] samples) or keep the design away from the lock-up"]
 
 
 def _duty_lines(duty, units):
