@@ -76,3 +76,20 @@ def test_more_samples_resolve_it():
     raise_ = cases.cases["raise"].integrals
     assert raise_["unresolved"] == {}
     assert raise_["energy"] == pytest.approx(rise, rel=2e-3)
+
+
+def test_an_optimum_next_to_the_lock_up_says_it_too():
+    """optimise's summary and JSON at an optimum whose cases the samples do not resolve (the
+    result of a 1-start run with its design moved next to the lock-up, as the lift table
+    without its crank-rod angle constraint reaches: a 20-start run takes half a minute)."""
+    import dataclasses
+
+    from optdesign.report.design import optimisation_json, summary
+
+    result = optdesign.optimise(scene(0.14, 0.0), starts=1, workers=1)
+    assert "not resolved" not in summary(result)
+    assert optimisation_json(result)["cases"]["unresolved"] == {}
+    near = dataclasses.replace(result, design={"r": 0.105, "e": 0.07433})
+    lines = [line for line in summary(near).splitlines() if "not resolved by the samples" in line]
+    assert [line.split(":")[0] for line in lines] == ["  case 'raise'", "  case 'lower'"]
+    assert set(optimisation_json(near)["cases"]["unresolved"]) == {"raise", "lower"}

@@ -9,6 +9,8 @@ import re
 
 import numpy as np
 
+from .cases import UNITS, unresolved_lines
+
 _IN_CASE = re.compile(r"^(?P<what>.*?) in cases? '(?P<case>[^']*)'(?P<more>(, '[^']*')*)$")
 _COLUMN = {"motor peak torque": "motor_torque", "motor speed": "motor_speed", "rod buckling": "rod_buckling"}
 
@@ -59,7 +61,13 @@ def cases_json(result) -> dict:
         return {}
     return {"cases": {"governing": governing(result, cases),
                       "duty": {k: v for k, v in cases.duty.items() if k != "integrals"},
-                      "drive_train": cases.train}}
+                      "drive_train": cases.train, "unresolved": unresolved(cases)}}
+
+
+def unresolved(cases) -> dict:
+    """Case name -> the integrals over time its samples do not resolve (model/cases.py), for
+    the cases that have any."""
+    return {name: c.integrals["unresolved"] for name, c in cases.cases.items() if c.integrals.get("unresolved")}
 
 
 def cases_summary(result) -> str:
@@ -84,6 +92,8 @@ def cases_summary(result) -> str:
         rms = ", ".join(f"{k} {v:.6g}" for k, v in duty["rms_time"].items())
         lines.append(f"  duty cycle {duty['cycle_time']:.6g} s: RMS over time {rms}; energy {duty['energy']:.6g} J, "
                      f"mean power {duty['mean_power']:.6g} W")
+    for name, u in unresolved(cases).items():
+        lines += [f"  case {name!r}:{line[1:]}" for line in unresolved_lines(u, UNITS[result.scene.drive.kind])]
     train = cases.train
     for name, m in train.get("motors", {}).items():
         lines.append(f"  motor {name!r} at i = {train['ratio']:.6g}: peak {m['peak']:.6g} N m, RMS {m.get('rms', math.nan):.6g} "
