@@ -1,4 +1,4 @@
-"""A load case's integrals over time that its samples do not resolve are said, not reported as
+"""Next to a lock-up: a load case's integrals over time that its samples do not resolve are said, not reported as
 the stroke's (model/cases.py ``_unresolved``).
 
 The lift table of tests/data/usertrial (a crank and rod lifting a platform along a stated
@@ -93,3 +93,19 @@ def test_an_optimum_next_to_the_lock_up_says_it_too():
     lines = [line for line in summary(near).splitlines() if "not resolved by the samples" in line]
     assert [line.split(":")[0] for line in lines] == ["  case 'raise'", "  case 'lower'"]
     assert set(optimisation_json(near)["cases"]["unresolved"]) == {"raise", "lower"}
+
+
+def test_a_run_that_fails_at_the_lock_up_says_where():
+    """Without its crank-rod angle constraint the lift table's objective pulls the design into
+    the lock-up, where IPOPT meets numbers that are not finite: the error says which
+    construction is at its limit and what to add (it said only 'Invalid_Number_Detected ... try
+    more starts').  The end design's lock-up is checked with numpy: |C| at the top of the
+    stroke equals r + Lr."""
+    text = LIFT.read_text()
+    cut = text.index('[[constraints]]\nname = "crank-rod angle"')
+    text = text[:cut] + text[text.index("[objective]"):]
+    result = optdesign.optimise(optdesign.loads(text, "lift_table.toml"), starts=1, workers=1)
+    assert not result.success and "Invalid_Number_Detected" in result.status
+    assert "assembly of A (margin" in result.message and "lock-up" in result.message
+    end = result.starts[0].end
+    assert abs(np.hypot(end["e"], 0.55) - (end["r"] + LR)) < 1e-6

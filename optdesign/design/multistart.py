@@ -275,11 +275,43 @@ def _no_optimum(pb, reports, timings, starts_info) -> OptimisationResult:
             {}, {}, len(reports), 0, tuple(reports), timings, pb.settings,
             least_violating=None if least is None else {"design": least.feasible_start, "violated": violated},
             start_plan=starts_info)
+    limits = {}
+    for r in reports:
+        if r.end is not None and "Invalid_Number" in r.status:
+            limits.update(at_limit_positions(pb, r.end))
+    lockup = ("" if not limits else
+              " The starts that ended on a number that is not finite (Invalid_Number_Detected) ended where "
+              + ", ".join(f"{k} (margin {v:.3g})" for k, v in limits.items())
+              + " is at its limit position: a lock-up, where the drive would move infinitely fast for the "
+              "output's motion. The objective pulls the design there: add a constraint that keeps the links "
+              "out of line (a transmission angle, or the angle between the two links of that construction).")
     return OptimisationResult(
         pb.scene, {}, None, None, pb.objective_kind, None, None, False, "; ".join(statuses),
         "No start converged to a feasible design. Try more starts (--starts), widen the bounds, "
-        "relax the constraints, or check the start with `optdesign analyse`.",
+        "relax the constraints, or check the start with `optdesign analyse`." + lockup,
         {}, {}, len(reports), 0, tuple(reports), timings, pb.settings, start_plan=starts_info)
+
+
+def at_limit_positions(pb, design: dict, near=1e-4) -> dict:
+    """The constructions that ``design`` takes to (or past) a limit position on the NLP's initial
+    sample points: assembly block name -> its least margin in physical units, for each margin
+    whose least value over the stroke is within ``near`` of its largest (a dyad's two links in
+    line: a lock-up, where the drive moves infinitely fast for the output's motion and the
+    model's derivatives are not finite)."""
+    x = np.array([design[n] for n in pb.design_names])
+    fixed = pb.mech.parameter_values[pb.fixed_index]
+    s_pts = np.r_[pb.base_points, pb.initial_slots]
+    phase1 = pb._once("phase 1", lambda: Phase1(pb))
+    w = Solver(pb)._initial_w(x, fixed, s_pts)
+    if isinstance(w, str):
+        return {}
+    g = np.asarray(phase1.g(w, pb.nlp_parameters(fixed, s_pts, x))).ravel()
+    out = {}
+    for name, kind, start, n in pb.g_blocks:
+        values = g[start:start + n]
+        if kind == "margin" and n and np.all(np.isfinite(values)) and values.min() <= near * np.abs(values).max():
+            out[name] = float(values.min()) * pb.g_scale.get(name, 1.0)
+    return out
 
 
 def violated_constraints(pb, design: dict) -> dict:
