@@ -282,3 +282,42 @@ def test_a_graph_too_large_is_not_written_as_c(cache, monkeypatch):
     assert not started and not list(cache.glob("*.so"))
     (failed,) = cache.glob("*.failed")
     assert "(serialized) is more than this cache compiles" in failed.read_text()
+
+
+def test_a_failed_compile_is_said_once_by_a_command_and_its_workers(cache):
+    """A command's forked workers meet the same failed entry (the helper's four-bar: its phase-1
+    NLP over the size limit, met by the command and by each worker): one line per run, not one
+    per process; another run (another process group) says it again."""
+    import multiprocessing
+
+    cache.mkdir(parents=True)
+    key = "nlpsol-" + "0" * 32
+    (cache / f"{key}.failed").write_text("OSError: too large (a stand-in)\n")
+    ctx = multiprocessing.get_context("fork")
+    said = ctx.Queue()
+
+    def worker():
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            assert compiled._failed_recently(key)
+        said.put(sum("failed" in str(w.message) for w in caught))
+
+    procs = [ctx.Process(target=worker) for _ in range(3)]
+    for p in procs:
+        p.start()
+    for p in procs:
+        p.join(30)
+        assert p.exitcode == 0
+    assert sorted(said.get(timeout=5) for _ in procs) == [0, 0, 1]
+    # another run: a process in a new session (process group) says it again
+    code = textwrap.dedent(f"""
+        import warnings
+        from optdesign.model import compiled
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            assert compiled._failed_recently({key!r})
+        print(sum("failed" in str(w.message) for w in caught))
+    """)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, start_new_session=True,
+                         env={**os.environ, "PYTHONPATH": str(ROOT)}, timeout=60)
+    assert out.stdout.strip() == "1", out.stderr

@@ -264,12 +264,40 @@ def _failed_recently(key: str) -> bool:
     marker = cache_dir() / f"{key}.failed"
     try:
         if time.time() - marker.stat().st_mtime < RETRY_AFTER_S:
-            say_once(key, f"optdesign: compiling {key} failed (see {marker}): it runs on CasADi's virtual "
-                          "machine, slower")
+            if key not in _warned and _first_in_this_run(marker):
+                say_once(key, f"optdesign: compiling {key} failed (see {marker}): it runs on CasADi's virtual "
+                              "machine, slower")
+            _warned.add(key)
             return True
     except OSError:
         pass
     return False
+
+
+def _first_in_this_run(marker: Path) -> bool:
+    """True for the first process of this run (its process group: a command and the workers it
+    forks) to meet the failed ``marker``: the others say nothing (a failure found by each of a
+    command's workers was said once by each).  Recorded beside the marker (``.said``: the last
+    run's group), under a file lock; where that cannot be done, True."""
+    import fcntl
+
+    try:
+        fd = os.open(marker.with_name(marker.name + ".said"), os.O_RDWR | os.O_CREAT, 0o644)
+    except OSError:
+        return True
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        run = str(os.getpgid(0)).encode()
+        if os.read(fd, 64) == run:
+            return False
+        os.lseek(fd, 0, os.SEEK_SET)
+        os.ftruncate(fd, 0)
+        os.write(fd, run)
+        return True
+    except OSError:
+        return True
+    finally:
+        os.close(fd)
 
 
 def library(key: str, prepare, wait: bool | None = None, graph_bytes: int = 0) -> Path | None:
