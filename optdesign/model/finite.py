@@ -72,7 +72,8 @@ def cause(analysis, s_value, p_values) -> str:
         items = list(_items(analysis, s_value, p_values))
         for where, value in items:
             if not math.isfinite(value):
-                return f"; the first of the scene's values that is not finite there: {where} = {_what(value)}"
+                return (f"; the first of the scene's values that is not finite there: {where} = {_what(value)}"
+                        + (_coinciding(analysis, where[6:-4], s_value, p_values) if where.startswith("point ") else ""))
         for where, value in items:
             if where.startswith("the drive's points") and value == 0.0:
                 return (f"; {where} coincide there, so the drive's {'angle' if analysis.scene.drive.kind == 'rotary' else 'length'} "
@@ -81,6 +82,26 @@ def cause(analysis, s_value, p_values) -> str:
         pass
     return ("; every point, mass, load and drive value is finite there: a derivative is not (a kink or a "
             "square root at zero in an expression, a geometry that degenerates there)")
+
+
+def _coinciding(analysis, name, s_value, p_values) -> str:
+    """', built from A and K, which coincide there ...' when two of the points that point
+    ``name``'s construction refers to coincide at s_value (a frame or a link of zero length)."""
+    mech = analysis.mech
+    spec = next((p for p in mech.scene.points if p.name == name), None)
+    refs = [] if spec is None else [v for k, v in vars(spec).items()
+                                    if k != "name" and isinstance(v, str) and v in mech.points]
+    pairs = [(a, b) for i, a in enumerate(refs) for b in refs[i + 1:] if a != b]
+    if not pairs:
+        return ""
+    f = mech.function("coinciding", {f"d{i}": ca.sumsqr(mech.points[a] - mech.points[b]) for i, (a, b) in enumerate(pairs)})
+    values = f(s_value, p_values)
+    values = values if isinstance(values, (list, tuple)) else [values]
+    for (a, b), d in zip(pairs, values):
+        if float(np.asarray(d, float).ravel()[0]) == 0.0:
+            return (f", built from {a} and {b}, which coincide there (a frame or a link of zero length): check the "
+                    f"lengths that place {a} and {b}, e.g. a parameter set to 0")
+    return ""
 
 
 def _items(analysis, s_value, p_values):

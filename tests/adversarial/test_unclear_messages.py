@@ -236,3 +236,16 @@ def test_a_t_end_far_beyond_the_motion_is_named_as_the_cause():
         optdesign.simulate(scene, t_end=1e9)
     assert ("CVODES needed more than 20,000 steps for the 1.25e+06 s between two of its output points; if t_end is "
             "far longer than the motion you meant to follow (e.g. 1e9 s), shorten it") in str(caught.value)
+
+
+def test_a_point_built_on_a_frame_of_zero_length_names_the_two_points(capsys):
+    """The forestry crane of tests/data/usertrial with its boom length L = 0: the rod eye B is
+    attached to the frame A -> K, and A and K coincide.  The error named 'point B (x) = NaN' and
+    no cause; it now names A and K and what to check."""
+    from pathlib import Path
+
+    crane = Path(__file__).resolve().parents[1] / "data" / "usertrial" / "forestry_crane_boom.toml"
+    assert main(["analyse", str(crane), "--set", "L=0"]) == 2
+    err = capsys.readouterr().err
+    assert "point B (x) = NaN, built from A and K, which coincide there" in err
+    assert "e.g. a parameter set to 0" in err and "Traceback" not in err
