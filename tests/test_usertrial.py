@@ -435,3 +435,28 @@ def test_a_zero_for_the_letter_o_in_a_point_name_is_pointed_out():
         optdesign.loads(text, "arm.toml")
     msg = str(info.value)
     assert msg.startswith("arm.toml, line ") and "found 4" in msg and "the digit 0 written for the letter O?" in msg
+
+
+def test_analyse_takes_the_design_of_a_result(tmp_path, capsys):
+    """`analyse --design result.json` (the other commands that take a design had it; a user
+    could check an optimum only with one --set per variable): the same analysis as the design
+    set by hand, and a result of another scene refused in one line."""
+    import json
+
+    from optdesign.cli import main as cli
+
+    crane = str(DATA / "forestry_crane_boom.toml")
+    result = tmp_path / "result.json"
+    design = {"xD": -0.05, "yD": -1.4, "b": 0.95}
+    result.write_text(json.dumps({"file": crane, "design": design}))
+    assert cli.main(["analyse", crane, "--design", str(result), "--json", "-q"]) == 0
+    by_file = json.loads(capsys.readouterr().out)
+    by_hand = ["--set", "xD=-0.05", "--set", "yD=-1.4", "--set", "b=0.95"]
+    assert cli.main(["analyse", crane, *by_hand, "--json", "-q"]) == 0
+    assert json.loads(capsys.readouterr().out)["peaks"] == by_file["peaks"]
+    assert cli.main(["analyse", crane, "--json", "-q"]) == 0
+    assert json.loads(capsys.readouterr().out)["peaks"]["drive"] != by_file["peaks"]["drive"]
+    other = tmp_path / "other.json"
+    other.write_text(json.dumps({"design": {"r": 0.05}}))
+    assert cli.main(["analyse", crane, "--design", str(other)]) == 2
+    assert "is not this scene's (xD, yD, b)" in capsys.readouterr().err

@@ -3,7 +3,8 @@ from __future__ import annotations
 
 import sys
 
-from .common import add_scene_arguments, emit, load_scene, results_folder
+from .common import add_scene_arguments, emit, results_folder
+from .design_option import add_design_argument, scene_with_design
 
 HELP = "the reduced one-element model (drive torque or force) over the stroke"
 
@@ -23,6 +24,7 @@ def add_arguments(p):
     p.formatter_class = argparse.RawDescriptionHelpFormatter
     p.epilog = EPILOG
     add_scene_arguments(p)
+    add_design_argument(p, "analyse")
     p.add_argument("--plot", metavar="DIR", help="write figures (PNG) into DIR")
     p.add_argument("--table", action="store_true", help="print the table over every sample (after which the "
                    "peaks and constraints in SI); without it, the summary in the scene's units")
@@ -35,7 +37,7 @@ def run(args):
 
     if args.plot:
         results_folder(args.plot, "--plot", report.FIGURES)
-    result = analyse(load_scene(args), args.samples)
+    result = analyse(scene_with_design(args), args.samples)
     if args.plot:
         for path in report.analysis_figures(result, args.plot, label="--plot"):
             print(f"wrote {path}", file=sys.stderr)

@@ -1,4 +1,5 @@
-"""What the drawing commands share: ``--design result.json`` (draw an optimised design) and the
+"""What the commands that take a design share: ``--design result.json`` (draw, animate, analyse or
+simulate an optimised design) and, for the drawing commands, the
 default output folder, ``optdesign-results/`` under the current directory (never the
 project's tracked ``results/`` unless asked with ``--out``).  Imports cheaply."""
 from __future__ import annotations
@@ -11,10 +12,10 @@ from .common import load_scene
 DEFAULT_ROOT = Path("optdesign-results")
 
 
-def add_design_argument(p):
+def add_design_argument(p, verb="draw", example=""):
     p.add_argument("--design", metavar="RESULT_JSON",
-                   help="draw the design of an optimisation: its result.json (the scene's design variables set "
-                        "to the optimum's values)")
+                   help=f"{verb} the design of an optimisation: its result.json (the scene's design variables set "
+                        f"to the optimum's values{example})")
 
 
 def scene_with_design(args):

@@ -10,13 +10,12 @@ HELP = "motion in time under the drive law of [drive] from the start in [simulat
 def add_arguments(p):
     from .common import real_number, whole_number
     from .common import samples as _samples
+    from .design_option import add_design_argument
 
     p.add_argument("scene", help="scene file (TOML) with [drive] law and [simulation], e.g. problems/sim_slider_crank.toml")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter (repeatable)")
-    p.add_argument("--design", metavar="RESULT_JSON",
-                   help="simulate the design of an optimisation: its result.json (the scene's design variables "
-                        "set to the optimum's values, e.g. the sized gear ratio)")
+    add_design_argument(p, "simulate", ", e.g. the sized gear ratio")
     p.add_argument("--integrator", choices=("bdf", "adams", "rk4"), default=None,
                    help="bdf: CVODES BDF, Newton (implicit, stiff cases); adams: CVODES Adams, functional "
                         "iteration (non-stiff); rk4: fixed-step explicit RK4 (default: the scene's, else bdf)")
