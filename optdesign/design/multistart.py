@@ -292,23 +292,29 @@ def _no_optimum(pb, reports, timings, starts_info) -> OptimisationResult:
         {}, {}, len(reports), 0, tuple(reports), timings, pb.settings, start_plan=starts_info)
 
 
-def at_limit_positions(pb, design: dict, near=1e-4) -> dict:
-    """The constructions that ``design`` takes to (or past) a limit position on the NLP's initial
-    sample points: assembly block name -> its least margin in physical units, for each margin
-    whose least value over the stroke is within ``near`` of its largest (a dyad's two links in
-    line: a lock-up, where the drive moves infinitely fast for the output's motion and the
-    model's derivatives are not finite)."""
+def rows_at(pb, design: dict):
+    """(g, s_pts): the NLP's rows at ``design`` on its initial sample points, or None when the
+    design does not assemble there."""
     x = np.array([design[n] for n in pb.design_names])
     fixed = pb.mech.parameter_values[pb.fixed_index]
     s_pts = np.r_[pb.base_points, pb.initial_slots]
     phase1 = pb._once("phase 1", lambda: Phase1(pb))
     w = Solver(pb)._initial_w(x, fixed, s_pts)
     if isinstance(w, str):
-        return {}
-    g = np.asarray(phase1.g(w, pb.nlp_parameters(fixed, s_pts, x))).ravel()
+        return None
+    return np.asarray(phase1.g(w, pb.nlp_parameters(fixed, s_pts, x))).ravel(), s_pts
+
+
+def at_limit_positions(pb, design: dict, near=1e-4) -> dict:
+    """The constructions that ``design`` takes to (or past) a limit position on the NLP's initial
+    sample points: assembly block name -> its least margin in physical units, for each margin
+    whose least value over the stroke is within ``near`` of its largest (a dyad's two links in
+    line: a lock-up, where the drive moves infinitely fast for the output's motion and the
+    model's derivatives are not finite)."""
+    rows = rows_at(pb, design)
     out = {}
-    for name, kind, start, n in pb.g_blocks:
-        values = g[start:start + n]
+    for name, kind, start, n in pb.g_blocks if rows is not None else ():
+        values = rows[0][start:start + n]
         if kind == "margin" and n and np.all(np.isfinite(values)) and values.min() <= near * np.abs(values).max():
             out[name] = float(values.min()) * pb.g_scale.get(name, 1.0)
     return out
@@ -317,14 +323,10 @@ def at_limit_positions(pb, design: dict, near=1e-4) -> dict:
 def violated_constraints(pb, design: dict) -> dict:
     """Each block violated at ``design`` on the NLP's initial sample points: its worst
     violation in physical units (a margin: how far the construction is from assembling)."""
-    x = np.array([design[n] for n in pb.design_names])
-    fixed = pb.mech.parameter_values[pb.fixed_index]
-    s_pts = np.r_[pb.base_points, pb.initial_slots]
-    phase1 = pb._once("phase 1", lambda: Phase1(pb))
-    w = Solver(pb)._initial_w(x, fixed, s_pts)
-    if isinstance(w, str):
+    rows = rows_at(pb, design)
+    if rows is None:
         return {"assembly": float("inf")}
-    g = np.asarray(phase1.g(w, pb.nlp_parameters(fixed, s_pts, x))).ravel()
+    g, s_pts = rows
     lbg, ubg = pb.row_bounds(s_pts)
     out = {}
     for name, kind, start, n in pb.g_blocks:
