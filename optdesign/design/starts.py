@@ -165,7 +165,7 @@ def _store_sobol(name: str, key: dict, points: np.ndarray):
     """Write the points and then their key (the key file last: a torn write is not trusted)."""
     import io
 
-    from ..model.compiled import _write_atomic
+    from ..model.cachefiles import write_atomic
 
     buf = io.BytesIO()
     np.save(buf, np.ascontiguousarray(points, dtype=np.float64), allow_pickle=False)
@@ -173,8 +173,8 @@ def _store_sobol(name: str, key: dict, points: np.ndarray):
     try:
         folder = _sobol_folder()
         folder.mkdir(parents=True, exist_ok=True)
-        _write_atomic(folder / f"{name}.npy", data)
-        _write_atomic(folder / f"{name}.json",
+        write_atomic(folder / f"{name}.npy", data)
+        write_atomic(folder / f"{name}.json",
                       json.dumps({"key": key, "sha256": hashlib.sha256(data).hexdigest()}, indent=1).encode())
     except OSError:
         pass   # a read-only or full cache folder: the points are drawn again next time

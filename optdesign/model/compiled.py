@@ -43,6 +43,8 @@ import time
 import warnings
 from pathlib import Path
 
+from .cachefiles import FileLock, first_in_this_run, write_atomic
+
 FORMAT = 1
 # -march=native (the key names the processor: a shared cache folder keeps one library per kind
 # of processor); IEEE arithmetic kept: no fast-math, no contraction into fused multiply-adds
@@ -264,7 +266,7 @@ def _failed_recently(key: str) -> bool:
     marker = cache_dir() / f"{key}.failed"
     try:
         if time.time() - marker.stat().st_mtime < RETRY_AFTER_S:
-            if key not in _warned and _first_in_this_run(marker):
+            if key not in _warned and first_in_this_run(marker):
                 say_once(key, f"optdesign: compiling {key} failed (see {marker}): it runs on CasADi's virtual "
                               "machine, slower")
             _warned.add(key)
@@ -272,32 +274,6 @@ def _failed_recently(key: str) -> bool:
     except OSError:
         pass
     return False
-
-
-def _first_in_this_run(marker: Path) -> bool:
-    """True for the first process of this run (its process group: a command and the workers it
-    forks) to meet the failed ``marker``: the others say nothing (a failure found by each of a
-    command's workers was said once by each).  Recorded beside the marker (``.said``: the last
-    run's group), under a file lock; where that cannot be done, True."""
-    import fcntl
-
-    try:
-        fd = os.open(marker.with_name(marker.name + ".said"), os.O_RDWR | os.O_CREAT, 0o644)
-    except OSError:
-        return True
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX)
-        run = str(os.getpgid(0)).encode()
-        if os.read(fd, 64) == run:
-            return False
-        os.lseek(fd, 0, os.SEEK_SET)
-        os.ftruncate(fd, 0)
-        os.write(fd, run)
-        return True
-    except OSError:
-        return True
-    finally:
-        os.close(fd)
 
 
 def library(key: str, prepare, wait: bool | None = None, graph_bytes: int = 0) -> Path | None:
@@ -310,7 +286,7 @@ def library(key: str, prepare, wait: bool | None = None, graph_bytes: int = 0) -
     if graph_bytes > MAX_GRAPH:
         try:
             cache_dir().mkdir(parents=True, exist_ok=True)
-            _write_atomic(cache_dir() / f"{key}.failed", f"OSError: a graph of {graph_bytes / 1e6:.1f} MB (serialized) "
+            write_atomic(cache_dir() / f"{key}.failed", f"OSError: a graph of {graph_bytes / 1e6:.1f} MB (serialized) "
                           f"is more than this cache compiles ({MAX_GRAPH / 1e6:g} MB)\n".encode())
         except OSError:
             pass
@@ -321,7 +297,7 @@ def library(key: str, prepare, wait: bool | None = None, graph_bytes: int = 0) -
     try:
         folder.mkdir(parents=True, exist_ok=True)
         if not wait:
-            with _Lock(folder / f"{key}.lock", block=False) as free:
+            with FileLock(folder / f"{key}.lock", block=False) as free:
                 if not free:
                     return None   # being compiled by another process
         job = dict(prepare(folder), key=key)
@@ -346,7 +322,7 @@ def _start_background(job: dict):
     folder = cache_dir()
     path = folder / f"{job['key']}.job{os.getpid()}.json"
     job = dict(job, cleanup=[*job.get("cleanup", ()), str(path)])
-    _write_atomic(path, json.dumps(job).encode())
+    write_atomic(path, json.dumps(job).encode())
     env = dict(os.environ)
     root = str(Path(__file__).resolve().parents[2])
     env["PYTHONPATH"] = root + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
@@ -370,7 +346,7 @@ def run_job(job: dict, block: bool = True) -> bool:
     code of the solver's functions), compile it to a temporary file, record its SHA-256, move it
     in place.  One builder per entry at a time (a lock file); True when the entry is there."""
     folder, key = cache_dir(), job["key"]
-    with _Lock(folder / f"{key}.lock", block=block) as held:
+    with FileLock(folder / f"{key}.lock", block=block) as held:
         if not held:
             _cleanup(job)
             return False
@@ -403,12 +379,12 @@ def run_job(job: dict, block: bool = True) -> bool:
                     "name": job.get("name"), "generate_s": generate_s, "compile_s": time.perf_counter() - t0,
                     "created": time.strftime("%Y-%m-%d %H:%M:%S")}
             os.replace(f"{stem}.so", folder / f"{key}.so")
-            _write_atomic(folder / f"{key}.json", json.dumps(meta, indent=1).encode())
+            write_atomic(folder / f"{key}.json", json.dumps(meta, indent=1).encode())
             (folder / f"{key}.failed").unlink(missing_ok=True)
             prune(keep=key)
             return True
         except Exception as exc:   # noqa: BLE001 - any failure means: use the virtual machine
-            _write_atomic(folder / f"{key}.failed", f"{type(exc).__name__}: {exc}\n".encode())
+            write_atomic(folder / f"{key}.failed", f"{type(exc).__name__}: {exc}\n".encode())
             return False
         finally:
             for leftover in (c_file, Path(f"{stem}.so")):
@@ -432,41 +408,6 @@ def _nlpsol_source(job, c_file: Path):
         os.chdir(cwd)
 
 
-def _write_atomic(path: Path, data: bytes):
-    tmp = path.with_name(f"{path.name}.tmp{os.getpid()}")
-    with open(tmp, "wb") as f:
-        f.write(data)
-        f.flush()
-        os.fsync(f.fileno())
-    os.replace(tmp, path)
-
-
-class _Lock:
-    """An exclusive lock on a file (fcntl), blocking or not; ``with`` gives whether it is held."""
-
-    def __init__(self, path: Path, block: bool):
-        self.path, self.block, self.fd = path, block, None
-
-    def __enter__(self) -> bool:
-        try:
-            import fcntl
-        except ImportError:   # pragma: no cover - no locks on this platform: build anyway
-            return True
-        self.fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
-        try:
-            fcntl.flock(self.fd, fcntl.LOCK_EX | (0 if self.block else fcntl.LOCK_NB))
-            return True
-        except OSError:
-            os.close(self.fd)
-            self.fd = None
-            return False
-
-    def __exit__(self, *exc):
-        if self.fd is not None:
-            os.close(self.fd)   # releases the lock
-            self.fd = None
-
-
 # --- the two kinds of entry ------------------------------------------------------------------
 def external(func, name: str, source, wait: bool | None = None):
     """``func`` (a CasADi Function) compiled: a ``ca.external`` of the cached library, or None
@@ -478,7 +419,7 @@ def external(func, name: str, source, wait: bool | None = None):
 
     def prepare(folder):
         c_file = folder / f"{key}.src{os.getpid()}.c"
-        _write_atomic(c_file, source(name).encode())
+        write_atomic(c_file, source(name).encode())
         return {"kind": "source", "name": name, "source": str(c_file), "cleanup": [str(c_file)]}
 
     path = library(key, prepare, wait, graph_bytes=len(graph))
@@ -497,7 +438,7 @@ def solver(name: str, plugin: str, nlp, options: dict, wait: bool | None = None)
 
     def prepare(folder):
         serial = folder / f"{key}.fn{os.getpid()}"
-        _write_atomic(serial, graph.encode())
+        write_atomic(serial, graph.encode())
         return {"kind": "nlpsol", "name": name, "plugin": plugin, "options": functions, "function": str(serial),
                 "cleanup": [str(serial)]}
 

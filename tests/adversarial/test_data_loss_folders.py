@@ -203,7 +203,7 @@ def test_ctrl_c_before_anything_is_written_says_so(tmp_path, monkeypatch, capsys
     def interrupted(*a, **k):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(cli_analyse, "load_scene", interrupted)
+    monkeypatch.setattr(cli_analyse, "scene_with_design", interrupted)
     assert main(["analyse", str(JIB), "--plot", str(tmp_path / "p")]) == 130
     assert "interrupted (nothing was written: every results folder is as it was)" in capsys.readouterr().err
     assert not (tmp_path / "p").exists()
