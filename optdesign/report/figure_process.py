@@ -38,7 +38,7 @@ class FigureProcess:
 
     def write(self, result, folder, workers, animate) -> list | None:
         """The figures of ``result`` written into ``folder`` by the process (paths), or None
-        when the process is not there to draw them (then nothing was written)."""
+        when the process is not there to draw them (the caller then draws them itself)."""
         if self._proc is None:
             return None
         try:
