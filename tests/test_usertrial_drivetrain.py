@@ -61,3 +61,67 @@ def test_barrier_cases_drive_torque_by_closed_form(case, Fw):
     load = np.asarray(cols["motor_load_torque"], float)[inner]
     c_g = np.where(ref * sd > 0, 1 / ETA_G, ETA_G)
     assert np.max(np.abs(load - c_g * ref / i)) < 1e-6 * np.max(np.abs(ref / i))
+
+
+def test_a_hold_without_its_case_says_so(tmp_path):
+    """{ hold = 8 } without the case whose load it carries said 'expected the name of a case,
+    found None'."""
+    text = (DATA / "barrier_gate_motor.toml").read_text().replace('{ hold = 8, case = "open" }', "{ hold = 8 }")
+    path = tmp_path / "barrier.toml"
+    path.write_text(text)
+    with pytest.raises(optdesign.SceneError) as err:
+        optdesign.load(path)
+    assert "a hold needs the case" in str(err.value) and "dwell" in str(err.value)
+    assert "None" not in str(err.value)
+
+
+# ---------------------------------------------------------------- loading ramp on a cylinder
+
+RAMP = dict(Lr=3.0, mr=800.0, xD=0.9, yD=-1.1, b=1.2, h=0.15, eta=0.9, p=16e6, E=210e9, S=3.5)
+
+
+def ramp_force(theta, sd, sdd, msnow):
+    """The cylinder's push F = (J_A theta'' + M_g(theta)) / (dL/dtheta) through 1/eta (raising),
+    B = (b cos + h sin, b sin - h cos), L = |B - D|, the ramp a uniform bar, the snow a mass at
+    its middle.  Power balance F v_S = J theta' theta'' + M_g theta' with v_S = dL theta' (J
+    about the fixed hinge is constant: no velocity term)."""
+    R = RAMP
+    J = R["mr"] * R["Lr"] ** 2 / 3 + msnow * (R["Lr"] / 2) ** 2
+    Mg = (R["mr"] + msnow) * G * R["Lr"] / 2 * np.cos(theta)
+    Bx = R["b"] * np.cos(theta) + R["h"] * np.sin(theta)
+    By = R["b"] * np.sin(theta) - R["h"] * np.cos(theta)
+    dBx = -R["b"] * np.sin(theta) + R["h"] * np.cos(theta)
+    dBy = R["b"] * np.cos(theta) + R["h"] * np.sin(theta)
+    L = np.hypot(Bx - R["xD"], By - R["yD"])
+    dL = ((Bx - R["xD"]) * dBx + (By - R["yD"]) * dBy) / L
+    return (J * sdd + Mg) / dL / R["eta"], L
+
+
+def test_ramp_smallest_rod_is_eulers(tmp_path):
+    """The smallest rod that does not buckle under the snow case's peak push at full extension,
+    Euler's pi^2 E (pi d^4/64) / L^2 >= S F: d = (64 S F L^2 / (pi^3 E))^(1/4)."""
+    scene = optdesign.load(DATA / "loading_ramp_cylinder.toml")
+    # the raise on its trapezoid: theta'' = 20 deg/s^2 over the first 2.5 deg, 0, then -20
+    th = np.linspace(np.deg2rad(-10), np.deg2rad(60), 20001)
+    x = th - th[0]
+    _, sdd = trapezoid(x, np.deg2rad(10), np.deg2rad(20), np.deg2rad(20), x[-1])
+    F, L = ramp_force(th, 1.0, sdd, 300.0)
+    F = F.max()
+    Lmax = L.max()
+    d_ref = (64 * RAMP["S"] * F * Lmax**2 / (np.pi**3 * RAMP["E"])) ** 0.25
+    res = optdesign.optimise(scene, starts=1)
+    assert res.design["d_rod"] == pytest.approx(d_ref, rel=1e-6)
+
+
+def test_an_objective_no_design_variable_changes_is_refused(tmp_path):
+    """rms_time(drive) with the rod diameter as the only design variable: every design has the
+    same objective, and optimise printed OPTIMAL with '4 distinct local optima' of one value at
+    four rod diameters.  A bare 'd_rod' objective was refused without saying how to write it."""
+    text = (DATA / "loading_ramp_cylinder.toml").read_text()
+    for objective, says in [("rms_time(drive)", "does not depend on the design variables (d_rod)"),
+                            ("d_rod", 'written "start(d_rod)"')]:
+        path = tmp_path / "ramp.toml"
+        path.write_text(text.replace('minimise = "start(d_rod)"', f'minimise = "{objective}"'))
+        with pytest.raises(optdesign.SceneError) as err:
+            optdesign.optimise(optdesign.load(path), starts=2)
+        assert says in str(err.value)
