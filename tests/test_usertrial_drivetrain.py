@@ -125,3 +125,20 @@ def test_an_objective_no_design_variable_changes_is_refused(tmp_path):
         with pytest.raises(optdesign.SceneError) as err:
             optdesign.optimise(optdesign.load(path), starts=2)
         assert says in str(err.value)
+
+
+@pytest.mark.parametrize("line, written, says", [
+    ("modulus = 210e9", "modulus = 210", "write 210 GPa as 210e9"),
+    ("pressure = 16e6", "pressure = 160", "write 160 bar as 160e5"),
+    ("buckling_safety = 3.5", "buckling_safety = 0.35", "safety factor >= 1"),
+])
+def test_cylinder_numbers_in_other_units_are_refused(tmp_path, line, written, says):
+    """modulus = 210 (GPa in mind) was read as 210 Pa and analyse reported 'rod needed for
+    buckling 6.94594 m' and a buckling utilisation of 9.1e8, exit 0."""
+    text = (DATA / "loading_ramp_cylinder.toml").read_text()
+    assert line in text
+    path = tmp_path / "ramp.toml"
+    path.write_text(text.replace(line, written))
+    with pytest.raises(optdesign.SceneError) as err:
+        optdesign.load(path)
+    assert says in str(err.value) and "[cylinder]" in str(err.value)
