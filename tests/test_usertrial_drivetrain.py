@@ -142,3 +142,52 @@ def test_cylinder_numbers_in_other_units_are_refused(tmp_path, line, written, sa
     with pytest.raises(optdesign.SceneError) as err:
         optdesign.load(path)
     assert says in str(err.value) and "[cylinder]" in str(err.value)
+
+
+def motion_in_time(jerks, n=400001):
+    """theta''(t), theta'(t), theta(t) - theta_0 from a piecewise-constant jerk or acceleration:
+    ``jerks`` = [(duration, kind, value)] with kind 'j' (jerk) or 'a' (acceleration held)."""
+    T = sum(d for d, _, _ in jerks)
+    t = np.linspace(0.0, T, n)
+    acc = np.zeros(n)
+    t0, a0 = 0.0, 0.0
+    for d, kind, value in jerks:
+        inside = (t >= t0) & (t <= t0 + d)
+        acc[inside] = a0 + value * (t[inside] - t0) if kind == "j" else value
+        a0 = a0 + value * d if kind == "j" else value
+        t0 += d
+    dt = np.diff(t)
+    vel = np.r_[0.0, np.cumsum((acc[1:] + acc[:-1]) / 2 * dt)]
+    pos = np.r_[0.0, np.cumsum((vel[1:] + vel[:-1]) / 2 * dt)]
+    return t, acc, vel, pos
+
+
+def test_barrier_duty_cycle_rms_and_energy_by_time_integration():
+    """The cycle open (trapezoid 90 deg/s, 180 deg/s^2: 1.5 s), hold 8 s at 90 deg (the boom's
+    weight acts through the pivot: no torque), close (s-curve 75 deg/s, 150 deg/s^2, jerk 1200
+    deg/s^3: 0.625 s to speed up, 0.575 s cruise), dwell 20 s: the RMS of T_S over 31.325 s and
+    the energy per cycle, integrated here in time from the profiles' accelerations."""
+    res = optdesign.analyse(optdesign.load(DATA / "barrier_gate_motor.toml"))
+    r = np.deg2rad
+    # open: +a for 0.5 s, cruise 0.5 s, -a for 0.5 s
+    t1, a1, v1, p1 = motion_in_time([(0.5, "a", r(180)), (0.5, "a", 0.0), (0.5, "a", -r(180))])
+    th1 = p1
+    # close, reverse: the same s-curve law with the sign flipped, from 90 deg down
+    j, tj, ta, tc = r(1200), 0.125, 0.375, 0.575
+    law = [(tj, "j", j), (ta, "a", r(150)), (tj, "j", -j), (tc, "a", 0.0), (tj, "j", -j), (ta, "a", -r(150)),
+           (tj, "j", j)]
+    # a held acceleration after a jerk segment: motion_in_time's 'a' sets it; a jerk segment
+    # after a held acceleration starts from it
+    t2, a2, v2, p2 = motion_in_time(law)
+    assert p2[-1] == pytest.approx(np.pi / 2, rel=1e-6) and abs(v2[-1]) < 1e-6
+    a2, v2, th2 = -a2, -v2, np.pi / 2 - p2
+    squares, energy = 0.0, 0.0
+    for t, th, v, a in ((t1, th1, v1, a1), (t2, th2, v2, a2)):
+        T = barrier_torque(th, v, a, 0.0)
+        squares += np.trapezoid(T**2, t)
+        energy += np.trapezoid(T * v, t)
+    cycle = 1.5 + 8 + 1.825 + 20
+    duty = res.cases.duty
+    assert duty["cycle_time"] == pytest.approx(cycle, rel=1e-12)
+    assert duty["rms_time"]["drive"] == pytest.approx(np.sqrt(squares / cycle), rel=1e-5)
+    assert duty["energy"] == pytest.approx(energy, rel=1e-5)
