@@ -191,3 +191,19 @@ def test_barrier_duty_cycle_rms_and_energy_by_time_integration():
     assert duty["cycle_time"] == pytest.approx(cycle, rel=1e-12)
     assert duty["rms_time"]["drive"] == pytest.approx(np.sqrt(squares / cycle), rel=1e-5)
     assert duty["energy"] == pytest.approx(energy, rel=1e-5)
+
+
+def test_analyse_names_the_catalogue_motor_behind_motor_torque(capsys):
+    """With three motors, analyse printed 'peak |motor_torque| = 7.8885 N m' per case and
+    'motor_torque 1.3245766 N m' as the cycle's RMS without saying whose rotor it is (the first
+    listed: no motor fits at i = 60).  T_m = T_g + J_r i eps: at theta = 0 of 'open in wind'
+    the 200 W rotor adds 0.00025 * 60 * pi N m to the gearbox's load."""
+    from optdesign.cli.main import main
+
+    assert main(["analyse", str(DATA / "barrier_gate_motor.toml")]) == 0
+    out = capsys.readouterr().out
+    assert "motor_torque above (the cases' peaks, the cycle's RMS) is that of motor '200 W' (none fits" in out
+    res = optdesign.analyse(optdesign.load(DATA / "barrier_gate_motor.toml"))
+    wind = res.cases.cases["open in wind"]
+    T0 = (J_PIVOT * np.pi + G * (M_BOOM * LB / 2 - M_CW * L_CW) + 60 * LB / 2) / ETA
+    assert wind.peaks["motor_torque"] == pytest.approx(T0 / ETA_G / 60 + 0.00025 * 60 * np.pi, rel=1e-9)

@@ -157,6 +157,9 @@ def _train_lines(train, kind):
     if train.get("motors"):
         lines.append(f"  smallest motor that fits: {train['smallest_fitting'] or 'none'} (J_load = "
                      f"{next(iter(train['motors'].values()))['load_inertia']:.6g}, the largest reduced inertia over the cases)")
+    if len(train.get("motors", {})) > 1 and train.get("shown"):
+        why = "the smallest that fits" if train["shown"] == train["smallest_fitting"] else "none fits: the first listed"
+        lines.append(f"  motor_torque above (the cases' peaks, the cycle's RMS) is that of motor {train['shown']!r} ({why})")
     return lines
 
 
