@@ -207,3 +207,22 @@ def test_analyse_names_the_catalogue_motor_behind_motor_torque(capsys):
     wind = res.cases.cases["open in wind"]
     T0 = (J_PIVOT * np.pi + G * (M_BOOM * LB / 2 - M_CW * L_CW) + 60 * LB / 2) / ETA
     assert wind.peaks["motor_torque"] == pytest.approx(T0 / ETA_G / 60 + 0.00025 * 60 * np.pi, rel=1e-9)
+
+
+def test_optimise_takes_its_samples_option(tmp_path, capsys):
+    """`optimise --samples 3` was accepted ('number of sweep samples, >= 2') and ignored: the
+    barrier's RMS objective came out 0.478540606 as on the scene's 181 samples.  The cycle's
+    RMS on 3 samples (plus the profiles' phase boundaries) is analyse's on 3 samples."""
+    import json
+
+    from optdesign.cli.main import main
+
+    assert main(["optimise", str(DATA / "barrier_gate_motor.toml"), "--samples", "3", "--starts", "1", "--json",
+                 "-q", "--no-animation", "--out", str(tmp_path / "out")]) == 0
+    out = json.loads(capsys.readouterr().out)
+    i = out["design"]["i"]
+    scene = optdesign.load(DATA / "barrier_gate_motor.toml", {"i": i})
+    on3 = optdesign.analyse(scene, 3).cases.duty["rms_time"]["motor_torque"]
+    on181 = optdesign.analyse(scene).cases.duty["rms_time"]["motor_torque"]
+    assert out["objective"] == pytest.approx(on3, rel=1e-9)
+    assert abs(on3 - on181) > 1e-3 * on181
