@@ -226,3 +226,54 @@ def test_optimise_takes_its_samples_option(tmp_path, capsys):
     on181 = optdesign.analyse(scene).cases.duty["rms_time"]["motor_torque"]
     assert out["objective"] == pytest.approx(on3, rel=1e-9)
     assert abs(on3 - on181) > 1e-3 * on181
+
+
+def _barrier_with(tmp_path, *edits):
+    text = (DATA / "barrier_gate_motor.toml").read_text()
+    for old, new in edits:
+        assert old in text
+        text = text.replace(old, new)
+    path = tmp_path / "barrier.toml"
+    path.write_text(text)
+    return path
+
+
+LAW = ('kind = "s-curve"\nspeed = "75 deg"\nacceleration = "150 deg"\ndeceleration = "150 deg"\njerk = "1200 deg"',
+       'kind = "law"\nspeed = "{}"')
+
+
+@pytest.mark.parametrize("law, says", [
+    ("cos(3*theta)", "the law's speed is -"),          # negative over 30 .. 90 deg: the time was -10.5 s
+    ("1.2*sin(2*theta)", "falls to 0 at s = 1.5708"),  # V ~ x at both ends: the quadrature gave 26.7 s
+])
+def test_a_law_profile_that_never_gets_there_is_refused(tmp_path, law, says):
+    """The closing case on a law: a speed negative inside the stroke passed (the check saw |sd|,
+    and a reverse case has sd = -V) with 'stroke time -10.5292 s'; a speed that falls to 0 like
+    the distance to the end (the time integral of dx/V diverges) gave 26.68 s."""
+    path = _barrier_with(tmp_path, (LAW[0], LAW[1].format(law)))
+    with pytest.raises(optdesign.SceneError) as err:
+        optdesign.analyse(optdesign.load(path))
+    assert says in str(err.value) and "barrier.toml" in str(err.value)
+
+
+def test_a_law_profile_that_starts_like_a_square_root_has_its_time(tmp_path):
+    """V = w sqrt(sin(2 theta)) is 0 at both ends and reaches them in a finite time:
+    T = int_0^(pi/2) dtheta / (w sqrt(sin 2 theta)) = Gamma(1/4)^2 / (2 sqrt(2 pi)) / w."""
+    from math import gamma
+
+    path = _barrier_with(tmp_path, (LAW[0], LAW[1].format("1.5*sqrt(sin(2*theta))")))
+    res = optdesign.analyse(optdesign.load(path))
+    T = gamma(0.25) ** 2 / (2 * np.sqrt(2 * np.pi)) / 1.5
+    assert res.cases.cases["close"].duration == pytest.approx(T, rel=1e-6)
+
+
+def test_a_case_without_motion_in_time_prints_no_nan(tmp_path, capsys):
+    """'close' without a profile at a [drive] acceleration of 2 rad/s^2 has no time: analyse
+    printed 'stroke time nan s' and each motor's 'RMS nan N m'."""
+    from optdesign.cli.main import main
+
+    path = _barrier_with(tmp_path, ('profile = "close"\n', ""), ("acceleration = 0.0", "acceleration = 2.0"))
+    assert main(["analyse", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "nan" not in out.lower()
+    assert "no stroke time" in out and "RMS not checked (no duty cycle in time)" in out
