@@ -277,3 +277,56 @@ def test_a_case_without_motion_in_time_prints_no_nan(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "nan" not in out.lower()
     assert "no stroke time" in out and "RMS not checked (no duty cycle in time)" in out
+
+
+# ---------------------------------------------------------------- folding beam on a four-bar
+
+FOLD = dict(r=0.10, lc=0.42, lr=0.25, xO4=0.40, yO4=0.15, mb=45.0, lb=1.2, Tb=800.0, eta=0.97, eta_g=0.9, i=50.0)
+
+
+def rocker_angle(phi):
+    """The beam's angle theta4 of the crank-rocker (B left of A -> O4)."""
+    f = FOLD
+    A = np.stack([f["r"] * np.cos(phi), f["r"] * np.sin(phi)])
+    O4 = np.array([[f["xO4"]], [f["yO4"]]]).reshape(2, *([1] * np.ndim(phi)))
+    d = O4 - A
+    dist = np.hypot(d[0], d[1])
+    u = d / dist
+    n = np.stack([-u[1], u[0]])
+    a = (f["lc"] ** 2 - f["lr"] ** 2 + dist**2) / (2 * dist)
+    B = A + a * u + np.sqrt(f["lc"] ** 2 - a**2) * n
+    return np.arctan2(B[1] - O4[1], B[0] - O4[0])
+
+
+def fold_torque_ideal(phi, phid, phidd, Tb):
+    """T_S (eta = 1) by virtual work: the beam turns about O4 by theta4(phi), w = dtheta4/dphi;
+    J_O4 = mb (lr/2)^2 + mb lb^2/12; T = J w^2 phi'' + J w w' phi'^2 + mb g (lr/2) cos(theta4) w
+    + Tb w (the sheet's torque Tb resists the beam's clockwise turn: applied torque +Tb)."""
+    f = FOLD
+    h = 1e-4
+    w = d1(rocker_angle, phi, h)
+    dw = (rocker_angle(phi + h) - 2 * rocker_angle(phi) + rocker_angle(phi - h)) / h**2
+    J = f["mb"] * (f["lr"] / 2) ** 2 + f["mb"] * f["lb"] ** 2 / 12
+    return J * w**2 * phidd + J * w * dw * phid**2 + f["mb"] * G * f["lr"] / 2 * np.cos(rocker_angle(phi)) * w - Tb * w
+
+
+def d1(f, x, h):
+    return (f(x - 2 * h) - 8 * f(x - h) + 8 * f(x + h) - f(x + 2 * h)) / (12 * h)
+
+
+def test_folding_beam_fold_and_hold_by_virtual_work():
+    """'fold' sets Tb = 800 N m (0 in the scene: the torque term must stay in the model); on its
+    cruise (s-curve 3 rad/s, 20 rad/s^2, jerk 400: 0.3 rad to speed up) phi'' = 0; the hold at the
+    fold's end carries the static torque through 1/eta and the gearbox: T/(eta eta_g i)."""
+    res = optdesign.analyse(optdesign.load(DATA / "folding_beam_fourbar.toml"))
+    fold = res.cases.cases["fold"].columns
+    s = np.asarray(fold["s"], float)
+    lo, hi = np.deg2rad(-120) + 0.3, np.deg2rad(45) - 0.3
+    pick = (s > lo + 1e-3) & (s < hi - 1e-3)
+    ideal = fold_torque_ideal(s[pick], 3.0, 0.0, FOLD["Tb"])
+    ref = np.where(ideal > 0, ideal / FOLD["eta"], ideal * FOLD["eta"])
+    assert np.max(np.abs(np.asarray(fold["drive"], float)[pick] - ref)) < 1e-6 * np.max(np.abs(ref))
+    hold = next(st for st in res.cases.duty["steps"] if st["kind"] == "hold")
+    static = fold_torque_ideal(np.deg2rad(45.0), 0.0, 0.0, FOLD["Tb"])
+    assert static > 0  # the motor holds the beam against the sheet
+    assert hold["motor_load_torque"] == pytest.approx(static / (FOLD["eta"] * FOLD["eta_g"] * FOLD["i"]), rel=1e-6)
