@@ -330,3 +330,17 @@ def test_folding_beam_fold_and_hold_by_virtual_work():
     static = fold_torque_ideal(np.deg2rad(45.0), 0.0, 0.0, FOLD["Tb"])
     assert static > 0  # the motor holds the beam against the sheet
     assert hold["motor_load_torque"] == pytest.approx(static / (FOLD["eta"] * FOLD["eta_g"] * FOLD["i"]), rel=1e-6)
+
+
+def test_every_case_at_weight_zero_is_refused(tmp_path):
+    """Without [duty], both cases of the folding beam at weight = 0: analyse ended in a
+    ZeroDivisionError traceback (the cycle's RMS over 0 s)."""
+    text = (DATA / "folding_beam_fourbar.toml").read_text()
+    text = text[:text.index("[duty]")] + text[text.index("[[constraints]]"):]
+    text = text.replace('profile = "fold"\n', 'profile = "fold"\nweight = 0\n')
+    text = text.replace('profile = "back"\n', 'profile = "back"\nweight = 0\n')
+    path = tmp_path / "fold.toml"
+    path.write_text(text)
+    with pytest.raises(optdesign.SceneError) as err:
+        optdesign.analyse(optdesign.load(path))
+    assert "every case has weight 0" in str(err.value) and "fold.toml" in str(err.value)

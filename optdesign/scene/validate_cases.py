@@ -121,6 +121,13 @@ class DriveSizingValidator:
                     self.fail(where.at("weight"), "a weight is the case's share of the cycle without [duty]; "
                                                   "with [duty], repeat the case in its cycle instead")
                 self.positive(where.at("weight"), case.weight, "a weight", strict=False)
+        if sc.cases and sc.duty is None and all(
+                c.weight is not None and self.number(Where("cases", c.name).at("weight"), c.weight) == 0
+                for c in sc.cases):
+            # the default cycle would have no time: its RMS was a division by zero (a traceback)
+            self.fail(Where("cases", sc.cases[-1].name).at("weight"),
+                      "every case has weight 0, so the duty cycle is empty; give a case a weight > 0 (or "
+                      "write the cycle as [duty] cycle = [...])")
 
     def _case_constraints(self):
         """A constraint per case: its case exists; a case column only in a per-sample
