@@ -344,3 +344,16 @@ def test_every_case_at_weight_zero_is_refused(tmp_path):
     with pytest.raises(optdesign.SceneError) as err:
         optdesign.analyse(optdesign.load(path))
     assert "every case has weight 0" in str(err.value) and "fold.toml" in str(err.value)
+
+
+def test_a_rotor_without_inertia_prints_no_inf(tmp_path, capsys):
+    """A motor given inertia = 0 (allowed: >= 0) printed 'inertia ratio J_load/(i^2 J_r) = inf,
+    optimal ratio sqrt(J_load/J_r) = inf'."""
+    from optdesign.cli.main import main
+
+    text = (DATA / "folding_beam_fourbar.toml").read_text().replace("inertia = 0.0012", "inertia = 0")
+    path = tmp_path / "fold.toml"
+    path.write_text(text)
+    assert main(["analyse", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "inf" not in out and "inertia ratio and optimal gear ratio: none (the rotor's inertia is 0)" in out

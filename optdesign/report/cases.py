@@ -138,6 +138,15 @@ def _duty_lines(duty, units):
             f"{duty['mean_power']:.8g} W"]
 
 
+def inertia_ratio_text(m, ratio_label, optimal_label) -> str:
+    """A motor's inertia ratio and classical optimal gear ratio; none for a rotor of no inertia
+    (both were printed as 'inf')."""
+    if not math.isfinite(m["inertia_ratio"]):
+        return "inertia ratio and optimal gear ratio: none (the rotor's inertia is 0)"
+    return (f"inertia ratio {ratio_label}{m['inertia_ratio']:.4g}, {optimal_label} sqrt(J_load/J_r) = "
+            f"{m['optimal_ratio']:.4g}")
+
+
 def _train_lines(train, kind):
     if not train:
         return []
@@ -154,8 +163,8 @@ def _train_lines(train, kind):
         rms = (f"RMS {m['rms']:.6g} N m" if "rms" in m else "RMS not checked (no duty cycle in time)")
         lines.append(f"  motor {name!r}: peak {m['peak']:.6g} N m (peak torque {m['peak_torque']:.6g}), "
                      f"{rms} (rated {m['rated_torque']:.6g}), speed {m['peak_speed']:.6g} rad/s "
-                     f"(max {m['max_speed']:.6g}); inertia ratio J_load/(i^2 J_r) = {m['inertia_ratio']:.4g}, "
-                     f"optimal ratio sqrt(J_load/J_r) = {m['optimal_ratio']:.4g}: {'fits' if m['fits'] else 'does not fit'}")
+                     f"(max {m['max_speed']:.6g}); {inertia_ratio_text(m, 'J_load/(i^2 J_r) = ', 'optimal ratio')}: "
+                     f"{'fits' if m['fits'] else 'does not fit'}")
     if train.get("motors"):
         lines.append(f"  smallest motor that fits: {train['smallest_fitting'] or 'none'} (J_load = "
                      f"{next(iter(train['motors'].values()))['load_inertia']:.6g}, the largest reduced inertia over the cases)")
