@@ -357,3 +357,18 @@ def test_a_rotor_without_inertia_prints_no_inf(tmp_path, capsys):
     assert main(["analyse", str(path)]) == 0
     out = capsys.readouterr().out
     assert "inf" not in out and "inertia ratio and optimal gear ratio: none (the rotor's inertia is 0)" in out
+
+
+@pytest.mark.parametrize("old, new, says", [
+    ('speed = "90 deg"', 'speed = "90 deg/s"', 'written without its \'/s\' (here "90 deg")'),
+    ('acceleration = "180 deg"', 'acceleration = "180 deg/s^2"', '(here "180 deg")'),
+    ('jerk = "1200 deg"', 'jerk = "1200 deg/s^3"', '(here "1200 deg")'),
+    ('speed = "90 deg"', 'speed = "1.57 rad/s"', "as 1.57 (already rad/s)"),
+])
+def test_rates_written_with_their_time_unit_get_the_hint(tmp_path, old, new, says):
+    """A profile speed written '90 deg/s' said "unknown name 's'; did you mean 'ms'?" (the
+    barrier's lamp-strip mass), '1.57 rad/s' said 'write 1.57 rad / s as a number in SI units'."""
+    path = _barrier_with(tmp_path, (old, new))
+    with pytest.raises(optdesign.SceneError) as err:
+        optdesign.load(path)
+    assert says in str(err.value) and "did you mean 'ms'" not in str(err.value)
