@@ -372,3 +372,33 @@ def test_rates_written_with_their_time_unit_get_the_hint(tmp_path, old, new, say
     with pytest.raises(optdesign.SceneError) as err:
         optdesign.load(path)
     assert says in str(err.value) and "did you mean 'ms'" not in str(err.value)
+
+
+def _fold_with_objective(tmp_path, objective):
+    text = (DATA / "folding_beam_fourbar.toml").read_text()
+    text = text.replace('minimise = "rms_time(motor_torque)"', f'minimise = "{objective}"')
+    path = tmp_path / "fold.toml"
+    path.write_text(text)
+    return optdesign.load(path)
+
+
+@pytest.mark.parametrize("objective, says", [
+    ("rms_time(motor_torque) - 0.1*peak(drive)", "a term may not be subtracted"),  # was "unknown function 'rms_time'"
+    ("rms(motor_torque)", "its RMS over the duty cycle's time is rms_time(motor_torque)"),  # was "no column"
+])
+def test_case_objective_mistakes_say_the_form(tmp_path, objective, says):
+    with pytest.raises(optdesign.SceneError) as err:
+        optdesign.optimise(_fold_with_objective(tmp_path, objective), starts=1)
+    assert says in str(err.value)
+
+
+def test_a_geometric_objective_beside_a_motor(tmp_path):
+    """peak(length(A, O4)) in a scene with cases and a motor (whose rated torque is a cycle
+    constraint) ended in "AttributeError: 'DesignProblem' object has no attribute 'case_terms'".
+    The crank pin's largest distance from the beam pivot over -120 .. 45 deg is at -120 deg
+    (the far point, at 206.6 deg, lies outside the stroke), least with the pivot at its
+    lower bound xO4 = 0.3: |(0.3, 0.15) - 0.1 (cos -120, sin -120)|."""
+    res = optdesign.optimise(_fold_with_objective(tmp_path, "peak(length(A, O4))"), starts=2)
+    A = 0.1 * np.array([np.cos(np.deg2rad(-120)), np.sin(np.deg2rad(-120))])
+    assert res.design["xO4"] == pytest.approx(0.3, abs=1e-7)
+    assert res.objective == pytest.approx(np.hypot(0.3 - A[0], 0.15 - A[1]), rel=1e-7)
