@@ -33,6 +33,10 @@ def run(args):
     from ..report.figure_process import FigureProcess
 
     scene = load_scene(args)
+    if args.samples is not None:   # the stroke's samples: the cases' time integrals and the checks on them
+        import dataclasses
+
+        scene = dataclasses.replace(scene, sweep=dataclasses.replace(scene.sweep, samples=args.samples))
     # matplotlib and the drawing modules are imported by a forked process during the solve
     with FigureProcess() if args.workers > 1 else contextlib.nullcontext() as figures:
         solve_and_write(args, scene, folder, figures)

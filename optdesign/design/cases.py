@@ -59,6 +59,19 @@ def parse_objective(text, case_names, path="<python>"):
         raise SceneError(f"{path}: [objective] minimise = {text!r}: {odd[0]!r} is not a term of a load-case "
                          "objective; expected a sum of peak(NAME), peak(NAME, CASE) and rms_time(NAME), each "
                          "with an optional coefficient >= 0 (e.g. \"2*peak(drive) + rms_time(drive)\")")
+    train_only = re.fullmatch(r"\s*(rms|rms_sweep)\s*\(\s*(motor_torque|motor_load_torque|motor_speed|rod_buckling)\s*\)\s*",
+                              text)
+    if train_only:   # a drive train's column exists per case only, and over time
+        raise SceneError(f"{path}: [objective] minimise = {text!r}: {train_only.group(2)} is a load case's column, "
+                         f"which {train_only.group(1)}(...) (the nominal [drive] state over the sweep) does not have; "
+                         f"its RMS over the duty cycle's time is rms_time({train_only.group(2)})")
+    # not a sum of terms, yet rms_time (only a cases objective has it) or a peak term subtracted
+    # ('peak(length(D, B))' alone is the nominal state's peak, handled with the plain objectives)
+    if odd and (re.search(r"\brms_time\s*\(", text) or re.search(r"(\)\s*-|-\s*[\d.eE]*\s*\*?\s*peak\s*\()", text)):
+        raise SceneError(f"{path}: [objective] minimise = {text!r}: expected a sum of peak(NAME), peak(NAME, CASE) "
+                         "and rms_time(NAME), each with an optional coefficient >= 0 (e.g. \"2*peak(drive) + "
+                         "rms_time(drive)\")" + ("; a term may not be subtracted (minimising -peak(...) would "
+                                                  "maximise it)" if "-" in text else ""))
     for part in parts:
         m = _TERM.match(part)
         if not m:
@@ -416,6 +429,8 @@ def case_nlp(pb, Q, p, t, f, add, every):
         add(name, "cycle constraint", rms / limit, -math.inf, 1.0, limit)
     if pb.objective_kind == "rms_time":
         return sums[pb.time_terms[0][2]] / T / pb.f_ref**2
+    if pb.objective_kind != "mix":   # one peak term, or a plain objective beside the cycle constraints
+        return f
     total = 0
     for coef, kind, what, _ in pb.case_terms:
         total = total + coef * (t * pb.f_ref if kind == "peak" else ca.sqrt(sums[what] / T))

@@ -39,6 +39,7 @@ import math
 import casadi as ca
 import numpy as np
 
+from ..errors import SceneError
 from ..model import compiled
 from .aggregates import aggregate_start, located_aggregates, outer_start, outer_value, quadrature, rms_panels
 from .bounds import numeric_bounds
@@ -157,6 +158,7 @@ def build_nlp(pb):
     # the quantity rows imposed only at the stroke's ends and the slots
     pb.sparse_rows = frozenset([ag.index for i, ag in enumerate(pb.aggregates)
                                 if ag.func in ("max", "min") and i not in pb.located] + [pb.k_row])
+    _objective_uses_design(pb, f, z, t, a_hat, g)
     w = ca.vertcat(z, t, a_hat)
     pb.nw = int(w.numel())
     pb.n_t = int(t.numel())
@@ -183,6 +185,25 @@ def build_nlp(pb):
     mids = 0.5 * (base[:-1] + base[1:])
     pb.base_points = base
     pb.initial_slots = mids[np.linspace(0, len(mids) - 1, st.slots).round().astype(int)] if st.slots else np.zeros(0)
+
+
+def _objective_uses_design(pb, f, z, t, a_hat, g):
+    """Refuse an objective that no design variable changes (structurally): every design is then
+    an optimum, and the starts would end on as many designs as there are starts, each reported
+    as optimal (the loading ramp's rms_time(drive) beside a rod diameter that only the buckling
+    constraint sees)."""
+    if ca.depends_on(f, z) or (a_hat.numel() and ca.depends_on(f, a_hat)):
+        return
+    if t.numel() and ca.depends_on(f, t):
+        peaks = [g[j] for j, block in enumerate(pb.g_blocks) if block[1] == "peak"]
+        if any(ca.depends_on(e, z) for e in peaks):
+            return
+    names = ", ".join(pb.design_names)
+    raise SceneError(
+        f"{pb.scene.path}: [objective] minimise = {pb.objective_text!r}: the objective does not depend on "
+        f"the design variables ({names}): every design gives it the same value, so there is nothing to "
+        "optimise; minimise a quantity the design changes, or make what it depends on a design variable "
+        f"(a design variable itself is minimised as \"start({pb.design_names[0]})\")")
 
 
 def ipopt_options(st, objective_kind) -> dict:

@@ -95,10 +95,14 @@ def build_quantities(pb):
         pb.objective_kind = "expression"
         pb.objective_expr = lift(pb, parse(pb.objective_text, f"{scene.path}: [objective] minimise"), "objective")
         if not pb.aggregates:
+            parsed = parse(pb.objective_text, f"{scene.path}: [objective] minimise")
+            plain = not parsed.points() and mech.resolved.sweep_name not in parsed.names()
+            hint = (f"; an expression of parameters alone (a design variable's size) is written "
+                    f"\"start({pb.objective_text})\"" if plain else "")
             raise SceneError(
                 f"{scene.path}: [objective] minimise = {pb.objective_text!r}: expected peak(NAME), "
                 "rms(NAME) or an expression over the stroke with max(...)/min(...)/start(...)/end(...), "
-                "e.g. \"max(y(T)) - min(y(T))\""
+                f"e.g. \"max(y(T)) - min(y(T))\"{hint}"
             )
     pb.stroke_constraints = []
     for c in scene.constraints:

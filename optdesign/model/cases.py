@@ -202,7 +202,7 @@ class CaseAnalysis:
         if self.mech.scene.drive.kind == "rotary":
             values["q"] = np.unwrap(values["q"])
         if cm.profile is not None and cm.profile.law_speed is not None:
-            check_law(cm.profile, nodes, np.abs(values["sd"]), cm.name)
+            check_law(cm.profile, nodes, cm.profile.sigma * values["sd"], cm.name, self.mech.scene.path)   # V: a reverse case has sd = -V
         times = CaseTimes.of(cm, nodes, values)
         values["t"] = times.t
         return values, times

@@ -265,12 +265,31 @@ def constant_motion(mech, case: Case) -> Motion:
     return Motion(qd, qdd, qd**2, qd)
 
 
-def check_law(profile: MotionProfile, s_values, speed_values, case_name):
-    """A law's speed must be finite, >= 0, and > 0 inside the stroke."""
+def check_law(profile: MotionProfile, s_values, speed_values, case_name, path=None):
+    """A law's speed must be finite, >= 0, and > 0 inside the stroke, and where it is 0 at an
+    end, reach it no faster than a square root (a finite time); ``path``: the scene file's."""
+    from ..scene.where import fail
     v = np.asarray(speed_values, float)
     inside = (s_values != profile.s_begin) & (s_values != profile.s_end)
     bad = np.flatnonzero(~np.isfinite(v) | (v < 0) | (inside & (v <= 0)))
     if bad.size:
         i = bad[0]
-        raise SceneError(f"{profile.profile.where('speed')}: the law's speed is {v[i]:.6g} at s = {s_values[i]:.6g} "
-                         f"(case {case_name!r}); expected a speed > 0 inside the stroke (0 is allowed only at its ends)")
+        fail(profile.profile.where("speed"), f"the law's speed is {v[i]:.6g} at s = {s_values[i]:.6g} "
+                         f"(case {case_name!r}); expected a speed > 0 inside the stroke (0 is allowed only at its ends)", path=path)
+    # at an end where the speed is 0 the time to leave or reach it, the integral of dx / V(x), is
+    # finite only where V falls more slowly than the distance x (a trapezoid's V = sqrt(2 a x));
+    # V ~ x (1.2*sin(2*theta) at theta = 0 and 90 deg) never gets there: its quadrature gave 26.7 s
+    scale = max(float(np.max(np.abs(v))), 1e-300)
+    for end, inward in ((profile.s_begin, profile.sigma), (profile.s_end, -profile.sigma)):
+        with np.errstate(all="ignore"):
+            v0, v1, v2 = (float(profile.law_speed(np.array([end + inward * f * profile.length]))[0])
+                          for f in (0.0, 1e-5, 1e-7))
+        if not (abs(v0) <= 1e-9 * scale and v1 > 0 and v2 > 0):
+            continue
+        power = math.log(v1 / v2) / math.log(100.0)
+        if power >= 0.95:
+            fail(profile.profile.where("speed"),
+                f"the law's speed falls to 0 at s = {end:.6g} (case {case_name!r}) "
+                f"as the distance to it does (V ~ x^{power:.2f}): the motion would take forever to leave or reach "
+                "that end; let the speed fall no faster than a square root of the distance there (a start-up "
+                "like a trapezoid's, V = sqrt(2 a x)), or keep it above 0 at the stroke's ends", path=path)

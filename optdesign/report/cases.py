@@ -89,7 +89,8 @@ def cases_table(result, samples: bool = True) -> str:
         settings = ", ".join(f"{k} = {v:.6g}" for k, v in c.overrides.items())
         lines.append(f"case {name!r}: {c.direction}, {'profile ' + c.profile if c.profile else '[drive] speed'}, "
                      f"efficiency {c.efficiency}{', set ' + settings if settings else ''}; "
-                     f"stroke time {c.duration:.6g} s")
+                     + (f"stroke time {c.duration:.6g} s" if math.isfinite(c.duration) else
+                        "no stroke time (the constant [drive] speed with an acceleration is no motion in time)"))
         for key, value in c.peaks.items():
             lines.append(f"  peak |{key}| = {value:.8g}{_unit(units, key)} at {sweep} = {c.peak_at[key]['s']:.8g}")
         for key, v in c.constraints.items():
@@ -137,6 +138,15 @@ def _duty_lines(duty, units):
             f"{duty['mean_power']:.8g} W"]
 
 
+def inertia_ratio_text(m, ratio_label, optimal_label) -> str:
+    """A motor's inertia ratio and classical optimal gear ratio; none for a rotor of no inertia
+    (both were printed as 'inf')."""
+    if not math.isfinite(m["inertia_ratio"]):
+        return "inertia ratio and optimal gear ratio: none (the rotor's inertia is 0)"
+    return (f"inertia ratio {ratio_label}{m['inertia_ratio']:.4g}, {optimal_label} sqrt(J_load/J_r) = "
+            f"{m['optimal_ratio']:.4g}")
+
+
 def _train_lines(train, kind):
     if not train:
         return []
@@ -150,13 +160,17 @@ def _train_lines(train, kind):
                 f"{t['pressure_pull']:.6g} Pa, pump flow {t['pump_flow'] * 6e4:.6g} l/min"]
     lines = [f"drive train: gear ratio i = {train['ratio']:.6g}"]
     for name, m in train.get("motors", {}).items():
-        lines.append(f"  motor {name!r}: peak {m['peak']:.6g} N m (peak torque {m['peak_torque']:.6g}), RMS "
-                     f"{m.get('rms', math.nan):.6g} N m (rated {m['rated_torque']:.6g}), speed {m['peak_speed']:.6g} rad/s "
-                     f"(max {m['max_speed']:.6g}); inertia ratio J_load/(i^2 J_r) = {m['inertia_ratio']:.4g}, "
-                     f"optimal ratio sqrt(J_load/J_r) = {m['optimal_ratio']:.4g}: {'fits' if m['fits'] else 'does not fit'}")
+        rms = (f"RMS {m['rms']:.6g} N m" if "rms" in m else "RMS not checked (no duty cycle in time)")
+        lines.append(f"  motor {name!r}: peak {m['peak']:.6g} N m (peak torque {m['peak_torque']:.6g}), "
+                     f"{rms} (rated {m['rated_torque']:.6g}), speed {m['peak_speed']:.6g} rad/s "
+                     f"(max {m['max_speed']:.6g}); {inertia_ratio_text(m, 'J_load/(i^2 J_r) = ', 'optimal ratio')}: "
+                     f"{'fits' if m['fits'] else 'does not fit'}")
     if train.get("motors"):
         lines.append(f"  smallest motor that fits: {train['smallest_fitting'] or 'none'} (J_load = "
                      f"{next(iter(train['motors'].values()))['load_inertia']:.6g}, the largest reduced inertia over the cases)")
+    if len(train.get("motors", {})) > 1 and train.get("shown"):
+        why = "the smallest that fits" if train["shown"] == train["smallest_fitting"] else "none fits: the first listed"
+        lines.append(f"  motor_torque above (the cases' peaks, the cycle's RMS) is that of motor {train['shown']!r} ({why})")
     return lines
 
 

@@ -9,7 +9,7 @@ import re
 
 import numpy as np
 
-from .cases import UNITS, unresolved_lines
+from .cases import UNITS, inertia_ratio_text, unresolved_lines
 
 _IN_CASE = re.compile(r"^(?P<what>.*?) in cases? '(?P<case>[^']*)'(?P<more>(, '[^']*')*)$")
 _COLUMN = {"motor peak torque": "motor_torque", "motor speed": "motor_speed", "rod buckling": "rod_buckling"}
@@ -96,9 +96,8 @@ def cases_summary(result) -> str:
         lines += [f"  case {name!r}:{line[1:]}" for line in unresolved_lines(u, UNITS[result.scene.drive.kind])]
     train = cases.train
     for name, m in train.get("motors", {}).items():
-        lines.append(f"  motor {name!r} at i = {train['ratio']:.6g}: peak {m['peak']:.6g} N m, RMS {m.get('rms', math.nan):.6g} "
-                     f"N m, speed {m['peak_speed']:.6g} rad/s; inertia ratio {m['inertia_ratio']:.4g}, classical optimal "
-                     f"ratio sqrt(J_load/J_r) = {m['optimal_ratio']:.4g}")
+        lines.append(f"  motor {name!r} at i = {train['ratio']:.6g}: peak {m['peak']:.6g} N m, "
+                     f"{'RMS %.6g N m' % m['rms'] if 'rms' in m else 'RMS not checked (no duty cycle in time)'}, speed {m['peak_speed']:.6g} rad/s; {inertia_ratio_text(m, '', 'classical optimal ratio')}")
     if "bore" in train:
         lines.append(f"  cylinder: bore {train['bore']:.6g} m, rod {train['rod']:.6g} m, buckling utilisation "
                      f"{train['buckling_utilisation']:.4g}, pump flow {train['pump_flow'] * 6e4:.6g} l/min")

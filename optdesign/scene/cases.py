@@ -104,6 +104,10 @@ class DutyStep:
         if self.kind not in STEP_KINDS:
             fail(where, f"expected a case name, {{ case = NAME, repeat = N }}, {{ hold = SECONDS, case = NAME }} "
                         f"or {{ dwell = SECONDS }}, found {show(self.kind)}")
+        if self.kind == "hold" and self.case is None:
+            fail(where, "a hold needs the case whose load it carries: { hold = SECONDS, case = NAME } "
+                        "(at its motion's end, or at = \"start\"); for an idle pause without load write "
+                        "{ dwell = SECONDS }")
         if self.kind in ("case", "hold") and not isinstance(self.case, str):
             fail(where, f"expected the name of a case, found {show(self.case)}")
         if self.kind in ("hold", "dwell"):

@@ -39,7 +39,10 @@ class ResolvedScene:
         self.design_names = tuple(p.name for p in scene.parameters if p.is_design)
         # parameters whose value changes between runs of one build (a study's axes): like the
         # design variables, never folded into a constant by fixed_value
-        self.variable = tuple(variable)
+        # and the parameters a load case overrides (its `set`): one graph serves every case, so
+        # a payload or a wind force that is 0 in the scene must not be folded away as absent
+        overridden = [n for c in getattr(scene, "cases", ()) for n in c.overrides]
+        self.variable = tuple(dict.fromkeys((*variable, *overridden)))
         self._uses = {p.name: p.value.names() for p in scene.parameters}
         sweep = scene.sweep
         self.sweep_name = sweep.name

@@ -9,6 +9,8 @@ that names its place, worded for the person who wrote the file.
 """
 from __future__ import annotations
 
+import re
+
 import math
 
 from ..errors import ExpressionError, SceneError
@@ -365,6 +367,13 @@ class Validator:
         elif name in later:
             detail = (f"{name!r} is defined further down; a parameter may use only the parameters "
                       "above it: move its line")
+        elif name in ("s", "sec") and re.search(r"(deg|rad|m)\s*/\s*(s|sec)\b", src):
+            # "90 deg/s", "180 deg/s^2": a rate written with its time unit
+            m = re.match(r"\s*(.*?)\s*/\s*(s|sec)\b", src)
+            example = f" (here \"{m.group(1)}\")" if m else ""
+            detail = ("units are not read, except 'deg' after an angle: a speed, acceleration or jerk is "
+                      f"written without its '/s'{example}: '90 deg' for 90 deg/s, '180 deg' for 180 deg/s^2, 0.5 "
+                      "for 0.5 m/s; the scene is in SI (m, kg, s, N, N m, W, rad)")
         elif where.table == "parameters" and name == where.item:
             detail = f"the parameter {name!r} refers to itself; expected a number or earlier parameters"
         else:

@@ -121,6 +121,13 @@ class DriveSizingValidator:
                     self.fail(where.at("weight"), "a weight is the case's share of the cycle without [duty]; "
                                                   "with [duty], repeat the case in its cycle instead")
                 self.positive(where.at("weight"), case.weight, "a weight", strict=False)
+        if sc.cases and sc.duty is None and all(
+                c.weight is not None and self.number(Where("cases", c.name).at("weight"), c.weight) == 0
+                for c in sc.cases):
+            # the default cycle would have no time: its RMS was a division by zero (a traceback)
+            self.fail(Where("cases", sc.cases[-1].name).at("weight"),
+                      "every case has weight 0, so the duty cycle is empty; give a case a weight > 0 (or "
+                      "write the cycle as [duty] cycle = [...])")
 
     def _case_constraints(self):
         """A constraint per case: its case exists; a case column only in a per-sample
@@ -232,8 +239,19 @@ class DriveSizingValidator:
         if drive is None or drive.kind != "linear":
             self.fail(where, "a cylinder needs a linear [drive] (type = \"linear\"); a rotary drive is sized by "
                              "[gearbox] and [[motors]]")
-        for key in ("pressure", "modulus", "buckling_safety", "length_factor"):
-            self.positive(where.at(key), getattr(c, key), key.replace("_", " "))
+        numbers = {key: self.positive(where.at(key), getattr(c, key), key.replace("_", " "))
+                   for key in ("pressure", "modulus", "buckling_safety", "length_factor")}
+        # the scene is in SI: a modulus written in GPa (210) or MPa, a pressure in bar (160) or
+        # MPa (16) is a number no rod or hydraulic system has; it sized a 7 m rod, silently
+        for key, least, what, example in (
+                ("modulus", 1e8, "any rod material's Young's modulus (steel: 210e9 Pa)", "210 GPa as 210e9"),
+                ("pressure", 1e4, "a hydraulic system pressure (160 bar = 16e6 Pa)", "160 bar as 160e5")):
+            if numbers[key] < least:
+                self.fail(where.at(key), f"{numbers[key]:g} Pa is far below {what}; the scene is in SI "
+                                         f"(Pa): write {example}")
+        if numbers["buckling_safety"] < 1:
+            self.fail(where.at("buckling_safety"), f"expected a safety factor >= 1 against Euler buckling, found "
+                                                   f"{numbers['buckling_safety']:g}")
         sizes = {k: self.positive(where.at(k), getattr(c, k), f"a {k} diameter in m", design=True)
                  for k in ("rod", "bore") if getattr(c, k) is not None}
         if len(sizes) == 2 and not sizes["rod"] < sizes["bore"]:
