@@ -1,0 +1,138 @@
+"""Round 2 of the new user's trial, motion in time and design studies (tests/data/usertrial/):
+a dock leveller's deck raised by a cylinder at constant force (linear drive, efficiency 0.9,
+started at rest, stops at the stroke end) and a compressor's slider-crank run up from rest by
+a motor curve (rotary, ten turns).  Each motion is checked against scipy's solve_ivp on a numpy
+model written here (positions in closed form, derivatives by five-point differences, the
+equation of motion from Lagrange with the drive's inertia and the efficiency factor)."""
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+import optdesign
+from optdesign.dynamics.simulator import simulate
+
+DATA = Path(__file__).parent / "data" / "usertrial"
+ROOT = Path(__file__).resolve().parent.parent
+G = 9.81
+
+
+def d1(f, x, h=1e-5):
+    return (f(x - 2 * h) - 8 * f(x - h) + 8 * f(x + h) - f(x + 2 * h)) / (12 * h)
+
+
+# ------------------------------------------------------------------ dock leveller (linear)
+
+DL = dict(L=2.5, m=900.0, b=0.8, dx=0.7, dy=-0.6, F=20000.0, m_rod=8.0, eta=0.9)
+
+
+def dock_q(th):
+    """Cylinder length |DB|, B = b (cos th, sin th), D = (dx, dy)."""
+    return np.hypot(DL["b"] * np.cos(th) - DL["dx"], DL["b"] * np.sin(th) - DL["dy"])
+
+
+def dock_rhs(t, x):
+    """(c M + J k^2) th'' = k F - J k k' th'^2 - c Q, M = m L^2/3 (a bar about its end, constant),
+    Q = m g L/2 cos th; the cylinder pushes the deck up, so power flows in: c = 1/eta."""
+    th, w = x
+    k = d1(dock_q, th)
+    kp = d1(lambda s: d1(dock_q, s), th, 1e-4)
+    M = DL["m"] * DL["L"] ** 2 / 3
+    Q = DL["m"] * G * DL["L"] / 2 * np.cos(th)
+    c = 1 / DL["eta"]
+    J = DL["m_rod"]
+    return [w, (k * DL["F"] - J * k * kp * w**2 - c * Q) / (c * M + J * k**2)]
+
+
+def test_dock_leveller_rises_to_the_stroke_end_as_solve_ivp():
+    res = simulate(optdesign.load(DATA / "dock_leveller.toml"), tolerance=1e-10)
+    th0, th1 = math.radians(-10), math.radians(12)
+    end = lambda t, x: x[0] - th1
+    end.terminal = True
+    ref = solve_ivp(dock_rhs, (0, 5), [th0, 0.0], method="DOP853", rtol=1e-11, atol=1e-12,
+                    events=end, dense_output=True)
+    t_ref = ref.t_events[0][0]
+    assert res.stop == "stroke end" and res.stop_end == "to"
+    assert res.t_stop == pytest.approx(t_ref, rel=1e-7)
+    assert np.all(res.efficiency_factor == pytest.approx(1 / 0.9, rel=1e-14))
+    inside = res.t < t_ref
+    th_ref, w_ref = ref.sol(res.t[inside])
+    assert np.max(np.abs(res.s[inside] - th_ref)) < 1e-7
+    assert np.max(np.abs(res.sd[inside] - w_ref)) < 1e-6
+    # the drive coordinate is the cylinder length, its rate k * theta'
+    assert np.max(np.abs(res.q - dock_q(res.s))) < 1e-12
+    # energy: the work of F less the losses (1 - eta of the power in) equals KE + PE gained;
+    # with c = 1/eta constant: eta * F * (q - q0) = KE + m g L/2 (sin th - sin th0)
+    pe = DL["m"] * G * DL["L"] / 2 * (np.sin(res.s) - np.sin(th0))
+    # what reaches the mechanism is eta * transmitted power; the rod's KE is the drive's own
+    ke_rod = 0.5 * DL["m_rod"] * res.qd**2
+    work_f = DL["F"] * (res.q - res.q[0])
+    # J qdd is taken before the efficiency: F dq = d(KE_rod) + (1/eta) (d KE_deck + dPE)
+    ke_deck = res.kinetic_energy - ke_rod
+    assert np.max(np.abs(work_f - ke_rod - (ke_deck + pe) / 0.9)) < 1e-5 * work_f[-1]
+
+
+def test_dock_leveller_held_by_a_weak_cylinder_stalls_at_once():
+    """F between eta F_Su and F_Su / eta at the start: neither direction moves off (forwards
+    the cylinder is too weak, backwards the self-locking efficiency holds the weight)."""
+    th0 = math.radians(-10)
+    k = d1(dock_q, th0)
+    F_su = DL["m"] * G * DL["L"] / 2 * math.cos(th0) / k
+    res = simulate(optdesign.load(DATA / "dock_leveller.toml", {"F": F_su}))
+    assert res.stop == "stalled"
+    assert res.t_stop == 0.0
+    assert res.s[-1] == pytest.approx(th0, abs=1e-14)
+
+
+# ------------------------------------------------------------------ compressor (rotary)
+
+CP = dict(r=0.05, l=0.2, mp=2.5, mr=1.2, J_fly=0.15, T0=40.0, w0=157.0, J=0.01, F=300.0)
+
+
+def comp_points(a):
+    r, l = CP["r"], CP["l"]
+    A = np.array([r * np.cos(a), r * np.sin(a)])
+    cx = r * np.cos(a) + np.sqrt(l**2 - (r * np.sin(a)) ** 2)
+    return A, cx
+
+
+def comp_M(a):
+    """M(alpha) = J_fly + m_rod |v_mid|^2 + I_rod phi'^2 + m_p cx'^2 (per unit crank rate)."""
+    mid = lambda s: (comp_points(s)[0] + np.array([comp_points(s)[1], 0.0])) / 2
+    phi = lambda s: np.arctan2(-comp_points(s)[0][1], comp_points(s)[1] - comp_points(s)[0][0])
+    cx = lambda s: comp_points(s)[1]
+    vm = d1(mid, a)
+    return (CP["J_fly"] + CP["mr"] * vm @ vm + CP["mr"] * CP["l"] ** 2 / 12 * d1(phi, a) ** 2
+            + CP["mp"] * d1(cx, a) ** 2)
+
+
+def comp_rhs(t, x):
+    """(M + J) a'' = T0 (1 - a'/w0) - 1/2 M' a'^2 - Q, Q = F_gas dcx/da (the gas force -F_gas x)."""
+    a, w = x
+    Mp = d1(comp_M, a, 1e-4)
+    Q = CP["F"] * d1(lambda s: comp_points(s)[1], a)
+    T = CP["T0"] * (1 - w / CP["w0"])
+    return [w, (T - 0.5 * Mp * w**2 - Q) / (comp_M(a) + CP["J"])]
+
+
+def test_compressor_run_up_as_solve_ivp():
+    res = simulate(optdesign.load(DATA / "compressor_spinup.toml"), tolerance=1e-10)
+    end = lambda t, x: x[0] - 20 * math.pi
+    end.terminal = True
+    ref = solve_ivp(comp_rhs, (0, 1.5), [0.1, 0.0], method="DOP853", rtol=1e-11, atol=1e-11,
+                    events=end, dense_output=True)
+    t_ref = ref.t_events[0][0]
+    assert res.stop == "stroke end" and res.stop_end == "to"
+    assert res.t_stop == pytest.approx(t_ref, rel=1e-7)
+    inside = res.t < t_ref
+    a_ref, w_ref = ref.sol(res.t[inside])
+    assert np.max(np.abs(res.s[inside] - a_ref)) < 1e-6
+    assert np.max(np.abs(res.sd[inside] - w_ref)) < 1e-5
+    assert np.max(np.abs(res.q - res.s)) < 1e-12   # the crank O->A is the sweep itself
