@@ -96,28 +96,28 @@ def test_dock_leveller_held_by_a_weak_cylinder_stalls_at_once():
 CP = dict(r=0.05, l=0.2, mp=2.5, mr=1.2, J_fly=0.15, T0=40.0, w0=157.0, J=0.01, F=300.0)
 
 
-def comp_points(a):
+def comp_ratios(a):
+    """Closed-form velocity ratios per unit crank rate: the rod angle beta (sin beta = -r sin a / l,
+    C on the x axis ahead of O), the piston's dcx/da, the rod middle's velocity."""
     r, l = CP["r"], CP["l"]
-    A = np.array([r * np.cos(a), r * np.sin(a)])
-    cx = r * np.cos(a) + np.sqrt(l**2 - (r * np.sin(a)) ** 2)
-    return A, cx
+    cb = np.sqrt(1 - (r * np.sin(a) / l) ** 2)
+    db = -r * np.cos(a) / (l * cb)
+    dcx = -r * np.sin(a) - r**2 * np.sin(a) * np.cos(a) / (l * cb)
+    dmid = np.array([(-r * np.sin(a) + dcx) / 2, r * np.cos(a) / 2])
+    return db, dcx, dmid
 
 
 def comp_M(a):
-    """M(alpha) = J_fly + m_rod |v_mid|^2 + I_rod phi'^2 + m_p cx'^2 (per unit crank rate)."""
-    mid = lambda s: (comp_points(s)[0] + np.array([comp_points(s)[1], 0.0])) / 2
-    phi = lambda s: np.arctan2(-comp_points(s)[0][1], comp_points(s)[1] - comp_points(s)[0][0])
-    cx = lambda s: comp_points(s)[1]
-    vm = d1(mid, a)
-    return (CP["J_fly"] + CP["mr"] * vm @ vm + CP["mr"] * CP["l"] ** 2 / 12 * d1(phi, a) ** 2
-            + CP["mp"] * d1(cx, a) ** 2)
+    """M(alpha) = J_fly + m_rod |v_mid|^2 + I_rod beta'^2 + m_p cx'^2 (per unit crank rate)."""
+    db, dcx, dmid = comp_ratios(a)
+    return CP["J_fly"] + CP["mr"] * dmid @ dmid + CP["mr"] * CP["l"] ** 2 / 12 * db**2 + CP["mp"] * dcx**2
 
 
 def comp_rhs(t, x):
     """(M + J) a'' = T0 (1 - a'/w0) - 1/2 M' a'^2 - Q, Q = F_gas dcx/da (the gas force -F_gas x)."""
     a, w = x
     Mp = d1(comp_M, a, 1e-4)
-    Q = CP["F"] * d1(lambda s: comp_points(s)[1], a)
+    Q = CP["F"] * comp_ratios(a)[1]
     T = CP["T0"] * (1 - w / CP["w0"])
     return [w, (T - 0.5 * Mp * w**2 - Q) / (comp_M(a) + CP["J"])]
 
