@@ -136,3 +136,21 @@ def test_compressor_run_up_as_solve_ivp():
     assert np.max(np.abs(res.s[inside] - a_ref)) < 1e-6
     assert np.max(np.abs(res.sd[inside] - w_ref)) < 1e-5
     assert np.max(np.abs(res.q - res.s)) < 1e-12   # the crank O->A is the sweep itself
+
+
+# ------------------------------------------------------------------ user mistakes
+
+def cli(*args):
+    return subprocess.run([sys.executable, "-m", "optdesign.cli.main", *map(str, args)], capture_output=True,
+                          text=True, cwd=ROOT, timeout=120)
+
+
+def test_tolerance_above_a_tenth_is_refused_as_in_the_scene():
+    """[simulation] tolerance must lie in (0, 0.1]; --tolerance 0.5 (and simulate(tolerance=0.5))
+    ran a 50 %-tolerance motion without a word (stop time 0.651958 s against 0.652007 s)."""
+    out = cli("simulate", DATA / "dock_leveller.toml", "--tolerance", "0.5")
+    assert out.returncode == 2 and "Traceback" not in out.stderr
+    assert "argument --tolerance: expected a finite number > 0 and <= 0.1, found '0.5'" in out.stderr
+    with pytest.raises(optdesign.OptdesignError, match=r"tolerance: expected a finite number > 0 and <= 0.1"):
+        simulate(optdesign.load(DATA / "dock_leveller.toml"), tolerance=0.5)
+    assert simulate(optdesign.load(DATA / "dock_leveller.toml"), tolerance=0.1).stop == "stroke end"
