@@ -6,6 +6,7 @@ model written here (positions in closed form, derivatives by five-point differen
 equation of motion from Lagrange with the drive's inertia and the efficiency factor)."""
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import subprocess
@@ -38,15 +39,15 @@ def dock_q(th):
     return np.hypot(DL["b"] * np.cos(th) - DL["dx"], DL["b"] * np.sin(th) - DL["dy"])
 
 
-def dock_rhs(t, x):
+def dock_rhs(t, x, c=1 / DL["eta"]):
     """(c M + J k^2) th'' = k F - J k k' th'^2 - c Q, M = m L^2/3 (a bar about its end, constant),
-    Q = m g L/2 cos th; the cylinder pushes the deck up, so power flows in: c = 1/eta."""
+    Q = m g L/2 cos th; c = 1/eta while the cylinder raises the deck (power flows in), eta while
+    the deck comes down against it."""
     th, w = x
     k = d1(dock_q, th)
     kp = d1(lambda s: d1(dock_q, s), th, 1e-4)
     M = DL["m"] * DL["L"] ** 2 / 3
     Q = DL["m"] * G * DL["L"] / 2 * np.cos(th)
-    c = 1 / DL["eta"]
     J = DL["m_rod"]
     return [w, (k * DL["F"] - J * k * kp * w**2 - c * Q) / (c * M + J * k**2)]
 
@@ -77,6 +78,25 @@ def test_dock_leveller_rises_to_the_stroke_end_as_solve_ivp():
     # J qdd is taken before the efficiency: F dq = d(KE_rod) + (1/eta) (d KE_deck + dPE)
     ke_deck = res.kinetic_energy - ke_rod
     assert np.max(np.abs(work_f - ke_rod - (ke_deck + pe) / 0.9)) < 1e-5 * work_f[-1]
+
+
+def test_dock_leveller_thrown_down_against_the_cylinder_as_solve_ivp():
+    """Started downwards at 0.5 m/s (the deck falls against the pushing cylinder: power flows
+    back, c = eta), it reaches the lower end of the stroke before it stops."""
+    scene = optdesign.load(DATA / "dock_leveller.toml")
+    scene = dataclasses.replace(scene, simulation=dataclasses.replace(scene.simulation, speed=-0.5))
+    res = simulate(scene, tolerance=1e-10)
+    th0, lo = math.radians(-10), math.radians(-12)
+    w0 = -0.5 / d1(dock_q, th0)
+    end = lambda t, x: x[0] - lo
+    end.terminal = True
+    ref = solve_ivp(lambda t, x: dock_rhs(t, x, DL["eta"]), (0, 1), [th0, w0], method="DOP853",
+                    rtol=1e-11, atol=1e-12, events=end, dense_output=True)
+    assert res.stop == "stroke end" and res.stop_end == "from"
+    assert res.t_stop == pytest.approx(ref.t_events[0][0], rel=1e-7)
+    assert np.all(res.efficiency_factor == pytest.approx(0.9, rel=1e-14))
+    inside = res.t < ref.t_events[0][0]
+    assert np.max(np.abs(res.sd[inside] - ref.sol(res.t[inside])[1])) < 1e-6
 
 
 def test_dock_leveller_held_by_a_weak_cylinder_stalls_at_once():
