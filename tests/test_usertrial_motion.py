@@ -220,3 +220,11 @@ def test_compressor_peak_torque_at_constant_speed_by_lagrange():
     a = np.linspace(0, 2 * np.pi, 20001)
     T = 0.5 * d1(comp_M, a, 1e-4) * 150.0**2 + CP["F"] * comp_ratios(a)[1]
     assert peak == pytest.approx(np.abs(T).max(), rel=1e-7)
+
+
+def test_animation_caption_shows_round_off_at_a_dead_centre_as_zero():
+    """animate --frame 0.3 of the compressor printed 'drive torque -1.942e-13 N m' (a zero of the
+    torque at a dead centre, against a 104.6 N m peak)."""
+    from optdesign.report.animate import caption_value
+    assert f"{caption_value(-1.942e-13, 104.6):.4g}" == "0"
+    assert f"{caption_value(-0.01046, 104.6):.4g}" == "-0.01046"   # a small real value stays
