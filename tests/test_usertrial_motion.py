@@ -228,3 +228,15 @@ def test_animation_caption_shows_round_off_at_a_dead_centre_as_zero():
     from optdesign.report.animate import caption_value
     assert f"{caption_value(-1.942e-13, 104.6):.4g}" == "0"
     assert f"{caption_value(-0.01046, 104.6):.4g}" == "-0.01046"   # a small real value stays
+
+
+def test_flywheel_written_with_mass_zero_says_to_leave_mass_out(tmp_path):
+    """A flywheel given by its inertia about the pivot, written `mass = 0` and no com, was told
+    'a body with mass needs its centre of mass' (it has none) without saying what to write."""
+    text = (DATA / "compressor_spinup.toml").read_text().replace(
+        'frame = ["O", "A"]\ninertia', 'frame = ["O", "A"]\nmass = 0\ninertia')
+    assert "mass = 0" in text
+    (tmp_path / "c.toml").write_text(text)
+    out = cli("simulate", tmp_path / "c.toml")
+    assert out.returncode == 2 and "Traceback" not in out.stderr and len(out.stderr.strip().splitlines()) == 1
+    assert "[[bodies]] 'flywheel', com" in out.stderr and "leave out 'mass', not mass = 0" in out.stderr
