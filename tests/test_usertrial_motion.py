@@ -256,3 +256,19 @@ def test_compressor_run_up_each_integrator_at_the_default_tolerance(integrator):
     assert res.stop == "stroke end" and res.t_stop == pytest.approx(t_ref, rel=1e-6)
     inside = res.t < t_ref
     assert np.max(np.abs(res.s[inside] - ref.sol(res.t[inside])[0])) < 1e-6 * 20 * math.pi
+
+
+@pytest.mark.parametrize("given, says", [
+    ("summary.txt", "not a result file, it does not read as JSON"),
+    ("", "a folder, not a file; give the result.json that `optdesign optimise` wrote in it (--design "),
+])
+def test_design_option_names_what_to_give_instead(tmp_path, given, says):
+    """`simulate --design optdesign-results/dock_leveller/summary.txt` (or the folder itself)
+    said only 'not a result file (Expecting value: line 1 column 1 (char 0))'."""
+    folder = tmp_path / "dock_leveller"
+    folder.mkdir()
+    (folder / "summary.txt").write_text("Dock leveller ... optimum\n")
+    (folder / "result.json").write_text("{}")
+    out = cli("simulate", DATA / "dock_leveller.toml", "--design", folder / given if given else folder)
+    assert out.returncode == 2 and "Traceback" not in out.stderr
+    assert says in out.stderr and "optimise" in out.stderr
