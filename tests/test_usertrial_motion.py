@@ -272,3 +272,32 @@ def test_design_option_names_what_to_give_instead(tmp_path, given, says):
     out = cli("simulate", DATA / "dock_leveller.toml", "--design", folder / given if given else folder)
     assert out.returncode == 2 and "Traceback" not in out.stderr
     assert says in out.stderr and "optimise" in out.stderr
+
+
+def test_compressor_run_up_through_a_lossy_drive_as_solve_ivp(tmp_path):
+    """[drive] efficiency = 0.8, T0 = 12 N m: the motor always delivers power here (the torque
+    passed on, T - J qdd, stays positive), so c = 1/eta throughout:
+    (c M + J) a'' = T - c (1/2 M' a'^2 + Q)."""
+    text = (DATA / "compressor_spinup.toml").read_text().replace(
+        "acceleration = 0.0\n", "acceleration = 0.0\nefficiency = 0.8\n")
+    assert "efficiency = 0.8" in text
+    (tmp_path / "c.toml").write_text(text)
+    scene = optdesign.load(tmp_path / "c.toml", {"T0": 12.0})
+    res = simulate(scene, tolerance=1e-10)
+    c = 1 / 0.8
+
+    def rhs(t, x):
+        a, w = x
+        Q = CP["F"] * comp_ratios(a)[1]
+        T = 12.0 * (1 - w / CP["w0"])
+        return [w, (T - c * (0.5 * d1(comp_M, a, 1e-4) * w**2 + Q)) / (c * comp_M(a) + CP["J"])]
+
+    end = lambda t, x: x[0] - 20 * math.pi
+    end.terminal = True
+    ref = solve_ivp(rhs, (0, 1.5), [0.1, 0.0], method="DOP853", rtol=1e-11, atol=1e-11, events=end,
+                    dense_output=True)
+    t_ref = ref.t_events[0][0]
+    assert res.stop == "stroke end" and res.t_stop == pytest.approx(t_ref, rel=1e-7)
+    assert np.all(res.efficiency_factor == pytest.approx(c, rel=1e-14))
+    inside = res.t < t_ref
+    assert np.max(np.abs(res.sd[inside] - ref.sol(res.t[inside])[1])) < 1e-5
