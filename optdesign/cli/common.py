@@ -45,7 +45,7 @@ def whole_number(minimum, maximum=None):
     return parse
 
 
-def real_number(above=None, below=None):
+def real_number(above=None, below=None, at_most=None):
     """An argparse type: a finite number in the range given (optdesign.scene.arguments.real)."""
 
     def parse(text):
@@ -56,7 +56,7 @@ def real_number(above=None, below=None):
         except ValueError:
             value = text
         try:
-            return real("", value, above=above, below=below, shown=repr(text))
+            return real("", value, above=above, below=below, at_most=at_most, shown=repr(text))
         except TypeError:
             raise argparse.ArgumentTypeError(f"expected a number, found {text!r}") from None
         except ValueError as exc:

@@ -26,12 +26,17 @@ def scene_with_design(args):
     if not getattr(args, "design", None):
         return scene
     path = Path(args.design)
+    if path.is_dir():
+        inside = f" (--design {path / 'result.json'})" if (path / "result.json").is_file() else ""
+        raise OptdesignError(f"--design {path}: a folder, not a file; give the result.json that `optdesign optimise` "
+                             f"wrote in it{inside}")
     try:
         data = json.loads(path.read_text())
     except FileNotFoundError:
         raise OptdesignError(f"--design {path}: no such file (expected the result.json of `optdesign optimise`)") from None
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise OptdesignError(f"--design {path}: not a result file ({exc})") from None
+        raise OptdesignError(f"--design {path}: not a result file, it does not read as JSON ({exc}); give the "
+                             "result.json that `optdesign optimise` wrote") from None
     design = data.get("design") if isinstance(data, dict) else None
     if not isinstance(design, dict) or not all(isinstance(v, (int, float)) for v in design.values()):
         raise OptdesignError(f"--design {path}: no 'design' table of numbers in it (expected the result.json of "

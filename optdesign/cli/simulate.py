@@ -19,8 +19,8 @@ def add_arguments(p):
     p.add_argument("--integrator", choices=("bdf", "adams", "rk4"), default=None,
                    help="bdf: CVODES BDF, Newton (implicit, stiff cases); adams: CVODES Adams, functional "
                         "iteration (non-stiff); rk4: fixed-step explicit RK4 (default: the scene's, else bdf)")
-    p.add_argument("--tolerance", type=real_number(above=0.0, below=1.0), default=None,
-                   help="relative tolerance, 0 < TOL < 1 (default: the scene's, else 1e-8)")
+    p.add_argument("--tolerance", type=real_number(above=0.0, at_most=0.1), default=None,
+                   help="relative tolerance, 0 < TOL <= 0.1 (default: the scene's, else 1e-8)")
     p.add_argument("--steps", type=whole_number(2), default=None, help="rk4 only: steps per output sample, >= 2 (default 20)")
     p.add_argument("--samples", type=_samples, default=None, help="output samples over 0 .. t_end (default: the scene's)")
     p.add_argument("--t-end", type=real_number(above=0.0), default=None, dest="t_end",

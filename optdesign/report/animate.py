@@ -27,6 +27,12 @@ from .units import constraint_scale, scaled, sweep_scale
 DRIVE_UNIT = {"rotary": ("drive torque", "N m"), "linear": ("drive force", "N")}
 
 
+
+def caption_value(value: float, peak: float) -> float:
+    """A value for the frame's caption: round-off at a zero of the load (the compressor's crank at
+    a dead centre read -1.942e-13 N m against a 104.6 N m peak) is shown as 0."""
+    return 0.0 if abs(value) <= 1e-9 * peak else float(value)
+
 def transmission(scene, geometry, analysis, s):
     """(label, values at ``s``, unit, (lower, upper) or None) of the transmission angle, or
     None where there is none to show."""
@@ -99,6 +105,7 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None, 
         ax.grid(alpha=0.3)
         ax.tick_params(labelsize=7)
         values = np.interp(s, analysis.columns["s"], drive) * k
+        peak = abs(drive[i]) * k   # over the stroke, not the frames drawn (a still has one)
         (dot,) = ax.plot([], [], "o", color="black", ms=6)
         line = ax.axvline(x[0], color="black", lw=0.8, alpha=0.6)
         markers.append((dot, line, values))
@@ -151,7 +158,7 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None, 
             dot.axes.draw_artist(line)
             dot.axes.draw_artist(dot)
         if analysis is not None:
-            text += f"   {name} {markers[0][2][i]:.4g} {shown}"
+            text += f"   {name} {caption_value(markers[0][2][i], peak):.4g} {shown}"
         if trans is not None:
             text += f"   transmission {trans[1][i]:.3g} {trans[2]}"
         if not shots.assembled[i]:

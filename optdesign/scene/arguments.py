@@ -45,19 +45,21 @@ def whole(name: str, value, minimum: int = 1, maximum: int | None = None, shown:
 
 
 def real(name: str, value, *, above: float | None = None, below: float | None = None,
-         at_least: float | None = None, shown: str | None = None) -> float:
-    """``value`` as a finite float, > ``above``, >= ``at_least`` and < ``below`` where given."""
+         at_least: float | None = None, at_most: float | None = None, shown: str | None = None) -> float:
+    """``value`` as a finite float, > ``above``, >= ``at_least``, < ``below`` and <= ``at_most``
+    where given."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise TypeError(f"{name}: expected a number, found {_type_name(value)} {_short(value)}")
     parts = [f"> {above:g}" if above is not None else "", f">= {at_least:g}" if at_least is not None else "",
-             f"< {below:g}" if below is not None else ""]
+             f"< {below:g}" if below is not None else "", f"<= {at_most:g}" if at_most is not None else ""]
     expected = "a finite number" + (" " + " and ".join(p for p in parts if p) if any(parts) else "")
     try:
         v = float(value)
     except OverflowError:
         raise _found(name, expected, shown or f"{value} (too large for a float)") from None
     if (not math.isfinite(v) or (above is not None and not v > above)
-            or (at_least is not None and not v >= at_least) or (below is not None and not v < below)):
+            or (at_least is not None and not v >= at_least) or (below is not None and not v < below)
+            or (at_most is not None and not v <= at_most)):
         raise _found(name, expected, shown or f"{v:g}")
     return v
 
@@ -184,9 +186,10 @@ OUTPUT_SAMPLE_BYTES = 400  # one output sample of simulate: states, columns, the
 
 
 def simulation_arguments(tolerance, samples, t_end, steps):
-    """(tolerance, samples, t_end, steps) of a simulation run, checked: a tolerance in (0, 1), a
+    """(tolerance, samples, t_end, steps) of a simulation run, checked: a tolerance in (0, 0.1]
+    (as [simulation] tolerance), a
     finite end time > 0, samples >= 2 that fit in memory, RK4 steps >= 2 that end in time."""
-    tolerance = real("tolerance", tolerance, above=0.0, below=1.0)
+    tolerance = real("tolerance", tolerance, above=0.0, at_most=0.1)
     samples = whole("samples", samples, 2)
     fits_in_memory("samples", samples, OUTPUT_SAMPLE_BYTES, "output sample", "use fewer samples (--samples)")
     t_end = real("t_end", t_end, above=0.0)

@@ -108,7 +108,8 @@ class Body:
                 set_field(self, key, parse_vector(getattr(self, key), where.at(key), 2, what))
         if self.mass is not None and self.com is None:
             fail(where.at("com"), "a body with mass needs its centre of mass: missing key 'com', "
-                                  "expected com = [a, b] in the body frame")
+                                  "expected com = [a, b] in the body frame (a body without mass, e.g. a "
+                                  "flywheel given by its inertia alone: leave out 'mass', not mass = 0)")
         if self.force is not None and self.com is None:
             fail(where.at("com"), "the force acts at the centre of mass: missing key 'com', "
                                   "expected com = [a, b] in the body frame")

@@ -87,11 +87,11 @@ def write_folder(study, cases, folder, rows, figures, computed, reused, t0, wher
     def write(tmp) -> list:
         paths = [write_atomic(tmp / "study.json", json.dumps(definition(study, cases), indent=1) + "\n"),
                  study_table.write_csv(tmp, rows, study.input_columns)]
+        pareto = bool(study.axes) and study.axes[-1].kind == "pareto"
         if complete and figures:
-            pareto = bool(study.axes) and study.axes[-1].kind == "pareto"
             paths += study_figures.figures(study, rows, tmp, study_table.front(study, rows) if pareto else None)
-            if pareto:
-                paths.append(study_table.pareto_csv(study, rows, tmp))
+        if complete and pareto:   # a table, not a figure: --no-figures keeps it
+            paths.append(study_table.pareto_csv(study, rows, tmp))
         result = StudyResult(study, tmp, rows, complete, computed, reused, time.perf_counter() - t0, paths,
                              tuple(notes))
         paths.append(write_summary(result, where))

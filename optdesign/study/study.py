@@ -148,6 +148,13 @@ class Study:
                 if col in seen:
                     raise SceneError(f"study: {col!r} is on two axes")
                 seen.add(col)
+            design = sorted({n for point in axis.points for n in dict(point)} & {p.name for p in sc.parameters if p.is_design}) \
+                if axis.kind != "pareto" and self.mode == "optimise" else []
+            if design:
+                raise SceneError(f"study: {design[0]!r} is a design variable of {sc.path}: each optimisation chooses it, "
+                                 f"so an axis over it would only move the start and every case would give the same "
+                                 f"optimum; use --mode analyse to evaluate it at given values, or make it a fixed "
+                                 f"parameter in the scene (a number instead of {{ value, min, max }}) to optimise the rest")
             if axis.kind != "pareto":
                 for point in axis.points:   # unknown names and bad values fail here, early
                     case_scene(sc, self.mode, dict(point))

@@ -72,7 +72,7 @@ OPTIONS = {  # option -> (command line before it, the rule a parsed value obeys)
     "--samples": (["analyse", "S"], lambda v: isinstance(v, int) and v >= 2),
     "--seed": (["optimise", "S"], lambda v: isinstance(v, int) and v >= 0),
     "--starts": (["optimise", "S"], lambda v: isinstance(v, int) and v >= 1),
-    "--tolerance": (["simulate", "S"], lambda v: math.isfinite(v) and 0 < v < 1),
+    "--tolerance": (["simulate", "S"], lambda v: math.isfinite(v) and 0 < v <= 0.1),
     "--t-end": (["simulate", "S"], lambda v: math.isfinite(v) and v > 0),
     "--steps": (["simulate", "S"], lambda v: isinstance(v, int) and v >= 2),
 }

@@ -167,8 +167,8 @@ def test_a_crank_of_zero_length_in_simulate_is_named_with_its_cause():
 
 # --- option values that begin with '-' -----------------------------------------------------------------
 @pytest.mark.parametrize("argv, message", [
-    (["simulate", SIM, "--tolerance", "-1e-6"], "argument --tolerance: expected a finite number > 0 and < 1, found '-1e-6'"),
-    (["simulate", SIM, "--tolerance", "-.5"], "argument --tolerance: expected a finite number > 0 and < 1, found '-.5'"),
+    (["simulate", SIM, "--tolerance", "-1e-6"], "argument --tolerance: expected a finite number > 0 and <= 0.1, found '-1e-6'"),
+    (["simulate", SIM, "--tolerance", "-.5"], "argument --tolerance: expected a finite number > 0 and <= 0.1, found '-.5'"),
     (["simulate", SIM, "--t-end", "-inf"], "argument --t-end: expected a finite number > 0, found '-inf'"),
     (["simulate", SIM, "--t-end", "-1e9"], "argument --t-end: expected a finite number > 0, found '-1e9'"),
     (["simulate", SIM, "--t-end", "-nan"], "argument --t-end: expected a finite number > 0, found '-nan'"),
