@@ -15,13 +15,19 @@ _IN_CASE = re.compile(r"^(?P<what>.*?) in cases? '(?P<case>[^']*)'(?P<more>(, '[
 _COLUMN = {"motor peak torque": "motor_torque", "motor speed": "motor_speed", "rod buckling": "rod_buckling"}
 
 
+_LAST = [None, None]   # (result, its cases): the JSON and the summary of one result share one analysis
+
+
 def cases_at_optimum(result):
-    """The scene's cases analysed at the optimal design (a CasesResult), or None."""
+    """The scene's cases analysed at the optimal design (a CasesResult), or None; the last
+    result's kept (results do not change), so that its JSON and its summary analyse it once."""
     if not result.success or not result.scene.cases:
         return None
-    from ..model.analysis import analyse
+    if _LAST[0] is not result:
+        from ..model.analysis import analyse
 
-    return analyse(result.scene.with_parameters(**result.design)).cases
+        _LAST[:] = [result, analyse(result.scene.with_parameters(**result.design)).cases]
+    return _LAST[1]
 
 
 def governing(result, cases) -> dict:
