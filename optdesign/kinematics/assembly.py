@@ -33,6 +33,7 @@ import casadi as ca
 import numpy as np
 
 from ..errors import AssemblyError
+from ..scene.written import sweep_unit
 from .peaks import Request, continuous_maxima_rows, narrow_minima
 
 # A dyad or slider whose relative margin is below this is at (or numerically at) its limit
@@ -60,7 +61,7 @@ def sweep_is_length(scene) -> bool:
     variable used in a construction's length or coordinate.  Otherwise (a crank angle, a jib
     angle, also in radians as plain numbers) messages show its values in degrees too."""
     sweep = scene.sweep
-    if any(w in getattr(e, "source", "") for e in (sweep.start, sweep.stop) for w in ("deg", "pi")):
+    if sweep_unit(scene):   # written in deg or with pi: an angle
         return False
     for c in scene.points:
         for name in _LENGTH_FIELDS.get(type(c).__name__, ()):

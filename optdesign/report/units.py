@@ -6,27 +6,9 @@ import math
 
 import numpy as np
 
+from ..scene.written import sweep_unit, written_in_deg  # noqa: F401  (used by the report modules)
+
 DEG = math.pi / 180.0
-
-
-def written_in_deg(*exprs) -> bool:
-    """True when any of the expressions (or their source texts) was written with ``deg``."""
-    for e in exprs:
-        text = getattr(e, "source", e)
-        if isinstance(text, str) and "deg" in text:
-            return True
-    return False
-
-
-def sweep_unit(scene) -> str:
-    """The sweep's unit for a person: 'deg' when [sweep] from/to were written in deg, 'rad'
-    when with pi, else '' (a length or a time: the scene does not say)."""
-    sw = scene.sweep
-    if written_in_deg(sw.start, sw.stop):
-        return "deg"
-    if any("pi" in getattr(e, "source", "") for e in (sw.start, sw.stop)):
-        return "rad"
-    return ""
 
 
 def sweep_scale(scene) -> tuple:
