@@ -163,13 +163,15 @@ def test_ctrl_c_in_optimise_from_python_carries_the_best_result():
 def test_workers_die_with_a_parent_killed_by_sigkill(tmp_path):
     err_path = tmp_path / "stderr.txt"
     with open(err_path, "w") as err:
-        proc = subprocess.Popen([sys.executable, "-m", "optdesign", "optimise", str(JIB_DESIGN), "--starts", "400",
+        proc = subprocess.Popen([sys.executable, "-m", "optdesign", "optimise", str(JIB_DESIGN), "--starts", "2000",
                                  "--workers", "2", "--out", str(tmp_path / "out")], cwd=tmp_path,
                                 stdout=subprocess.DEVNULL, stderr=err, start_new_session=True,
                                 env={**os.environ, "MPLBACKEND": "Agg"})
+        # the children are read the moment the pool's workers are seen, never after a fixed sleep:
+        # on a fast machine the 2,000 starts may be over and the pool gone a few seconds later
         wait_for_starts(proc, 2)
-        time.sleep(2.0)
         children = subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True, text=True).stdout.split()
+        assert proc.poll() is None, "the run ended before it could be killed: " + err_path.read_text()
         assert len(children) == 3, children   # the 2 workers and the process ready to draw the figures
         proc.kill()
         proc.wait()
