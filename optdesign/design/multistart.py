@@ -23,6 +23,7 @@ from .phase1 import Phase1
 from .problem import DesignProblem, SolverSettings
 from .repair import Repair
 from .results import OptimisationResult, StartReport
+from .cycle_certify import certify_cycle
 from .sensitivities import constraint_report, objective_gradient_factor, objective_value, sensitivities
 from .solver import Solver
 from .starts import RETRIES, StartPlan, plan_starts
@@ -232,7 +233,7 @@ def summarise(problem, solver, reports, solutions, timings, plan=None, fixed=Non
     # the best start's solution with its sample points on the continuous extrema (its
     # multipliers are then the continuous problem's); the same optimum to the tolerances
     sol = solver.polish(solutions[best], fixed)
-    best_value = objective_value(pb, sol)
+    best_value, refused = certify_cycle(pb, sol, objective_value(pb, sol), fixed)
     factor = objective_gradient_factor(pb, sol)
     peak_key = (pb.objective_text, "abs")
     peak_c = abs(sol.certified[peak_key]) if peak_key in sol.certified else None
@@ -241,11 +242,13 @@ def summarise(problem, solver, reports, solutions, timings, plan=None, fixed=Non
     message = ("local optimum: IPOPT converged and the continuous check agrees (1 start: "
                "a local optimum, run more starts to search for a better one)" if n == 1 else
                "optimal: the best of the starts' local optima; IPOPT converged and the continuous check agrees")
+    if refused:
+        message = f"refused: {refused}"
     return OptimisationResult(
         scene=pb.scene, design=dict(zip(pb.design_names, map(float, np.clip(sol.x, pb.lower, pb.upper)))),
         objective=best_value, objective_sampled=objective_value(pb, sol, certified=False),
         objective_kind=pb.objective_kind, peak_certified=peak_c, peak_sampled=peak_s,
-        success=True, status=sol.status, message=message,
+        success=not refused, status="samples do not resolve the cycle" if refused else sol.status, message=message,
         constraints=constraint_report(pb, sol, factor), sensitivities=sensitivities(pb, sol, factor),
         starts_total=n, starts_at_best=at_best, starts=tuple(reports), timings=timings,
         settings=pb.settings, optima=optima, start_plan=starts_info)

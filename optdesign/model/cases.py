@@ -23,6 +23,7 @@ from .duty import PEAK_KEYS, CaseTimes, DutyCycle, case_integrals, motor_report
 from .mapped import MappedFunction
 from .profiles import check_law, constant_motion, case_profile
 from .reduction import ReducedModel
+from .time_integrals import certified_integrals, columns_at
 from .train import cylinder_outputs, cylinder_sizing, gear_outputs, motor_numbers
 
 
@@ -174,7 +175,7 @@ class CaseAnalysis:
             sigma = cm.profile.sigma if cm.profile is not None else 1.0
             integrals = case_integrals(times, columns, sigma)
             if integrals:
-                integrals["unresolved"] = self._unresolved(cm, names, function, p_case, integrals, sigma)
+                integrals = self._certified(cm, names, function, p_case, nodes, sigma, integrals)
             profile = None if cm.case.profile is None else (cm.case.profile if isinstance(cm.case.profile, str)
                                                             else f"inline {cm.profile.shape.kind}")
             results[cm.name] = CaseResult(cm.name, cm.case.direction, profile, cm.case.efficiency,
@@ -207,31 +208,18 @@ class CaseAnalysis:
         values["t"] = times.t
         return values, times
 
-    def _unresolved(self, cm, names, function, p_case, integrals, sigma) -> dict:
-        """The integrals over time that the samples do not resolve: each one's value from every
-        other sample of the scene's (the rule's error falls as the square of the spacing, so
-        on a load that the samples follow the two differ by a small fraction of a percent) when
-        it differs from the value on all of them by more than RESOLUTION of the larger; {} when
-        every one agrees.  A load that changes faster than the samples, as next to a lock-up
-        where the drive turns ever faster for the same motion of the output, gives
-        integrals that are not the stroke's (name -> {value, samples, half_value, half_samples})."""
-        s = self.s_values
-        if len(s) < 5:
-            return {}
-        half = s[::2] if len(s) % 2 else np.r_[s[:-1:2], s[-1]]
-        nodes, _ = case_nodes(half, cm.profile)
-        values, times = self._evaluate(cm, names, function, nodes, p_case)
-        coarse = case_integrals(times, {"s": nodes, **values}, sigma)
-        out = {}
-        for key, scale in (("energy", max(abs(integrals["energy"]), integrals["energy_driving"])),
-                           ("rms_time", integrals["rms_time"])):
-            a, b = integrals[key], coarse[key]
-            if abs(a - b) > RESOLUTION * max(scale, abs(b)):
-                out[key] = {"value": a, "samples": len(s), "half_value": b, "half_samples": len(half)}
+    def _certified(self, cm, names, function, p_case, nodes, sigma, sampled) -> dict:
+        """The case's integrals over time to :data:`.time_integrals.TOLERANCE` (adaptive
+        quadrature), with ``errors``, ``sampled`` (the rule on the samples, as the NLP has them)
+        and ``unresolved`` (those the quadrature could not bring within its tolerance)."""
+        exact = certified_integrals(cm, columns_at(function, names, p_case), nodes, sigma)
+        out = {k: exact[k] for k in sampled}
+        out.update(errors=exact["errors"], sampled=dict(sampled), intervals=exact["intervals"])
+        out["unresolved"] = {k: {"value": exact[k], "error": exact["errors"][k], "samples": len(self.s_values),
+                                 "sampled_value": sampled[k]}
+                             for k in ("energy", "rms_time") if k in exact["not_converged"] or (
+                                 k == "rms_time" and "drive_squared" in exact["not_converged"])}
         return out
-
-
-RESOLUTION = 0.01   # an integral over time that changes by more than this fraction with half the samples
 
 
 def case_nodes(s, profile):
@@ -297,6 +285,8 @@ def add_motor_torque(results, duty, motor):
         r.peak_at["motor_torque"] = {"s": float(r.columns["s"][i]), "value": float(torque[i])}
     if "rms" in motor:
         duty["rms_time"]["motor_torque"] = motor["rms"]
+        if "rms_error" in motor and "errors" in duty:
+            duty["errors"]["rms_time"]["motor_torque"] = motor["rms_error"]
 
 
 def governing_cases(results: dict) -> dict:

@@ -221,6 +221,28 @@ def _numpy_of(s, expr):
     return run
 
 
+def speed_function(profile):
+    """V(x, y) of a profile, vectorised with numpy (x, y: arrays of one shape, the distances
+    from the motion's beginning and to its end; the smaller one is used exactly, except by a
+    law, a function of the sweep value itself)."""
+    if profile.law_speed is not None:
+        def law(a, b):
+            a, b = np.asarray(a, float), np.asarray(b, float)
+            s = np.where(a <= b, profile.s_begin + profile.sigma * a, profile.s_end - profile.sigma * b)
+            return profile.law_speed(s)
+        return law
+    z, L = ca.SX.sym("z"), profile.length
+    # one input: z = x in the first half of the motion, z = -y in the second
+    x, y = ca.if_else(z >= 0, z, L + z), ca.if_else(z >= 0, L - z, -z)
+    f = VectorisedSX(ca.Function("V", [z, ca.SX.sym("p", 0)], [ca.fabs(profile.along(x, y)[0])], ["z", "p"], ["V"]))
+
+    def speed(a, b):
+        a, b = np.asarray(a, float), np.asarray(b, float)
+        zz = np.where(a <= b, a, -b).ravel()
+        return np.broadcast_to(f(zz, np.zeros(0))["V"], zz.shape).reshape(a.shape)
+    return speed
+
+
 def tanh_sinh(f, a, b, h=1 / 16, levels=48):
     """Integrals of ``f`` over the intervals [a_i, b_i] by tanh-sinh quadrature (double
     exponential: exact to round-off for smooth f, and for integrable singularities such as
