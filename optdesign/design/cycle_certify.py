@@ -25,16 +25,17 @@ def cycle_at(pb, x, fixed=None):
 
 
 def certify_cycle(pb, sol, nlp_value, fixed=None):
-    """(objective, refusal): the certified objective of an 'rms_time' problem at ``sol`` (else
-    ``nlp_value``), and '' or why the optimum cannot stand.  Problems without the cycle's
-    integrals: (nlp_value, '')."""
+    """(objective, refusal, cycle constraints): the certified objective of an 'rms_time'
+    problem at ``sol`` (else ``nlp_value``), '' or why the optimum cannot stand, and each cycle
+    constraint's certified value {name: {value, error}}.  Problems without the cycle's
+    integrals: (nlp_value, '', {})."""
     time_terms = getattr(pb, "time_terms", ())
     cycle_constraints = getattr(pb, "cycle_constraints", ())
     if not time_terms and not cycle_constraints:
-        return nlp_value, ""
+        return nlp_value, "", {}
     duty = cycle_at(pb, sol.x, fixed).duty
     if "reason" in duty:
-        return nlp_value, duty["reason"]
+        return nlp_value, duty["reason"], {}
     rms, errors = duty["rms_time"], duty.get("errors", {}).get("rms_time", {})
     samples = len(pb.s_grid)
     value, reasons = nlp_value, []
@@ -46,11 +47,13 @@ def certify_cycle(pb, sol, nlp_value, fixed=None):
                 reasons.append(f"the RMS over time of {what} on the NLP's {samples} sample points is {nlp_value:.6g}, the "
                                f"cycle's (adaptive quadrature) {value:.6g} +- {errors.get(what, 0.0):.2g}")
     for name, key, limit in cycle_constraints:
-        if key in rms and rms[key] > limit * (1 + 1e-6) + errors.get(key, 0.0):
+        if key in rms and rms[key] > limit * (1 + RESOLVED) + errors.get(key, 0.0):
             reasons.append(f"{name}: the cycle's RMS {key} {rms[key]:.6g} exceeds {limit:.6g} (it held on the "
                            f"NLP's {samples} sample points)")
+    constraints = {name: {"value": rms[key], "error": errors.get(key, 0.0)}
+                   for name, key, _ in cycle_constraints if key in rms}
     if not reasons:
-        return value, ""
+        return value, "", constraints
     return value, ("the samples do not resolve the duty cycle's integrals: " + "; ".join(reasons)
                    + ": the optimum is the rule's on the samples, not the cycle's; use more samples "
-                   "(--samples, [sweep] samples)")
+                   "(--samples, [sweep] samples)"), constraints

@@ -233,7 +233,7 @@ def summarise(problem, solver, reports, solutions, timings, plan=None, fixed=Non
     # the best start's solution with its sample points on the continuous extrema (its
     # multipliers are then the continuous problem's); the same optimum to the tolerances
     sol = solver.polish(solutions[best], fixed)
-    best_value, refused = certify_cycle(pb, sol, objective_value(pb, sol), fixed)
+    best_value, refused, cycle = certify_cycle(pb, sol, objective_value(pb, sol), fixed)
     factor = objective_gradient_factor(pb, sol)
     peak_key = (pb.objective_text, "abs")
     peak_c = abs(sol.certified[peak_key]) if peak_key in sol.certified else None
@@ -249,9 +249,19 @@ def summarise(problem, solver, reports, solutions, timings, plan=None, fixed=Non
         objective=best_value, objective_sampled=objective_value(pb, sol, certified=False),
         objective_kind=pb.objective_kind, peak_certified=peak_c, peak_sampled=peak_s,
         success=not refused, status="samples do not resolve the cycle" if refused else sol.status, message=message,
-        constraints=constraint_report(pb, sol, factor), sensitivities=sensitivities(pb, sol, factor),
+        constraints=_certified_cycle(constraint_report(pb, sol, factor), cycle), sensitivities=sensitivities(pb, sol, factor),
         starts_total=n, starts_at_best=at_best, starts=tuple(reports), timings=timings,
         settings=pb.settings, optima=optima, start_plan=starts_info)
+
+
+def _certified_cycle(constraints, cycle):
+    """The constraint report with each cycle constraint's value certified (the NLP's kept as
+    ``value_sampled``) and its quadrature error."""
+    for name, c in cycle.items():
+        if name in constraints:
+            constraints[name] = dict(constraints[name], value=c["value"], value_error=c["error"],
+                                     value_sampled=constraints[name].get("value"))
+    return constraints
 
 
 def _with_optimum(report, j):

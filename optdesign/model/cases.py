@@ -180,7 +180,7 @@ class CaseAnalysis:
                                                             else f"inline {cm.profile.shape.kind}")
             results[cm.name] = CaseResult(cm.name, cm.case.direction, profile, cm.case.efficiency,
                                           {k: cm.values[k] for k in cm.case.overrides}, columns, peaks, peak_at,
-                                          times.duration, integrals, on_sample, constraints)
+                                          integrals.get("duration", times.duration), integrals, on_sample, constraints)
             evaluated[cm.name] = {"hold": ends, "on_sample": on_sample}
         duty = self.duty.evaluate(results, evaluated, p_values, self.mech)
         env = self.mech.resolved.environment(np.asarray(p_values, float))
@@ -204,6 +204,7 @@ class CaseAnalysis:
             values["q"] = np.unwrap(values["q"])
         if cm.profile is not None and cm.profile.law_speed is not None:
             check_law(cm.profile, nodes, cm.profile.sigma * values["sd"], cm.name, self.mech.scene.path)   # V: a reverse case has sd = -V
+            _law_end_limits(cm.profile, nodes, values, lambda s: function(s, p_case), names)
         times = CaseTimes.of(cm, nodes, values)
         values["t"] = times.t
         return values, times
@@ -214,12 +215,29 @@ class CaseAnalysis:
         and ``unresolved`` (those the quadrature could not bring within its tolerance)."""
         exact = certified_integrals(cm, columns_at(function, names, p_case), nodes, sigma)
         out = {k: exact[k] for k in sampled}
+        out["duration"] = exact["duration"]   # a law's by the quadrature (tanh-sinh's was 1e-7 off at a square root)
         out.update(errors=exact["errors"], sampled=dict(sampled), intervals=exact["intervals"])
         out["unresolved"] = {k: {"value": exact[k], "error": exact["errors"][k], "samples": len(self.s_values),
                                  "sampled_value": sampled[k]}
                              for k in ("energy", "rms_time") if k in exact["not_converged"] or (
                                  k == "rms_time" and "drive_squared" in exact["not_converged"])}
         return out
+
+
+def _law_end_limits(profile, nodes, values, function, names):
+    """A law's columns at a stroke's end where its speed falls to 0 like a square root: its
+    acceleration V dV/ds is 0 x inf there in the graph (it printed peak drive = nan), so each
+    column that is not finite there is replaced by its limit from inside, extrapolated linearly
+    from 1e-6 and 2e-6 of the stroke in (off by O(1e-12) of the column's curvature)."""
+    for i in (0, len(nodes) - 1):
+        if all(np.isfinite(v[i]) for v in values.values()):
+            continue
+        inward = 1.0 if nodes[i] == min(nodes[0], nodes[-1]) else -1.0
+        h = 1e-6 * profile.length
+        inner = dict(zip(names, (np.asarray(v, float).ravel() for v in function(nodes[i] + inward * np.array([h, 2 * h])))))
+        for k, v in values.items():
+            if k in inner and not np.isfinite(v[i]):
+                v[i] = 2 * inner[k][0] - inner[k][1]
 
 
 def case_nodes(s, profile):
