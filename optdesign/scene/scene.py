@@ -31,6 +31,7 @@ class Scene:
     sweep: Sweep
     points: tuple
     bodies: tuple = ()
+    forces: tuple = ()   # [[forces]]: springs, gas springs, dampers, torsion springs (scene/forces.py)
     gravity: Gravity | None = None
     drive: Drive | None = None
     constraints: tuple = ()
@@ -49,7 +50,7 @@ class Scene:
     drawing: Drawing | None = None   # the optional [drawing] table (drawings only)
 
     def __post_init__(self):
-        for name in ("parameters", "points", "bodies", "constraints", "profiles", "cases", "motors"):
+        for name in ("parameters", "points", "bodies", "forces", "constraints", "profiles", "cases", "motors"):
             set_field(self, name, tuple(getattr(self, name)))
         self.validate()
 
