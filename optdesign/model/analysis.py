@@ -53,6 +53,8 @@ class AnalysisResult:
     # the scene's [[cases]] (model/cases.py: CasesResult): every case, the governing case of
     # each peak, the duty cycle and the drive train; None without cases
     cases: object = None
+    # [quantities]: name -> array over the samples (their units: scene.quantities)
+    quantities: dict = field(default_factory=dict)
 
     @property
     def drive_kind(self):
@@ -91,6 +93,8 @@ class Analysis:
         self.per_stroke = [c for c in scene.constraints if c.expr.is_aggregate]
         for c in self.per_sample:
             outs[f"constraint:{c.name}"] = model_value(self.model, c.expr, f"[[constraints]] {c.name}")
+        for name, expr in self.mech.quantities.items():
+            outs[f"quantity:{name}"] = expr + 0 * self.mech.s
         self.names = list(outs)
         self.function = self.mech.function("reduced_model", outs)
         self.mapped = self.function.map(len(self.s_values))
@@ -116,10 +120,12 @@ class Analysis:
         n = len(self.s_values)
         values = {k: np.broadcast_to(np.asarray(v, float).ravel(), (n,)).copy() for k, v in raw.items()}
         columns = {"s": self.s_values.copy()}
-        bodies, constraints = {}, {}
+        bodies, constraints, quantities = {}, {}, {}
         for key, arr in values.items():
             if key.startswith("constraint:"):
                 constraints[key.split(":", 1)[1]] = arr
+            elif key.startswith("quantity:"):
+                quantities[key.split(":", 1)[1]] = arr
             elif ":" in key:
                 body, name = key.split(":", 1)
                 bodies.setdefault(body, {})[name] = arr
@@ -159,7 +165,8 @@ class Analysis:
                             **{f"peak |{k}|": v for k, v in peaks.items()}})
         return AnalysisResult(self.scene, columns, bodies, constraints, peaks, timings, peaks_sampled,
                               peak_at, extremes, sampled_stroke,
-                              cases=self.case_analysis.run(p_values) if self.case_analysis else None)
+                              cases=self.case_analysis.run(p_values) if self.case_analysis else None,
+                              quantities=quantities)
 
     def _per_stroke(self, p_values, s_values):
         """The per-stroke constraints with their aggregates taken over ``s_values``."""

@@ -165,6 +165,10 @@ def csv_text(result) -> str:
             factor, unit = constraint_scale(bounds[name][0]) if name in bounds else (1.0, "")
             cols.append(np.asarray(v) * factor)
             heads.append(f"{name} [{unit or '-'}]")
+    units = {q.name: q.unit for q in result.scene.quantities}
+    for name, v in result.quantities.items():   # [quantities] in SI, with the unit the scene gave
+        cols.append(np.asarray(v))
+        heads.append(f"{name} [{units.get(name) or '-'}]")
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
     writer.writerow(heads)

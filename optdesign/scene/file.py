@@ -19,12 +19,13 @@ from .drawing import DRAWING_KEYS, Drawing
 from .file_sizing import SIZING_KEYS, read_sizing
 from .forces import FORCE_KEYS, read_force
 from .points import Attach, Closure, Dyad, Fixed, Loop, Polar, Slider
+from .quantities import read_quantities
 from .scene import Scene
 from .simulation import read_phases
 from .where import ARRAY_TABLES, Where, located_error, near_miss
 
 TOP_KEYS = ("title", "source", "parameters", "sweep", "points", "bodies", "forces", "gravity", "drive",
-            "constraints", "objective", "reference", "simulation", "drawing") + SIZING_KEYS
+            "constraints", "objective", "reference", "simulation", "drawing", "quantities") + SIZING_KEYS
 REQUIRED_TOP = {"title": "a string naming the scene", "sweep": "the table [sweep] (the stroke)",
                 "points": "the table [points] (the constructions)"}
 CLOSED_FORM = {cls.KIND: cls for cls in (Fixed, Polar, Dyad, Slider, Attach)}
@@ -208,6 +209,7 @@ class _Reader:
             path=path,
             simulation=self.simulation(data["simulation"]) if "simulation" in data else None,
             drawing=self.drawing(data["drawing"]) if "drawing" in data else None,
+            quantities=read_quantities(data["quantities"]) if "quantities" in data else (),
             **read_sizing(self, data),
         )
 
