@@ -13,6 +13,7 @@ from ..scene.arguments import scene_argument
 from ..scene.expressions import evaluate
 from .certified import PEAKS, CertifiedExtremes
 from .mapped import MappedFunction
+from .quantities import environment, model_value
 from ..scene.cases import is_case_constraint
 from .cases import CaseAnalysis
 from .finite import check_columns, check_values
@@ -91,7 +92,7 @@ class Analysis:
                            and not is_case_constraint(scene, c)]   # those per load case: model/cases.py
         self.per_stroke = [c for c in scene.constraints if c.expr.is_aggregate]
         for c in self.per_sample:
-            outs[f"constraint:{c.name}"] = self.mech.value(c.expr, f"[[constraints]] {c.name}")
+            outs[f"constraint:{c.name}"] = model_value(self.model, c.expr, f"[[constraints]] {c.name}")
         for name, expr in self.mech.quantities.items():
             outs[f"quantity:{name}"] = expr + 0 * self.mech.s
         self.names = list(outs)
@@ -172,13 +173,17 @@ class Analysis:
         if not self.per_stroke:
             return {}
         mech = self.mech
+        # the model's columns that the per-stroke constraints use (model/quantities.py)
+        used = set().union(*(c.expr.names() for c in self.per_stroke)) - set(mech.env)
+        columns = {k: v for k, v in environment(self.model).items() if k in used}
         if self._points is None:  # built once, on the first run that needs it
-            self._points = MappedFunction(mech.function("points", dict(mech.points)))
+            self._points = MappedFunction(mech.function("points", dict(mech.points, **columns)))
         names = list(mech.points)
         rows = self._points(s_values, p_values)
         values = self.resolved.environment(p_values)
         values[self.scene.sweep.name] = ca.DM(np.asarray(s_values, float)[None, :])
         points = {k: ca.DM(np.asarray(v)) for k, v in zip(names, rows)}
+        values.update({k: ca.DM(np.asarray(v)).reshape((1, -1)) for k, v in zip(columns, rows[len(names):])})
         return {c.name: float(evaluate(c.expr, values, points, f"[[constraints]] {c.name}"))
                 for c in self.per_stroke}
 

@@ -13,9 +13,10 @@ from .output import SCHEMA, Rows, table_chunks
 
 UNITS = {
     "rotary": {"q": "rad", "reduced_inertia": "kg m^2", "reduced_inertia_dq": "kg m^2/rad",
-               "static_load": "N m", "inertia_term": "N m", "velocity_term": "N m", "drive": "N m",
+               "static_load": "N m", "damping_load": "N m", "inertia_term": "N m", "velocity_term": "N m",
+               "drive": "N m",
                "power": "W", "k": "rad/unit of s"},
-    "linear": {"q": "m", "reduced_inertia": "kg", "reduced_inertia_dq": "kg/m", "static_load": "N",
+    "linear": {"q": "m", "reduced_inertia": "kg", "reduced_inertia_dq": "kg/m", "static_load": "N", "damping_load": "N",
                "inertia_term": "N", "velocity_term": "N", "drive": "N", "power": "W", "k": "m/unit of s"},
 }
 SEED_NAMES = {
@@ -24,7 +25,7 @@ SEED_NAMES = {
     "linear": {"reduced_inertia": "m_zS", "reduced_inertia_dq": "dm_zS/dx", "static_load": "F_Su",
                "inertia_term": "m_zS*a_S", "velocity_term": "dF_S", "drive": "F_S"},
 }
-COLUMN_ORDER = ("s", "q", "k", "reduced_inertia", "reduced_inertia_dq", "static_load", "inertia_term",
+COLUMN_ORDER = ("s", "q", "k", "reduced_inertia", "reduced_inertia_dq", "static_load", "damping_load", "inertia_term",
                 "velocity_term", "drive", "power", "efficiency_factor")
 
 
