@@ -20,6 +20,7 @@ from ..kinematics.enclosure import Enclosures
 from ..kinematics.peaks import Request, continuous_maxima_rows, resolving_points
 from ..scene.expressions import Expression
 from .mapped import MappedFunction
+from .quantities import model_value
 
 PEAKS = ("drive", "static_load", "reduced_inertia", "power")
 
@@ -39,11 +40,11 @@ class CertifiedExtremes:
                 rows.append(outputs[name])
         for c in analysis.per_sample:
             self.constraint_rows[c.name] = len(rows)
-            rows.append(mech.value(c.expr, f"[[constraints]] {c.name}"))
+            rows.append(model_value(analysis.model, c.expr, f"[[constraints]] {c.name}"))
         for c in analysis.per_stroke:
             for func, inner in aggregates(c.expr):
                 self.aggregate_rows.append((c.name, func, len(rows)))
-                rows.append(mech.value(inner, f"[[constraints]] {c.name}"))
+                rows.append(model_value(analysis.model, inner, f"[[constraints]] {c.name}"))
         self.n_rows = len(rows)
         v = ca.vertcat(*rows) if rows else ca.DM.zeros(0, 1)
         dv = mech.ds(v)
