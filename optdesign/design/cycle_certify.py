@@ -20,7 +20,7 @@ def cycle_at(pb, x, fixed=None):
     """The cases analysed at design ``x`` (a CasesResult, its integrals certified)."""
     from ..model.cases import CaseAnalysis
 
-    analysis = pb._once("certified cycle", lambda: CaseAnalysis(pb.mech, pb.s_grid))
+    analysis = pb._once("certified cycle", lambda: CaseAnalysis(pb.mech, pb.mech.stroke()))   # the NLP's rule's samples
     return analysis.run(pb.full_parameters(np.clip(np.asarray(x, float), pb.lower, pb.upper), fixed))
 
 
@@ -37,19 +37,19 @@ def certify_cycle(pb, sol, nlp_value, fixed=None):
     if "reason" in duty:
         return nlp_value, duty["reason"], {}
     rms, errors = duty["rms_time"], duty.get("errors", {}).get("rms_time", {})
-    samples = len(pb.s_grid)
+    samples = len(pb.mech.stroke())
     value, reasons = nlp_value, []
     if pb.objective_kind == "rms_time":
         what = time_terms[0][2]
         if what in rms:
             value = rms[what]
             if abs(nlp_value - value) > RESOLVED * abs(value):
-                reasons.append(f"the RMS over time of {what} on the NLP's {samples} sample points is {nlp_value:.6g}, the "
+                reasons.append(f"the RMS over time of {what} on the {samples} samples is {nlp_value:.6g}, the "
                                f"cycle's (adaptive quadrature) {value:.6g} +- {errors.get(what, 0.0):.2g}")
     for name, key, limit in cycle_constraints:
         if key in rms and rms[key] > limit * (1 + RESOLVED) + errors.get(key, 0.0):
             reasons.append(f"{name}: the cycle's RMS {key} {rms[key]:.6g} exceeds {limit:.6g} (it held on the "
-                           f"NLP's {samples} sample points)")
+                           f"{samples} samples)")
     constraints = {name: {"value": rms[key], "error": errors.get(key, 0.0)}
                    for name, key, _ in cycle_constraints if key in rms}
     if not reasons:

@@ -223,7 +223,7 @@ class CaseAnalysis:
         out["unresolved"] = {k: {"value": exact[k], "error": exact["errors"][k], "samples": len(self.s_values),
                                  "sampled_value": sampled[k]}
                              for k in ("energy", "rms_time") if k in exact["not_converged"] or (
-                                 k == "rms_time" and "drive_squared" in exact["not_converged"])}
+                                 k == "rms_time" and {"drive_squared", "time"} & set(exact["not_converged"]))}
         return out
 
 

@@ -131,13 +131,15 @@ def _rules(f, piece, lo, hi, anchors, lengths, powers):
 
 def end_power(speed, length, scale) -> float:
     """The substitution's m for an end where the sweep speed is ``speed(x)`` at distance x: 1
-    when the speed there is not 0; else 1/(1 - alpha) for V ~ x^alpha (2 for a square root, 3
+    when the speed there is not 0 (to round-off: it is below 1e-3 of its value 1e-8 of
+    ``length`` away); else 1/(1 - alpha) for V ~ x^alpha (2 for a square root, 3
     for an s-curve's x^(2/3)), rounded to a whole number when it is within 0.05 of one, so that
     the integrand stays smooth in u (at most 20)."""
     x = np.array([0.0, 1e-8, 1e-10]) * length
     with np.errstate(all="ignore"):
         v0, v1, v2 = (float(v) for v in speed(x))
-    if not (abs(v0) <= 1e-12 * max(scale, 1e-300) and v1 > 0 and v2 > 0):
+    # 0 at the end, to round-off (sqrt(sin(2 s)) at s = pi/2 is 1.7e-8, not 0)
+    if not (v1 > v2 > 0 and (abs(v0) <= 1e-12 * max(scale, 1e-300) or abs(v0) <= 1e-3 * v1)):
         return 1.0
     alpha = float(np.log(v1 / v2) / np.log(100.0))
     if alpha <= 0.02:
