@@ -259,6 +259,7 @@ class _Dask(_Futures):
         else:
             try:
                 # connect timeout: dask's config distributed.comm.timeouts.connect (30 s by default)
+                _probe(scheduler)
                 self.client, self.own = distributed.Client(scheduler), True
             except (OSError, ValueError, TypeError) as exc:
                 raise OptdesignError(f"--scheduler {scheduler!r}: cannot reach the Dask scheduler ({exc}); expected "
@@ -341,6 +342,38 @@ class _Dask(_Futures):
         except (OSError, TimeoutError, cf.CancelledError, AttributeError):   # the scheduler is gone
             return f"Dask cluster at {self.address} (lost)"
         return f"Dask cluster at {self.address}, {n} workers"
+
+
+def _probe(address: str):
+    """Check that a Dask scheduler answers at a ``tcp://`` address before a Client is made: Dask
+    waits for the handshake's answer without a timeout (a port where an HTTP server listens:
+    no answer after 150 s) and reads arbitrary bytes as a message's length (999 PiB asked of
+    numpy).  Here the connection and the handshake together get dask's connect timeout
+    (``distributed.comm.timeouts.connect``, 30 s by default); anything but a Dask answer is an
+    OSError saying so."""
+    import asyncio
+
+    import dask
+    from dask.utils import parse_timedelta
+    from distributed.comm import connect
+
+    if not isinstance(address, str) or not address.startswith("tcp://"):
+        return   # other protocols (tls://, inproc://) are Dask's to check
+    timeout = parse_timedelta(dask.config.get("distributed.comm.timeouts.connect"), default="seconds")
+
+    async def handshake():
+        comm = await connect(address, timeout=timeout)
+        await comm.close()
+
+    try:
+        asyncio.run(asyncio.wait_for(handshake(), timeout))
+    except asyncio.TimeoutError:
+        raise OSError(f"no answer from {address} in {timeout:g} s (distributed.comm.timeouts.connect): something "
+                      "listens there but it is not a Dask scheduler, or it is busy") from None
+    except OSError:
+        raise
+    except Exception as exc:   # noqa: BLE001 - bytes that are not Dask's (MemoryError, ValueError, TypeError, ...)
+        raise OSError(f"what answers at {address} is not a Dask scheduler ({type(exc).__name__})") from None
 
 
 def _executor(workers, scheduler, n_chains):
