@@ -31,7 +31,11 @@ def run(args):
     from ..model.analysis import analyse
     from ..report.animate import animate, ffmpeg_available
 
+    from ..scene.arguments import animation_frames
+
     still = args.frame is not None
+    if not still:
+        animation_frames(args.frames)   # before the analysis: a film too long to draw is refused at once
     gif = Path(args.out or default_file(args, "-frame.png" if still else "-animation.gif"))
     if still and (gif.suffix.lower() != ".png" or not 0 <= args.frame <= 1):
         raise OptdesignError(f"--frame {args.frame} --out {gif}: expected a fraction of the stroke in 0 .. 1 and a "
