@@ -21,7 +21,7 @@ def objective_value(pb: DesignProblem, sol: Solution, certified=True) -> float:
         return values[(pb.objective_text, "rms")]
     if pb.objective_kind in ("rms_time", "mix"):
         return time_rms(pb, sol)
-    return pb.stroke_value(pb.objective_expr, values)
+    return pb.stroke_value(pb.objective_expr, values, sol.x)
 
 
 def objective_gradient_factor(pb: DesignProblem, sol: Solution) -> float:
@@ -60,7 +60,7 @@ def constraint_report(pb: DesignProblem, sol: Solution, factor: float) -> dict:
                  "multiplier": -lam * factor / scale + 0.0,
                  "active": _side(lam)}
         if kind == "stroke constraint":
-            entry["value"] = pb.stroke_value(pb.stroke_outer[name], sol.certified)
+            entry["value"] = pb.stroke_value(pb.stroke_outer[name], sol.certified, sol.x)
         elif kind == "cycle constraint":  # its row, in physical units (design/cases.py)
             entry["value"] = float(sol.g[start] * scale)
         else:

@@ -21,7 +21,8 @@ from ..errors import ResultError
 
 LABELS = {"s": "the sweep value", "q": "the drive coordinate q", "k": "the ratio k = dq/ds",
           "reduced_inertia": "the reduced inertia", "reduced_inertia_dq": "the reduced inertia's derivative",
-          "static_load": "the static load", "inertia_term": "the inertia term", "velocity_term": "the velocity term",
+          "static_load": "the static load", "damping_load": "the dampers' load",
+          "inertia_term": "the inertia term", "velocity_term": "the velocity term",
           "drive": "the drive load", "power": "the drive power", "efficiency_factor": "the efficiency factor"}
 
 

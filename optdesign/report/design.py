@@ -6,7 +6,8 @@ import dataclasses
 from .design_cases import cases_json, cases_summary
 from . import design_figures
 from .design_figures import FIGURES, write_figures
-from .output import SCHEMA, to_json, write_atomic
+from .files import write_file
+from .output import SCHEMA, to_json
 from .units import constraint_scale, peak_quantity
 
 
@@ -176,8 +177,8 @@ def result_summary(result, catalogue=None) -> str:
 
 def _write_results(result, folder, workers, animate=True, catalogue=None, figures=None) -> list:
     written = [folder / "result.json", folder / "summary.txt"]
-    write_atomic(written[0], to_json(result_json(result, catalogue)) + "\n")
-    write_atomic(written[1], result_summary(result, catalogue) + "\n")
+    write_file(written[0], to_json(result_json(result, catalogue)) + "\n")
+    write_file(written[1], result_summary(result, catalogue) + "\n")
     if not result.success:   # no design to draw
         return written
     drawn = figures.write(result, folder, workers, animate) if figures is not None else None

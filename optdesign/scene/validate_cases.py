@@ -10,7 +10,7 @@ case; a gear ratio <= 0 (also as a design variable's lower bound); a motor or cy
 """
 from __future__ import annotations
 
-from .cases import CASE_COLUMNS, Case, Duty, case_values, is_case_constraint
+from .cases import CASE_COLUMNS, MODEL_COLUMNS, Case, Duty, case_values, is_case_constraint
 from .expressions import constant_value
 from .profiles import Profile, profile_shape
 from .train import MOTOR_UNITS, Cylinder, Gearbox, Motor
@@ -260,5 +260,8 @@ class DriveSizingValidator:
 
 def case_columns(scene) -> set:
     """The case columns a [[constraints]] expr may use: with [[cases]], those of
-    :data:`.cases.CASE_COLUMNS`; none without."""
-    return set(CASE_COLUMNS) if scene.cases else set()
+    :data:`.cases.CASE_COLUMNS`; without, the model's :data:`.cases.MODEL_COLUMNS` (a scene with a
+    [drive]; model/quantities.py)."""
+    if scene.cases:
+        return set(CASE_COLUMNS)
+    return set(MODEL_COLUMNS) if scene.drive is not None else set()

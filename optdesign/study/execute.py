@@ -22,7 +22,7 @@ from . import journal as study_journal
 from . import table as study_table
 from .results import ClusterLost, StudyInterrupted, StudyResult
 from ..report.folder import NoHardLinks, inspect, replace_folder
-from ..report.output import write_atomic
+from ..report.files import write_file
 from .executors import _executor, _Inline, record  # noqa: F401  (_Inline: the tests' stand-in executors)
 from .tasks import scene_digest
 
@@ -82,7 +82,7 @@ def write_folder(study, cases, folder, rows, figures, computed, reused, t0, wher
     made = []
 
     def write(tmp) -> list:
-        paths = [write_atomic(tmp / "study.json", json.dumps(definition(study, cases), indent=1) + "\n"),
+        paths = [write_file(tmp / "study.json", json.dumps(definition(study, cases), indent=1) + "\n"),
                  study_table.write_csv(tmp, rows, study.input_columns)]
         pareto = bool(study.axes) and study.axes[-1].kind == "pareto"
         if complete and figures:
@@ -142,7 +142,7 @@ def write_summary(result, where) -> Path:
     lines += [f"journal: {note}" for note in result.notes]
     lines.append(f"files: {', '.join(p.name for p in result.paths)}")
     path = result.folder / "summary.txt"
-    write_atomic(path, "\n".join(lines) + "\n")
+    write_file(path, "\n".join(lines) + "\n")
     return path
 
 
