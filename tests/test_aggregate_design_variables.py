@@ -102,3 +102,4 @@ def test_mu_inside_min_max_reaches_the_optimum_from_every_start_value(mu0):
         assert abs(result.constraints[name]["value"] - analysed.constraints[name]) < 1e-9, name
     active = result.constraints["transmission angle above mu"]
     assert active["active"] == "lower" and abs(active["value"]) < 1e-8
+
