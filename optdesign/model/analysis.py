@@ -13,7 +13,7 @@ from ..scene.arguments import scene_argument
 from ..scene.expressions import evaluate
 from .certified import PEAKS, CertifiedExtremes
 from .mapped import MappedFunction
-from .quantities import environment, model_value
+from .quantities import environment, joint_calls, model_value
 from ..scene.cases import is_case_constraint
 from .cases import CaseAnalysis
 from .finite import check_columns, check_values
@@ -173,9 +173,11 @@ class Analysis:
         if not self.per_stroke:
             return {}
         mech = self.mech
-        # the model's columns that the per-stroke constraints use (model/quantities.py)
-        used = set().union(*(c.expr.names() for c in self.per_stroke)) - set(mech.env)
-        columns = {k: v for k, v in environment(self.model).items() if k in used}
+        # the model's columns and joint forces that the per-stroke constraints use (model/quantities.py)
+        columns = {}
+        for c in self.per_stroke:
+            used = (c.expr.names() | {f"{f}({p})" for f, p in joint_calls(c.expr)}) - set(mech.env)
+            columns.update({k: v for k, v in environment(self.model, c.expr).items() if k in used})
         if self._points is None:  # built once, on the first run that needs it
             self._points = MappedFunction(mech.function("points", dict(mech.points, **columns)))
         names = list(mech.points)
