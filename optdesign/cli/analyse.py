@@ -29,6 +29,8 @@ def add_arguments(p):
     p.add_argument("--table", action="store_true", help="print the table over every sample (after which the "
                    "peaks and constraints in SI); without it, the summary in the scene's units")
     p.add_argument("--csv", metavar="FILE", help="write every sample as CSV, each header 'name [unit]'")
+    p.add_argument("--joints", action="store_true", help="the force at every pin and slider too (pin_force(P), "
+                   "its components, slider_normal(P), slider_moment(P)), their peaks certified")
 
 
 def run(args):
@@ -37,7 +39,7 @@ def run(args):
 
     if args.plot:
         results_folder(args.plot, "--plot", report.FIGURES)
-    result = analyse(scene_with_design(args), args.samples)
+    result = analyse(scene_with_design(args), args.samples, joints=args.joints)
     if args.plot:
         for path in report.analysis_figures(result, args.plot, label="--plot"):
             print(f"wrote {path}", file=sys.stderr)

@@ -76,6 +76,9 @@ def derive(mech) -> Structure:
     f = ca.Function("joint_points", [mech.s, mech.p], [ca.horzcat(*[mech.points[n] for n in names])])
     s0, s1 = (float(v) for v in mech.resolved.stroke(2))
     r = np.array([np.asarray(f(s, mech.parameter_values), float) for s in np.linspace(s0, s1, 7)])  # (7, 2, N)
+    if not np.all(np.isfinite(r)):
+        raise JointStructureError(f"{scene.path}: the mechanism does not assemble over the stroke at the parameters' "
+                                  "values, so its joint structure cannot be derived")
     scale = max(1.0, float(np.max(np.abs(r))))
     tol = 1e-9 * scale
     index = {n: i for i, n in enumerate(names)}
