@@ -54,6 +54,10 @@ class AnalysisResult:
     # the scene's [[cases]] (model/cases.py: CasesResult): every case, the governing case of
     # each peak, the duty cycle and the drive train; None without cases
     cases: object = None
+    # what the enclosures proved (model/certified.py): per peak and constraint extreme, the
+    # bound over the continuous stroke (within kinematics.peaks.CERTIFY_TOL of the value) or the
+    # note saying why there is none; empty without certification
+    certificates: dict = field(default_factory=dict)
     # [quantities]: name -> array over the samples (their units: scene.quantities)
     quantities: dict = field(default_factory=dict)
     # why the joint forces (columns pin_force(P), ...: model/joints.py) are not there, or None
@@ -161,10 +165,11 @@ class Analysis:
             extremes[name] = {"min": float(v[lo]), "min_s": float(s[lo]), "max": float(v[hi]), "max_s": float(s[hi])}
         timings = {"build_s": self.build_time, "evaluate_s": time.perf_counter() - t0}
         peaks, stroke = dict(peaks_sampled), dict(sampled_stroke)
+        certificates = {}
         if self.certified is not None:
             t1 = time.perf_counter()
             found = self.certified(s, p_values, columns, constraints, narrow)
-            peaks, peak_at = found["peaks"], found["peak_at"]
+            peaks, peak_at, certificates = found["peaks"], found["peak_at"], found["certificates"]
             extra = sorted({x for located in found["aggregates"].values() for x in located})
             if extra:  # the located extrema join the samples, inside: start()/end() keep the ends
                 stroke = self._per_stroke(p_values, np.r_[s[:-1], extra, s[-1:]])
@@ -179,7 +184,7 @@ class Analysis:
         return AnalysisResult(self.scene, columns, bodies, constraints, peaks, timings, peaks_sampled,
                               peak_at, extremes, sampled_stroke,
                               cases=self.case_analysis.run(p_values) if self.case_analysis else None,
-                              quantities=quantities, joints_note=self.joints_note)
+                              certificates=certificates, quantities=quantities, joints_note=self.joints_note)
 
     def _per_stroke(self, p_values, s_values):
         """The per-stroke constraints with their aggregates taken over ``s_values``."""

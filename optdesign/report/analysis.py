@@ -96,12 +96,27 @@ def analysis_json(result) -> dict:
         "constraints": {k: v for k, v in result.constraints.items() if not np.ndim(v)},
         "constraints_sampled": result.constraints_sampled,
         "constraint_extremes": result.constraint_extremes,
+        "certificates": result.certificates,   # the enclosures' bounds, or why there is none
         "quantity_units": {q.name: q.unit for q in result.scene.quantities},   # [quantities]
         "joints_note": result.joints_note,   # why no joint forces (pin_force(P), ...) are given, or None
         "violations": violations_json(result),   # violated scene constraints: how far, where (report/checks.py)
         "samples": samples,
         **cases_json(result),   # with [[cases]]: cases, governing, duty, drive_train (report/cases.py)
     }
+
+
+def certificate_lines(result) -> list:
+    """What the enclosures proved: one line for all certified figures, one per figure without
+    a certificate (docs/certification.md)."""
+    certs = getattr(result, "certificates", {}) or {}
+    missing = [(k, c["note"]) for k, c in certs.items() if c["note"]]
+    lines = []
+    if certs and len(missing) < len(certs):
+        lines.append("(certified by interval enclosures: no value between the samples exceeds these by more than "
+                     "1e-9 of the quantity's largest sampled value)" if not missing else
+                     f"(certified by interval enclosures, but for the {len(missing)} below)")
+    lines += [f"{k}: {note}" for k, note in missing]
+    return lines
 
 
 def analysis_table(result) -> str:
@@ -143,6 +158,7 @@ def analysis_peaks_chunks(result, case_samples: bool = True):
     lines.append(f"(peaks and extremes over the continuous stroke, located between the samples where "
                  f"they lie there; the drive load at every {sweep} is the load at the drive speed and "
                  "acceleration given in [drive])")
+    lines += certificate_lines(result)
     lines += [f"violated: {violation_text(result, v)}" for v in violations(result)]   # report/checks.py
     if result.joints_note:
         lines.append(f"joint forces: none ({result.joints_note})")
