@@ -132,6 +132,12 @@ class MotionProfile:
         if sh.kind == "constant":
             v = sh.speed
             return sigma * v + 0 * x, 0 * x, v**2 + 0 * x, x / v
+        if sh.motion_law is not None:   # a law in time: tau = f^-1(x/L), t = T tau
+            T, L = sh.time, self.length
+            tau = sh.motion_law.inverse(x / L)
+            _, speed, acceleration, _ = sh.motion_law.derivatives(tau)
+            V = L / T * speed
+            return sigma * V, sigma * L / T**2 * acceleration, V**2, T * tau
         up, down, v = sh.accelerate, sh.decelerate, sh.speed
         t_up, V_up, A_up = _phase_graph(x, up, v)
         t_dn, V_dn, A_dn = _phase_graph(y, down, v)
@@ -165,6 +171,9 @@ class MotionProfile:
     def breakpoints(self) -> np.ndarray:
         """Sweep values inside the stroke where the profile's acceleration law changes."""
         sh = self.shape
+        if sh.motion_law is not None:   # where one piece of the law ends and the next begins
+            xs = [self.length * float(sh.motion_law.evaluate([b])[0][0]) for b in sh.motion_law.breaks]
+            return np.array([self.s_begin + self.sigma * x for x in xs])
         if sh.kind in ("law", "constant"):
             return np.zeros(0)
         xs = [sh.accelerate.distance, self.length - sh.decelerate.distance]
@@ -176,8 +185,12 @@ class MotionProfile:
     JERK_NODES = 16  # intervals per jerk segment of an s-curve (evenly spaced in time)
 
     def jerk_segments(self) -> list:
-        """The s-curve's jerk segments as (s_lo, s_hi, interior nodes evenly spaced in time)."""
+        """The s-curve's jerk segments as (s_lo, s_hi, interior nodes evenly spaced in time); a
+        law in time: each of its pieces (smooth in time, not in s at a rest), LAW_NODES over
+        the whole motion."""
         sh = self.shape
+        if sh.motion_law is not None:
+            return self._law_segments()
         if sh.kind != "s-curve":
             return []
         out = []
@@ -194,6 +207,19 @@ class MotionProfile:
                     lo, hi, inner = self.length - hi, self.length - lo, self.length - inner
                 s_lo, s_hi = sorted((self.s_begin + self.sigma * lo, self.s_begin + self.sigma * hi))
                 out.append((s_lo, s_hi, self.s_begin + self.sigma * np.asarray(inner)))
+        return out
+
+    LAW_NODES = 96   # nodes evenly spaced in time over a law in time
+
+    def _law_segments(self) -> list:
+        law = self.shape.motion_law
+        edges = (0.0,) + law.breaks + (1.0,)
+        out = []
+        for a, b in zip(edges[:-1], edges[1:]):
+            n = max(4, math.ceil(self.LAW_NODES * (b - a)))
+            f = law.evaluate(np.linspace(a, b, n + 1))[0] * self.length
+            s = self.s_begin + self.sigma * f
+            out.append((float(min(s[0], s[-1])), float(max(s[0], s[-1])), s[1:-1]))
         return out
 
     def times(self, s_values) -> np.ndarray:
