@@ -171,11 +171,8 @@ class MotionProfile:
     def breakpoints(self) -> np.ndarray:
         """Sweep values inside the stroke where the profile's acceleration law changes."""
         sh = self.shape
-        if sh.motion_law is not None:   # where one piece of the law ends and the next begins
-            xs = [self.length * float(sh.motion_law.evaluate([b])[0][0]) for b in sh.motion_law.breaks]
-            return np.array([self.s_begin + self.sigma * x for x in xs])
-        if sh.kind in ("law", "constant"):
-            return np.zeros(0)
+        if sh.kind in ("law", "constant") or sh.motion_law is not None:   # (a law in time: its acceleration is
+            return np.zeros(0)                                             # continuous; its pieces' ends are nodes)
         xs = [sh.accelerate.distance, self.length - sh.decelerate.distance]
         xs += _phase_breaks(sh.accelerate, sh.speed)
         xs += [self.length - b for b in _phase_breaks(sh.decelerate, sh.speed)]
@@ -211,16 +208,21 @@ class MotionProfile:
 
     LAW_NODES = 96   # nodes evenly spaced in time over a law in time
 
-    def _law_segments(self) -> list:
+    def law_nodes(self) -> np.ndarray:
+        """A law in time's nodes, in the motion's order: each piece's ends and a multiple of 4
+        intervals evenly spaced in time inside it (about LAW_NODES over the motion), so that
+        Simpson's rule in time on them and on every other one pairs them within each piece."""
         law = self.shape.motion_law
         edges = (0.0,) + law.breaks + (1.0,)
-        out = []
+        tau = [0.0]
         for a, b in zip(edges[:-1], edges[1:]):
-            n = max(4, math.ceil(self.LAW_NODES * (b - a)))
-            f = law.evaluate(np.linspace(a, b, n + 1))[0] * self.length
-            s = self.s_begin + self.sigma * f
-            out.append((float(min(s[0], s[-1])), float(max(s[0], s[-1])), s[1:-1]))
-        return out
+            n = 4 * max(1, math.ceil(self.LAW_NODES * (b - a) / 4))
+            tau += list(np.linspace(a, b, n + 1)[1:])
+        return self.s_begin + self.sigma * law.evaluate(np.array(tau))[0] * self.length
+
+    def _law_segments(self) -> list:
+        s = self.law_nodes()
+        return [(float(min(s[0], s[-1])), float(max(s[0], s[-1])), s[1:-1])]
 
     def times(self, s_values) -> np.ndarray:
         """The time at each sweep value (at s_begin: 0)."""
