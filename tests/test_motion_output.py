@@ -115,3 +115,87 @@ def reference_rms(a, b, c):
     hold = drive_torque(np.array([PSI_LO]), 0.0, 0.0, a, b, c, 0.0, 0.0)[3][0] / I_RATIO
     total += hold**2 * 1.2
     return np.sqrt(total / 3.0)
+
+
+def angles(psi, a, b, c):
+    """(transmission angle at C, angle at B between B->A and B->C) of the numpy four-bar."""
+    C = np.stack([D + c * np.cos(psi), c * np.sin(psi)])
+    AC = np.hypot(*C)
+    gamma = np.arccos(np.clip((a**2 + AC**2 - b**2) / (2 * a * AC), -1, 1))
+    q = np.arctan2(C[1], C[0]) - gamma
+    B = np.stack([a * np.cos(q), a * np.sin(q)])
+    cb, cd = B - C, np.array([[D], [0.0]]) - C
+    mu = np.arccos((cb * cd).sum(0) / (b * c))
+    ba, bc = -B, C - B
+    toggle = np.arccos(np.clip((ba * bc).sum(0) / (a * b), -1, 1))
+    return mu, toggle, (a**2 + AC**2 - b**2) / (2 * a * AC)
+
+
+PSI = np.linspace(PSI_LO, PSI_HI, 601)   # ends included: the constraints hold at the true stroke ends
+BOX = np.array([[0.018, 0.032], [0.08, 0.12], [0.065, 0.095]])
+
+
+def slack(x):
+    """Every constraint's margin at the dense rocker angles (>= 0 where it holds)."""
+    mu, toggle, cos_gamma = angles(PSI, *x)
+    lo, hi = np.radians([40.0, 25.0]), np.radians([140.0, 155.0])
+    return np.concatenate([mu - lo[0], hi[0] - mu, toggle - lo[1], hi[1] - toggle, 1 - np.abs(cos_gamma)])
+
+
+def reference_optimum():
+    """The global optimum of the numpy model: a 9^3 grid over the box, then SLSQP polish (finite
+    differences) from the three best feasible grid points."""
+    from scipy.optimize import minimize
+
+    axes = [np.linspace(lo, hi, 9) for lo, hi in BOX]
+    best = []
+    for a in axes[0]:
+        for b in axes[1]:
+            for c in axes[2]:
+                if np.min(slack((a, b, c))) >= 0:
+                    best.append((reference_rms(a, b, c), (a, b, c)))
+    best.sort(key=lambda item: item[0])
+    found = []
+    scale = BOX[:, 1] - BOX[:, 0]
+    for _, x0 in best[:3]:
+        res = minimize(lambda z: reference_rms(*(BOX[:, 0] + z * scale)) * 100, (np.array(x0) - BOX[:, 0]) / scale,
+                       method="SLSQP", bounds=[(0, 1)] * 3,
+                       constraints=[{"type": "ineq", "fun": lambda z: slack(BOX[:, 0] + z * scale)}],
+                       options={"ftol": 1e-15, "maxiter": 500})
+        x = BOX[:, 0] + res.x * scale
+        if np.min(slack(x)) >= -1e-10:
+            found.append((reference_rms(*x), x))
+    return min(found, key=lambda item: item[0])
+
+
+@pytest.fixture(scope="module")
+def reference():
+    return reference_optimum()
+
+
+def check_optimum(objective, design, reference):
+    f_ref, x_ref = reference
+    assert objective == pytest.approx(f_ref, rel=1e-9)
+    assert np.allclose([design[k] for k in "abc"], x_ref, rtol=0, atol=1e-6)
+    # the crank toggle binds at both stroke ends (its min and max over the swing, ends included)
+    mu, toggle, _ = angles(np.array([PSI_LO, PSI_HI]), *[design[k] for k in "abc"])
+    assert np.allclose(sorted(toggle), np.radians([25.0, 155.0]), atol=1e-8)
+    assert np.min(slack(np.array([design[k] for k in "abc"]))) > -1e-8
+
+
+def test_optimise_reaches_the_reference_optimum(reference):
+    """One start from the scene's start, with the default settings."""
+    result = optdesign.optimise(optdesign.load(SCENE), starts=1)
+    assert result.success
+    check_optimum(result.objective, result.design, reference)
+
+
+def test_shipped_results_reach_the_reference_optimum(reference):
+    """results/ventilator_squeeze (optdesign optimise problems/ventilator_squeeze.toml --out
+    results/ventilator_squeeze): 20 of 20 starts at the independent optimum."""
+    import json
+
+    doc = json.loads((SCENE.parents[1] / "results" / "ventilator_squeeze" / "result.json").read_text())
+    assert doc["success"] and doc["starts_total"] == 20 and doc["starts_at_best"] == 20
+    assert all(abs(s["objective"] / doc["objective"] - 1) < 1e-9 for s in doc["starts"])
+    check_optimum(doc["objective"], doc["design"], reference)
