@@ -13,6 +13,7 @@ from ..scene.arguments import scene_argument
 from ..scene.expressions import evaluate
 from .certified import PEAKS, CertifiedExtremes
 from .mapped import MappedFunction
+from .quantities import environment, model_value
 from ..scene.cases import is_case_constraint
 from .cases import CaseAnalysis
 from .finite import check_columns, check_values
@@ -52,6 +53,10 @@ class AnalysisResult:
     # the scene's [[cases]] (model/cases.py: CasesResult): every case, the governing case of
     # each peak, the duty cycle and the drive train; None without cases
     cases: object = None
+    # what the enclosures proved (model/certified.py): per peak and constraint extreme, the
+    # bound over the continuous stroke (within kinematics.peaks.CERTIFY_TOL of the value) or the
+    # note saying why there is none; empty without certification
+    certificates: dict = field(default_factory=dict)
     # [quantities]: name -> array over the samples (their units: scene.quantities)
     quantities: dict = field(default_factory=dict)
 
@@ -91,7 +96,7 @@ class Analysis:
                            and not is_case_constraint(scene, c)]   # those per load case: model/cases.py
         self.per_stroke = [c for c in scene.constraints if c.expr.is_aggregate]
         for c in self.per_sample:
-            outs[f"constraint:{c.name}"] = self.mech.value(c.expr, f"[[constraints]] {c.name}")
+            outs[f"constraint:{c.name}"] = model_value(self.model, c.expr, f"[[constraints]] {c.name}")
         for name, expr in self.mech.quantities.items():
             outs[f"quantity:{name}"] = expr + 0 * self.mech.s
         self.names = list(outs)
@@ -147,10 +152,11 @@ class Analysis:
             extremes[name] = {"min": float(v[lo]), "min_s": float(s[lo]), "max": float(v[hi]), "max_s": float(s[hi])}
         timings = {"build_s": self.build_time, "evaluate_s": time.perf_counter() - t0}
         peaks, stroke = dict(peaks_sampled), dict(sampled_stroke)
+        certificates = {}
         if self.certified is not None:
             t1 = time.perf_counter()
             found = self.certified(s, p_values, columns, constraints, narrow)
-            peaks, peak_at = found["peaks"], found["peak_at"]
+            peaks, peak_at, certificates = found["peaks"], found["peak_at"], found["certificates"]
             extra = sorted({x for located in found["aggregates"].values() for x in located})
             if extra:  # the located extrema join the samples, inside: start()/end() keep the ends
                 stroke = self._per_stroke(p_values, np.r_[s[:-1], extra, s[-1:]])
@@ -165,20 +171,24 @@ class Analysis:
         return AnalysisResult(self.scene, columns, bodies, constraints, peaks, timings, peaks_sampled,
                               peak_at, extremes, sampled_stroke,
                               cases=self.case_analysis.run(p_values) if self.case_analysis else None,
-                              quantities=quantities)
+                              certificates=certificates, quantities=quantities)
 
     def _per_stroke(self, p_values, s_values):
         """The per-stroke constraints with their aggregates taken over ``s_values``."""
         if not self.per_stroke:
             return {}
         mech = self.mech
+        # the model's columns that the per-stroke constraints use (model/quantities.py)
+        used = set().union(*(c.expr.names() for c in self.per_stroke)) - set(mech.env)
+        columns = {k: v for k, v in environment(self.model).items() if k in used}
         if self._points is None:  # built once, on the first run that needs it
-            self._points = MappedFunction(mech.function("points", dict(mech.points)))
+            self._points = MappedFunction(mech.function("points", dict(mech.points, **columns)))
         names = list(mech.points)
         rows = self._points(s_values, p_values)
         values = self.resolved.environment(p_values)
         values[self.scene.sweep.name] = ca.DM(np.asarray(s_values, float)[None, :])
         points = {k: ca.DM(np.asarray(v)) for k, v in zip(names, rows)}
+        values.update({k: ca.DM(np.asarray(v)).reshape((1, -1)) for k, v in zip(columns, rows[len(names):])})
         return {c.name: float(evaluate(c.expr, values, points, f"[[constraints]] {c.name}"))
                 for c in self.per_stroke}
 

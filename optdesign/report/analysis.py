@@ -13,9 +13,10 @@ from .output import SCHEMA, Rows, table_chunks
 
 UNITS = {
     "rotary": {"q": "rad", "reduced_inertia": "kg m^2", "reduced_inertia_dq": "kg m^2/rad",
-               "static_load": "N m", "inertia_term": "N m", "velocity_term": "N m", "drive": "N m",
+               "static_load": "N m", "damping_load": "N m", "inertia_term": "N m", "velocity_term": "N m",
+               "drive": "N m",
                "power": "W", "k": "rad/unit of s"},
-    "linear": {"q": "m", "reduced_inertia": "kg", "reduced_inertia_dq": "kg/m", "static_load": "N",
+    "linear": {"q": "m", "reduced_inertia": "kg", "reduced_inertia_dq": "kg/m", "static_load": "N", "damping_load": "N",
                "inertia_term": "N", "velocity_term": "N", "drive": "N", "power": "W", "k": "m/unit of s"},
 }
 SEED_NAMES = {
@@ -24,7 +25,7 @@ SEED_NAMES = {
     "linear": {"reduced_inertia": "m_zS", "reduced_inertia_dq": "dm_zS/dx", "static_load": "F_Su",
                "inertia_term": "m_zS*a_S", "velocity_term": "dF_S", "drive": "F_S"},
 }
-COLUMN_ORDER = ("s", "q", "k", "reduced_inertia", "reduced_inertia_dq", "static_load", "inertia_term",
+COLUMN_ORDER = ("s", "q", "k", "reduced_inertia", "reduced_inertia_dq", "static_load", "damping_load", "inertia_term",
                 "velocity_term", "drive", "power", "efficiency_factor")
 
 
@@ -94,11 +95,26 @@ def analysis_json(result) -> dict:
         "constraints": {k: v for k, v in result.constraints.items() if not np.ndim(v)},
         "constraints_sampled": result.constraints_sampled,
         "constraint_extremes": result.constraint_extremes,
+        "certificates": result.certificates,   # the enclosures' bounds, or why there is none
         "quantity_units": {q.name: q.unit for q in result.scene.quantities},   # [quantities]
         "violations": violations_json(result),   # violated scene constraints: how far, where (report/checks.py)
         "samples": samples,
         **cases_json(result),   # with [[cases]]: cases, governing, duty, drive_train (report/cases.py)
     }
+
+
+def certificate_lines(result) -> list:
+    """What the enclosures proved: one line for all certified figures, one per figure without
+    a certificate (docs/certification.md)."""
+    certs = getattr(result, "certificates", {}) or {}
+    missing = [(k, c["note"]) for k, c in certs.items() if c["note"]]
+    lines = []
+    if certs and len(missing) < len(certs):
+        lines.append("(certified by interval enclosures: no value between the samples exceeds these by more than "
+                     "1e-9 of the quantity's largest sampled value)" if not missing else
+                     f"(certified by interval enclosures, but for the {len(missing)} below)")
+    lines += [f"{k}: {note}" for k, note in missing]
+    return lines
 
 
 def analysis_table(result) -> str:
@@ -140,6 +156,7 @@ def analysis_peaks_chunks(result, case_samples: bool = True):
     lines.append(f"(peaks and extremes over the continuous stroke, located between the samples where "
                  f"they lie there; the drive load at every {sweep} is the load at the drive speed and "
                  "acceleration given in [drive])")
+    lines += certificate_lines(result)
     lines += [f"violated: {violation_text(result, v)}" for v in violations(result)]   # report/checks.py
     yield "\n" + "\n".join(lines)
     yield cases_table(result, case_samples)   # with [[cases]] (report/cases.py)

@@ -32,6 +32,7 @@ class Scene:
     sweep: Sweep
     points: tuple
     bodies: tuple = ()
+    forces: tuple = ()   # [[forces]]: springs, gas springs, dampers, torsion springs (scene/forces.py)
     gravity: Gravity | None = None
     drive: Drive | None = None
     constraints: tuple = ()
@@ -51,7 +52,8 @@ class Scene:
     quantities: tuple = ()           # [quantities]: named per-sample expressions (scene/quantities.py)
 
     def __post_init__(self):
-        for name in ("parameters", "points", "bodies", "constraints", "profiles", "cases", "motors", "quantities"):
+        for name in ("parameters", "points", "bodies", "forces", "constraints", "profiles", "cases", "motors",
+                     "quantities"):
             set_field(self, name, tuple(getattr(self, name)))
         for name, value in expanded_items(self).items():   # the quantities' names replaced by their expressions
             set_field(self, name, value)

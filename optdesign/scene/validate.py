@@ -17,6 +17,7 @@ from ..errors import ExpressionError, SceneError
 from .elements import (DRIVE_PINS, LAW_NAMES, Body, Constraint, Drive, Gravity, Objective, Parameter,
                        Simulation, Sweep)
 from .expressions import constant_value
+from .forces import check_forces
 from .points import CONSTRUCTIONS, Loop
 from .simulation import check_phases
 from .validate_cases import DriveSizingValidator, case_columns
@@ -45,6 +46,7 @@ class Validator:
         built = self._check_points(names)
         self._check_quantities(names, built)
         self._check_bodies(names, built)
+        check_forces(self.scene, values, self._check_expression, self._fail)
         if self.scene.gravity is not None:
             where = Where("gravity", key="g")
             self._check_expression(where, self.scene.gravity.g, set(values), [])
@@ -55,9 +57,9 @@ class Validator:
         if self.scene.drive is not None:
             self._check_drive(values, built)
         self._check_constraints(values, names, built)
+        DriveSizingValidator(self, values).run()      # the cases first: the phases name them
         if self.scene.simulation is not None:
             self._check_simulation(values)
-        DriveSizingValidator(self, values).run()
 
     def _fail(self, where, detail, cls=SceneError):
         fail(where, detail, cls, self.scene.path)

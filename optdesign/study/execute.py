@@ -25,7 +25,7 @@ from . import journal as study_journal
 from . import table as study_table
 from .results import ClusterLost, StudyInterrupted, StudyResult
 from ..report.folder import NoHardLinks, inspect, replace_folder
-from ..report.output import write_atomic
+from ..report.files import write_file
 from .tasks import run_batch, scene_digest
 from .worker import prestart, run_batch_in_helper
 
@@ -85,7 +85,7 @@ def write_folder(study, cases, folder, rows, figures, computed, reused, t0, wher
     made = []
 
     def write(tmp) -> list:
-        paths = [write_atomic(tmp / "study.json", json.dumps(definition(study, cases), indent=1) + "\n"),
+        paths = [write_file(tmp / "study.json", json.dumps(definition(study, cases), indent=1) + "\n"),
                  study_table.write_csv(tmp, rows, study.input_columns)]
         pareto = bool(study.axes) and study.axes[-1].kind == "pareto"
         if complete and figures:
@@ -142,10 +142,14 @@ def write_summary(result, where) -> Path:
     bad = [r for r in rows if not r.get("success")]
     for r in bad[:20]:
         lines.append(f"  case {r['case']} failed: {r.get('status')}")
+    if result.study.mode == "analyse" and result.study.scene.cases:
+        lines.append("columns: peak:*, rms:* and constraint:* are the nominal state's (at the [drive] speed and "
+                     "acceleration); the load cases' are case_peak:* (with the governing case), cycle_rms:*, cycle:*, "
+                     "motor_fits:*, smallest_motor and cylinder:*")
     lines += [f"journal: {note}" for note in result.notes]
     lines.append(f"files: {', '.join(p.name for p in result.paths)}")
     path = result.folder / "summary.txt"
-    write_atomic(path, "\n".join(lines) + "\n")
+    write_file(path, "\n".join(lines) + "\n")
     return path
 
 
