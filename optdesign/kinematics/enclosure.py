@@ -300,6 +300,7 @@ class IntervalProgram:
         made_by = [None] * self.n_work     # instruction that wrote the slot
         self.fixed, self.varying = [], []
         jumps, consumers, prog = 0, {}, []
+        condition, negation = {}, {}   # if_else_zero -> its condition's instruction; not -> its operand's
         for k in range(func.n_instructions()):
             op, i, o = func.instruction_id(k), func.instruction_input(k), func.instruction_output(k)
             if op == ca.OP_OUTPUT:
@@ -322,11 +323,17 @@ class IntervalProgram:
                 bit, jumps = jumps, jumps + 1
                 d |= 1 << bit
             const = float(func.instruction_constant(k)) if op == ca.OP_CONST else None
+            if v and op == ca.OP_ADD:   # if_else(c, x, y) = if_else_zero(c, x) + if_else_zero(!c, y)
+                const = _select(made_by[slots[0]], made_by[slots[1]], condition, negation)
             prog.append((k, op, i, o[0] if v else self.n_work + k, ins, v, bit, const))
+            if op == ca.OP_IF_ELSE_ZERO:
+                condition[k] = made_by[slots[0]]   # (the producers of its condition, for _select)
+            elif op == ca.OP_NOT:
+                negation[k] = made_by[slots[0]]
             varies[o[0]], deps[o[0]], made_by[o[0]] = v, d, k
         for k, op, i, out, ins, v, bit, const in prog:
             periodic = op == ca.OP_ATAN2 and consumers.get(k, {None}) <= PERIODIC
-            (self.varying if v else self.fixed).append((op, i, out, ins, bit, const, periodic))
+            (self.varying if v else self.fixed).append((op, i, out, ins, bit, const, (periodic, k)))
         self.n_store = self.n_work + func.n_instructions()
         self.n_jumps = jumps
         self._p_key, self._p_work = None, None
@@ -337,13 +344,14 @@ class IntervalProgram:
         key = p.tobytes()
         if key != self._p_key:
             work = [None] * self.n_store
+            self._branches = {}
             self._run(self.fixed, work, None, p, None)
             self._p_key, self._p_work = key, work
         return self._p_work
 
     def _run(self, program, work, s, p, undecided):
         with np.errstate(all="ignore"):
-            for op, i, out, ins, bit, const, periodic in program:
+            for op, i, out, ins, bit, const, (periodic, k) in program:
                 if op == ca.OP_OUTPUT:
                     self._store.append((i, work[ins[0]]))
                     continue
@@ -353,9 +361,19 @@ class IntervalProgram:
                 if op == ca.OP_CONST:
                     work[out] = (const, const)
                     continue
+                if op == ca.OP_ADD and const is not None and const[0] in self._branches and const[1] in self._branches:
+                    # an if_else: where undecided, the hull of its two branches (not of each with 0)
+                    (x_lo, x_hi, und), (y_lo, y_hi, _) = self._branches[const[0]], self._branches[const[1]]
+                    (a, b), (c, d) = work[ins[0]], work[ins[1]]
+                    lo, hi = _out(a + c, b + d)
+                    lo, hi = np.where(und, np.minimum(x_lo, y_lo), lo), np.where(und, np.maximum(x_hi, y_hi), hi)
+                    work[out] = (lo, hi)
+                    continue
                 if len(ins) == 2:
                     (a, b), (c, d) = work[ins[0]], work[ins[1]]
                     lo, hi, und = _binary(op, a, b, c, d, periodic)
+                    if op == ca.OP_IF_ELSE_ZERO:
+                        self._branches[k] = (c, d, und)
                 else:
                     lo, hi, und = _unary(op, *work[ins[0]])
                 work[out] = (lo, hi)
@@ -367,7 +385,7 @@ class IntervalProgram:
         n = len(lo)
         work = list(self._fixed_work(p))
         undecided = [None] * self.n_jumps
-        self._store = []
+        self._store, self._branches = [], {}
         self._run(self.varying, work, (lo, hi), p, undecided)
         out = [(np.zeros((m, n)), np.zeros((m, n)), np.zeros((m, n), bool)) for m in self.shapes]
         for (j, nz, deps), (a, b) in self._store:
@@ -380,6 +398,17 @@ class IntervalProgram:
                 deps >>= 1
                 bit += 1
         return out
+
+
+def _select(k1, k2, condition, negation):
+    """(k1, k2) when instructions k1 and k2 are if_else_zero(c, x) and if_else_zero(!c, y) of
+    one condition c (in either order): their sum is an if_else; else None."""
+    if k1 not in condition or k2 not in condition:
+        return None
+    c1, c2 = condition[k1], condition[k2]
+    if c1 is None or c2 is None or not (negation.get(c2) == c1 or negation.get(c1) == c2):
+        return None
+    return (k1, k2)
 
 
 def _name(op):
@@ -474,3 +503,19 @@ class Enclosures:
 
     def at(self, p):
         return Unavailable(self.reason) if self.program is None else Enclosure(self.program, p)
+
+
+class Selected:
+    """An enclosure of some rows of another, each times a sign (+1/-1): what a caller that
+    certifies sign * v of a subset of a Function's rows passes on (an :class:`Unavailable`
+    stays one)."""
+
+    def __init__(self, enclosure, rows, sign):
+        self.enclosure, self.rows = enclosure, np.asarray(rows, int)
+        self.sign = np.asarray(sign, float)[:, None]
+        self.reason = getattr(enclosure, "reason", None)
+
+    def bounds(self, lo, hi):
+        L, U, m_lo, m_hi = (a[self.rows] for a in self.enclosure.bounds(lo, hi))
+        up = self.sign > 0
+        return (np.where(up, L, -U), np.where(up, U, -L), np.where(up, m_lo, -m_hi), np.where(up, m_hi, -m_lo))

@@ -217,7 +217,10 @@ def certify(enclosure, evaluate_many, s_grid, V, requests, found, s_tol=1e-13, t
         vm_lo, vm_hi = vm_lo[r_of, where], vm_hi[r_of, where]
         at_mid = _target_bound(vm_lo, vm_hi, code, upper=False)
         _locate_better(evaluate_many, requests, found, best, req, lo, hi, at_mid, vm_lo + vm_hi, s_tol, limits)
-        threshold = np.maximum(best + tol_abs, floor)[req]
+        # the tolerance, or where rounding is larger, four times the width of the midpoint's own
+        # enclosure (a row that cancels to ~0: its floating-point evaluation cannot say more)
+        noise = 4.0 * np.where(np.isfinite(vm_hi - vm_lo), vm_hi - vm_lo, 0.0)
+        threshold = np.maximum(best[req] + np.maximum(tol_abs[req], noise), floor[req])
         keep = ~(ub <= threshold)   # NaN: not bounded, split again
         if np.any(~keep):
             np.maximum.at(bound, req[~keep], ub[~keep])
