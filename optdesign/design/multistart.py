@@ -23,7 +23,8 @@ from .phase1 import Phase1
 from .problem import DesignProblem, SolverSettings
 from .repair import Repair
 from .results import OptimisationResult, StartReport
-from .sensitivities import constraint_report, objective_gradient_factor, objective_value, sensitivities
+from .sensitivities import (constraint_report, objective_gradient_factor, objective_value, sensitivities,
+                            sensitivity_notes)
 from .solver import Solver
 from .starts import RETRIES, StartPlan, plan_starts
 
@@ -238,6 +239,7 @@ def summarise(problem, solver, reports, solutions, timings, plan=None, fixed=Non
     peak_c = abs(sol.certified[peak_key]) if peak_key in sol.certified else None
     peak_s = abs(sol.sampled[peak_key]) if peak_key in sol.sampled else None
     n = len(reports)
+    constraints = constraint_report(pb, sol, factor)
     message = ("local optimum: IPOPT converged and the continuous check agrees (1 start: "
                "a local optimum, run more starts to search for a better one)" if n == 1 else
                "optimal: the best of the starts' local optima; IPOPT converged and the continuous check agrees")
@@ -248,9 +250,9 @@ def summarise(problem, solver, reports, solutions, timings, plan=None, fixed=Non
         objective=best_value, objective_sampled=objective_value(pb, sol, certified=False),
         objective_kind=pb.objective_kind, peak_certified=peak_c, peak_sampled=peak_s,
         success=True, status=sol.status, message=message,
-        constraints=constraint_report(pb, sol, factor), sensitivities=sensitivities(pb, sol, factor),
+        constraints=constraints, sensitivities=sensitivities(pb, sol, factor, constraints),
         starts_total=n, starts_at_best=at_best, starts=tuple(reports), timings=timings,
-        settings=pb.settings, optima=optima, start_plan=starts_info)
+        settings=pb.settings, optima=optima, start_plan=starts_info, sensitivity_notes=sensitivity_notes(pb))
 
 
 def _with_optimum(report, j):

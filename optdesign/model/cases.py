@@ -20,6 +20,7 @@ import numpy as np
 from ..scene.cases import CASE_COLUMNS, Case, case_values
 from ..scene.expressions import evaluate
 from .duty import PEAK_KEYS, CaseTimes, DutyCycle, case_integrals, motor_report
+from .finite import check_cases
 from .mapped import MappedFunction
 from .profiles import check_law, constant_motion, case_profile
 from .reduction import ReducedModel
@@ -194,7 +195,9 @@ class CaseAnalysis:
                 add_motor_torque(results, duty, train["motors"][chosen])
         if self.mech.scene.cylinder is not None:
             train = cylinder_report(self.mech.scene, values, results)
-        return CasesResult(results, governing_cases(results), duty, train)
+        result = CasesResult(results, governing_cases(results), duty, train)
+        check_cases(result, "N m" if self.mech.scene.drive.kind == "rotary" else "N")
+        return result
 
     def _evaluate(self, cm, names, function, nodes, p_case):
         """The case's outputs at ``nodes`` (q unwrapped for a crank) and its times."""

@@ -205,6 +205,11 @@ def case_integrals(times: CaseTimes, columns: dict, sigma: float = 1.0) -> dict:
     which any rotor inertia's RMS follows."""
     if times.weights is None:
         return {}
+    with np.errstate(over="ignore", invalid="ignore"):   # a load beyond 1e154 squared: named by finite.check_cases
+        return _integrals(times, columns, sigma)
+
+
+def _integrals(times, columns, sigma):
     drive = columns["drive"]
     power = columns.get("power", np.zeros_like(drive))
     k, sign = columns["k"], sigma

@@ -152,6 +152,12 @@ def _train_lines(train, kind):
         return []
     if kind == "linear":
         t = train
+        if "bore_undetermined" in t:
+            return [f"cylinder at {t['pressure']:.6g} Pa: peak push {t['peak_push']:.8g} N, pull {t['peak_pull']:.8g} N, "
+                    f"full extension {t['full_extension']:.6g} m",
+                    f"  bore needed: {t['bore_undetermined']}; rod needed for buckling {t['rod_needed_buckling']:.6g} "
+                    f"m; with rod {t['rod']:.6g} m: Euler load {t['euler_force']:.8g} N, buckling utilisation "
+                    f"{t['buckling_utilisation']:.4g}"]
         return [f"cylinder at {t['pressure']:.6g} Pa: peak push {t['peak_push']:.8g} N, pull {t['peak_pull']:.8g} N, "
                 f"full extension {t['full_extension']:.6g} m",
                 f"  bore needed {t['bore_needed']:.6g} m, rod needed for buckling {t['rod_needed_buckling']:.6g} m; with "

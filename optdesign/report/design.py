@@ -21,6 +21,7 @@ def optimisation_json(result) -> dict:
         "success": result.success, "status": result.status, "message": result.message,
         "starts_total": result.starts_total, "starts_at_best": result.starts_at_best,
         "constraints": result.constraints, "sensitivities": result.sensitivities,
+        "sensitivity_notes": getattr(result, "sensitivity_notes", {}),
         "starts": [dataclasses.asdict(s) for s in result.starts],
         "optima": [o.as_dict() for o in result.optima], "least_violating": result.least_violating,
         "start_plan": result.start_plan, "interrupted": getattr(result, "interrupted", False),
@@ -54,7 +55,9 @@ def summary(result) -> str:
         lines += _lockup_notes(result)
         if result.sensitivities:
             lines.append("sensitivities d objective / d parameter:")
-            lines += [f"  {k}: {v:.6g}" for k, v in result.sensitivities.items()]
+            notes = getattr(result, "sensitivity_notes", {})
+            lines += [f"  {k}: {v:.6g}" + (f" ({notes[k]})" if k in notes else "")
+                      for k, v in result.sensitivities.items()]
         lines += [cases_summary(result)] if result.scene.cases else []   # report/design_cases.py
     lines += starts_lines(result)
     lines.append(f"time: {result.timings.get('total_s', float('nan')):.3f} s "

@@ -104,6 +104,9 @@ def cases_summary(result) -> str:
     for name, m in train.get("motors", {}).items():
         lines.append(f"  motor {name!r} at i = {train['ratio']:.6g}: peak {m['peak']:.6g} N m, "
                      f"{'RMS %.6g N m' % m['rms'] if 'rms' in m else 'RMS not checked (no duty cycle in time)'}, speed {m['peak_speed']:.6g} rad/s; {inertia_ratio_text(m, '', 'classical optimal ratio')}")
+    if "bore_undetermined" in train:
+        lines.append(f"  cylinder: rod {train['rod']:.6g} m, buckling utilisation {train['buckling_utilisation']:.4g}; "
+                     f"bore: {train['bore_undetermined']}")
     if "bore" in train:
         lines.append(f"  cylinder: bore {train['bore']:.6g} m, rod {train['rod']:.6g} m, buckling utilisation "
                      f"{train['buckling_utilisation']:.4g}, pump flow {train['pump_flow'] * 6e4:.6g} l/min")

@@ -57,9 +57,9 @@ class Validator:
         if self.scene.drive is not None:
             self._check_drive(values, built)
         self._check_constraints(values, names, built)
+        DriveSizingValidator(self, values).run()      # the cases first: the phases name them
         if self.scene.simulation is not None:
             self._check_simulation(values)
-        DriveSizingValidator(self, values).run()
 
     def _fail(self, where, detail, cls=SceneError):
         fail(where, detail, cls, self.scene.path)

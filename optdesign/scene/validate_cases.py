@@ -185,6 +185,10 @@ class DriveSizingValidator:
         names = [c.name for c in self.scene.cases]
         if not names:
             self.fail(Where("duty"), "a duty cycle needs [[cases]]: its steps run the cases")
+        if duty.steps and all(step.kind == "dwell" for step in duty.steps):
+            self.fail(Where("duty", key="cycle"), "the cycle holds only dwells, in which the drive neither moves nor "
+                                                  f"carries a load (its RMS would be 0): add the cases it runs, e.g. "
+                                                  f"cycle = [{names[0]!r}, {{ dwell = 10 }}]".replace("'", '"'))
         for step in duty.steps:
             where = Where("duty", key=f"cycle[{step.index}]")
             if step.case is not None and step.case not in names:
@@ -239,6 +243,10 @@ class DriveSizingValidator:
         if drive is None or drive.kind != "linear":
             self.fail(where, "a cylinder needs a linear [drive] (type = \"linear\"); a rotary drive is sized by "
                              "[gearbox] and [[motors]]")
+        if not self.scene.cases:
+            self.fail(where, "a cylinder is sized from the peak forces and speeds of the load cases, and the scene has "
+                             "no [[cases]], so it would be ignored; add the cases (e.g. [[cases]] name = \"raise\" with "
+                             "a profile) or remove [cylinder]")
         numbers = {key: self.positive(where.at(key), getattr(c, key), key.replace("_", " "))
                    for key in ("pressure", "modulus", "buckling_safety", "length_factor")}
         # the scene is in SI: a modulus written in GPa (210) or MPa, a pressure in bar (160) or

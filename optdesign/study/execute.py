@@ -142,6 +142,10 @@ def write_summary(result, where) -> Path:
     bad = [r for r in rows if not r.get("success")]
     for r in bad[:20]:
         lines.append(f"  case {r['case']} failed: {r.get('status')}")
+    if result.study.mode == "analyse" and result.study.scene.cases:
+        lines.append("columns: peak:*, rms:* and constraint:* are the nominal state's (at the [drive] speed and "
+                     "acceleration); the load cases' are case_peak:* (with the governing case), cycle_rms:*, cycle:*, "
+                     "motor_fits:*, smallest_motor and cylinder:*")
     lines += [f"journal: {note}" for note in result.notes]
     lines.append(f"files: {', '.join(p.name for p in result.paths)}")
     path = result.folder / "summary.txt"

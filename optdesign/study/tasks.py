@@ -285,4 +285,28 @@ def _analyse(analysis, scene) -> dict:
             row[f"constraint:{name}:min"], row[f"constraint:{name}:max"] = e["min"], e["max"]
         else:
             row[f"constraint:{name}"] = float(v)
+    if res.cases is not None:
+        row.update(_cases_row(res.cases))
+    return row
+
+
+def _cases_row(cases) -> dict:
+    """A scene's load cases in an analyse study's row (the peaks above are the nominal state's, at
+    the [drive] speed and acceleration): each peak's governing case and value, the duty cycle's
+    RMS over time and energy, each motor's fit, the cylinder's sizes."""
+    row = {}
+    for key, g in cases.governing.items():
+        row[f"case_peak:{key}"], row[f"case_peak_case:{key}"] = g["value"], g["case"]
+    duty = cases.duty
+    row.update({f"cycle_rms:{k}": v for k, v in duty.get("rms_time", {}).items()})
+    if "energy" in duty:
+        row["cycle:time"], row["cycle:energy"] = duty["cycle_time"], duty["energy"]
+    train = cases.train
+    for name, m in train.get("motors", {}).items():
+        row[f"motor_fits:{name}"] = bool(m["fits"])
+    if "smallest_fitting" in train:
+        row["smallest_motor"] = train["smallest_fitting"] or "none"
+    for key in ("bore", "bore_needed", "rod", "rod_needed_buckling", "buckling_utilisation", "pump_flow"):
+        if key in train:
+            row[f"cylinder:{key}"] = train[key]
     return row
