@@ -50,7 +50,9 @@ class CaseModel:
         out = {}
         if self.profile is not None:
             sd, sdd, _, t = self.profile.graphs(mech.s, lambda e: mech.value(e, "[profiles] speed"))
-            out["sd"] = sd
+            out["sd"], out["sdd"] = sd, sdd + 0 * mech.s
+            if self.profile.shape.motion_law is not None:   # a law in time: its jerk in closed form
+                out["jerk"] = self.profile.jerk(mech.s)
             if t is not None:
                 out["t"] = t
         out["drive_speed"] = m.qd + 0 * mech.s
