@@ -7,11 +7,9 @@ takes the warm start from the journal (JSON keeps floats exact), so a resumed st
 exactly what an uninterrupted one would have."""
 from __future__ import annotations
 
-import concurrent.futures as cf
+import collections
 import dataclasses
 import json
-import multiprocessing
-import os
 import pickle
 import signal
 import sys
@@ -19,19 +17,20 @@ import threading
 import time
 from pathlib import Path
 
-from ..errors import OptdesignError, worker_process
+from ..errors import OptdesignError
 from ..report import study as study_figures
 from . import journal as study_journal
 from . import table as study_table
 from .results import ClusterLost, StudyInterrupted, StudyResult
 from ..report.folder import NoHardLinks, inspect, replace_folder
 from ..report.files import write_file
-from .tasks import run_batch, scene_digest
-from .worker import prestart, run_batch_in_helper
+from .executors import _executor, _Inline, record  # noqa: F401  (_Inline: the tests' stand-in executors)
+from .tasks import scene_digest
 
 
 # the files a study derives from its journal (replaced at the end; a restart drops them)
 DERIVED = (study_table.CSV, "pareto.csv", "study.png", "pareto.png", "study.json", "summary.txt")
+COMMIT_S = 0.1   # the journal is made durable (fsync) at least this often while cases come back
 
 
 def execute(study, folder: Path, workers, scheduler, progress, restart, figures):
@@ -51,10 +50,11 @@ def execute(study, folder: Path, workers, scheduler, progress, restart, figures)
                 computed = _schedule(study, todo, journal, executor, progress, reused, len(cases), ctrl_c)
             except KeyboardInterrupt:
                 interrupted = True
-                computed = executor.stop(journal)
+                computed = executor.stop(journal, abandon=ctrl_c.abandoned)
             except ClusterLost as exc:   # the Dask scheduler is gone: keep what came back
                 lost, computed = exc, executor.finished
             finally:
+                journal.sync()
                 where = executor.describe()
                 executor.close()
         rows = merged_rows(cases, journal.records)
@@ -176,7 +176,7 @@ class _CtrlC:
     def _handler(self, signum, frame):
         self.presses += 1
         if self.presses == 1:
-            print("\nstopping once the running case(s) finish (they are kept); Ctrl-C again to abandon them",
+            print("\nstopping once the case(s) in flight finish (they are kept); Ctrl-C again to abandon them",
                   file=sys.stderr)
             return
         self.abandoned = True
@@ -184,235 +184,77 @@ class _CtrlC:
 
 
 def _schedule(study, chains, journal, executor, progress, done, total, ctrl_c) -> int:
+    """Feed the executor the chains' cases while it has room (a bounded window: the cases wait
+    here, not in the pool or on the cluster), journal each case as it comes back and report it
+    once it is durable (group commit: one fsync for the cases that came back together, at least
+    every COMMIT_S), and continue each chain from its last finished case.  An analyse study's
+    cases are independent (chains of one case, nothing to warm-start): they go in batches of
+    several cases where the executor takes batches (Dask)."""
     blob, digest = pickle.dumps(study.scene), scene_digest(study.scene)
-    state = {}   # chain number -> position of its case in flight
-    computed = 0
+    grouped = study.mode == "analyse" and all(len(ch) == 1 for ch in chains)
+    waiting = collections.deque(chains)   # chains not submitted yet
+    open_ = {}   # case id -> [cases of its batch still to come, its chain, position of the batch's last case]
+    computed = reported = 0
     if progress is not None:
         progress(done, total)
 
     def submit(chain, pos):
         """Submit the chain's first unfinished case at or after ``pos``, with the unfinished cases
         right after it when the executor takes batches (each warm-started on the worker from the
-        one before it: tasks.run_batch); False if none."""
+        one before it: tasks.run_batch)."""
         while pos < len(chain) and chain[pos].id in journal.records:
             pos += 1
         if pos == len(chain):
-            return False
+            return
         batch = chain[pos:pos + executor.batch_size(len(chain) - pos)]
         batch = batch[:next((i for i, c in enumerate(batch) if c.id in journal.records), len(batch))]
         prev = journal.records.get(chain[pos - 1].id) if pos > 0 else None
         x_warm = prev.get("x") if prev is not None else None
-        executor.submit(batch, [study.task(case, x_warm if i == 0 else None, blob, digest)
-                                for i, case in enumerate(batch)])
-        state[batch[0].chain] = (chain, pos + len(batch) - 1)   # the batch's last case
-        return True
+        send(batch, [study.task(case, x_warm if i == 0 else None, blob, digest) for i, case in enumerate(batch)],
+             chain, pos + len(batch) - 1)
 
-    for chain in chains:
-        submit(chain, 0)
+    def send(batch, tasks, chain, last):
+        entry = [len(batch), chain, last]
+        for case in batch:
+            open_[case.id] = entry
+        executor.submit(batch, tasks)
+
+    def feed():
+        while waiting and executor.room():
+            if grouped:
+                batch = [waiting.popleft()[0] for _ in range(min(executor.batch_size(len(waiting)), len(waiting)))]
+                send(batch, [study.task(case, None, blob, digest) for case in batch], None, None)
+            else:
+                submit(waiting.popleft(), 0)
+
+    def commit():
+        nonlocal reported
+        journal.sync()
+        if progress is not None and reported < computed:
+            progress(done + computed, total)
+        reported = computed
+
+    feed()
     for case, out in executor.results():
         if ctrl_c.abandoned:   # computed while the second Ctrl-C was raised: maybe not a result
             raise KeyboardInterrupt
-        journal.add({"id": case.id, "case": case.index, "row": out["row"], "x": out["x"], "time_s": out["time_s"]})
+        journal.add(record(case, out), durable=False)
         computed += 1
         executor.finished += 1
-        if progress is not None:
-            progress(done + computed, total)
-        chain, pos = state[case.chain]
-        if chain[pos].id != case.id:
+        if not executor.ready() or time.monotonic() - journal.synced >= COMMIT_S:
+            commit()
+        entry = open_.pop(case.id)
+        entry[0] -= 1
+        if entry[0]:
             continue   # more of its batch to come
         if ctrl_c.presses:
+            commit()
             raise KeyboardInterrupt
-        state.pop(case.chain)
-        submit(chain, pos + 1)
+        if entry[1] is not None:
+            submit(entry[1], entry[2] + 1)
+        feed()
+    commit()
     return computed
-
-
-# --- executors: submit(cases, tasks) (consecutive cases of one chain, batch_size(...) of them),
-# results() yields (case, output) as cases finish ----------------------------------------------
-class _Inline:
-    """In this process, one case after another."""
-
-    def __init__(self):
-        self.queue, self.finished = [], 0
-
-    def batch_size(self, remaining):
-        return 1
-
-    def submit(self, cases, tasks):
-        self.queue.append((cases, tasks))
-
-    def results(self):
-        while self.queue:
-            cases, tasks = self.queue.pop(0)
-            yield from zip(cases, run_batch(tasks))
-
-    def stop(self, journal):
-        return self.finished
-
-    def close(self):
-        pass
-
-    def describe(self):
-        return "1 worker, in process"
-
-
-class _Futures:
-    """Shared by the process pool and Dask: futures mapped to their cases."""
-
-    def __init__(self):
-        self.pending, self.finished = {}, 0
-
-    def batch_size(self, remaining):
-        return 1
-
-    def results(self):
-        while self.pending:
-            done = self._wait_first(list(self.pending))
-            for f in done:
-                cases = self.pending.pop(f)
-                yield from zip(cases, f.result())
-
-    def stop(self, journal):
-        """Ctrl-C: cancel what has not started, keep what finishes."""
-        for f in list(self.pending):
-            if f.cancel():
-                self.pending.pop(f)
-        try:
-            for case, out in self.results():
-                journal.add({"id": case.id, "case": case.index, "row": out["row"], "x": out["x"],
-                             "time_s": out["time_s"]})
-                self.finished += 1
-        except (KeyboardInterrupt, cf.CancelledError, cf.process.BrokenProcessPool):
-            pass   # abandoned, cancelled or lost with its worker: nothing to keep
-        return self.finished
-
-
-class _Pool(_Futures):
-    """A process pool on this machine; each worker builds the scene's model once."""
-
-    def __init__(self, workers):
-        super().__init__()
-        # fork where there is one: workers start at once with the modules already imported, and
-        # a script without an `if __name__ == "__main__":` guard is not run again in each worker
-        methods = multiprocessing.get_all_start_methods()
-        ctx = multiprocessing.get_context("fork" if "fork" in methods else "spawn")
-        self.workers = workers
-        # workers leave Ctrl-C to the parent, which stops the study cleanly, and die with it
-        self.pool = cf.ProcessPoolExecutor(workers, mp_context=ctx, initializer=worker_process,
-                                           initargs=(os.getpid(),))
-
-    def submit(self, cases, tasks):
-        self.pending[self.pool.submit(run_batch, tasks)] = cases
-
-    @staticmethod
-    def _wait_first(futures):
-        return cf.wait(futures, return_when=cf.FIRST_COMPLETED).done
-
-    def close(self):
-        self.pool.shutdown(wait=not self.pending, cancel_futures=True)
-
-    def describe(self):
-        return f"{self.workers} worker processes"
-
-
-class _Dask(_Futures):
-    """A Dask distributed cluster: ``scheduler`` is its address or a ``distributed.Client``.
-
-    Cases go in batches of consecutive cases of a chain, about ``BATCH_S`` seconds of work each
-    (from the cases finished so far): a task's round trip through the scheduler costs
-    milliseconds to tens of milliseconds, a case of an optimisation study a few tens.  Each
-    batch is computed in a helper process of its worker (:mod:`.worker`: the worker's own threads
-    slowed the cases down 1.3-1.9 times), which builds the scene's model once.  The journal
-    stays here, each case written when its batch comes back."""
-
-    BATCH_S = 0.5
-    FIRST_BATCH = 4      # cases per batch before any case has finished
-
-    def __init__(self, scheduler):
-        super().__init__()
-        self.work_s, self.work_n, self.lost = 0.0, 0, False
-        import distributed
-
-        self.distributed = distributed
-        if isinstance(scheduler, distributed.Client):
-            self.client, self.own = scheduler, False
-        else:
-            try:
-                # connect timeout: dask's config distributed.comm.timeouts.connect (30 s by default)
-                self.client, self.own = distributed.Client(scheduler), True
-            except (OSError, ValueError, TypeError) as exc:
-                raise OptdesignError(f"--scheduler {scheduler!r}: cannot reach the Dask scheduler ({exc}); expected "
-                                     "an address such as tcp://10.0.0.5:8786") from None
-        self.address = self.client.scheduler.address
-        import logging
-
-        # its own log lines ('Failed to reconnect to scheduler ...') would interleave with ours;
-        # a lost scheduler is reported once, as ClusterLost
-        self._logger = logging.getLogger("distributed.client")
-        self._log_level = self._logger.level
-        self._logger.setLevel(logging.CRITICAL)
-        try:   # helper processes started on every worker now, while the study is being prepared
-            threads = max(self.client.nthreads().values(), default=1)
-            self.client.run(prestart, threads)   # returns at once: they start aside
-        except Exception:   # noqa: BLE001 - only a head start: a batch starts its helper if need be
-            pass
-
-    def batch_size(self, remaining):
-        """The chain's ``remaining`` cases cut into batches of about BATCH_S seconds, evenly."""
-        per_batch = (self.FIRST_BATCH if not self.work_n else
-                     max(1, int(self.BATCH_S / max(self.work_s / self.work_n, 1e-4))))
-        batches = -(-remaining // per_batch)
-        return -(-remaining // batches)
-
-    def submit(self, cases, tasks):
-        self.pending[self.client.submit(run_batch_in_helper, tasks, pure=False)] = cases
-
-    def results(self):
-        try:
-            for case, out in super().results():
-                self.work_s += out["time_s"]
-                self.work_n += 1
-                yield case, out
-        except (cf.CancelledError, OSError, TimeoutError) as exc:   # FuturesCancelledError, CommClosedError
-            self.lost = True
-            raise ClusterLost(f"the Dask scheduler at {self.address} was lost ({type(exc).__name__})") from None
-
-    def _wait_first(self, futures):
-        return self.distributed.wait(futures, return_when="FIRST_COMPLETED").done
-
-    def stop(self, journal):
-        """Ctrl-C: cancel every case on the cluster (finished ones are already journalled)."""
-        self.client.cancel(list(self.pending))
-        self.pending.clear()
-        return self.finished
-
-    def close(self):
-        if not self.lost:   # a lost client still logs its reconnection failure after this: keep it quiet
-            self._logger.setLevel(self._log_level)
-        if self.own:
-            try:
-                self.client.close()
-            except (OSError, TimeoutError, cf.CancelledError):   # the scheduler is gone already
-                pass
-
-    def describe(self):
-        try:
-            n = len(self.client.scheduler_info().get("workers", {}))
-        except (OSError, TimeoutError, cf.CancelledError, AttributeError):   # the scheduler is gone
-            return f"Dask cluster at {self.address} (lost)"
-        return f"Dask cluster at {self.address}, {n} workers"
-
-
-def _executor(workers, scheduler, n_chains):
-    if scheduler is not None:
-        return _Dask(scheduler)
-    workers = (os.cpu_count() or 1) if workers is None else int(workers)
-    if workers < 1:
-        from ..errors import OptdesignError
-
-        raise OptdesignError(f"workers must be at least 1, found {workers}")
-    workers = min(workers, max(n_chains, 1))
-    return _Inline() if workers == 1 else _Pool(workers)
 
 
 __all__ = ["execute", "merged_rows"]
