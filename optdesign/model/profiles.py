@@ -227,6 +227,12 @@ class MotionProfile:
             tau += list(np.linspace(a, b, n + 1)[1:])
         return self.s_begin + self.sigma * law.evaluate(np.array(tau))[0] * self.length
 
+    def law_position(self):
+        """A law in time's f(tau) (fraction of the stroke at the fraction tau of its time) as a
+        numpy function."""
+        t = ca.SX.sym("t")
+        return _numpy_of(t, self.shape.motion_law.derivatives(t)[0])
+
     def _law_segments(self) -> list:
         s = self.law_nodes()
         return [(float(min(s[0], s[-1])), float(max(s[0], s[-1])), s[1:-1])]

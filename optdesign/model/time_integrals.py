@@ -29,6 +29,7 @@ from .profiles import speed_function
 from .quadrature import end_power, integrate
 
 TOLERANCE = 1e-10   # relative to the integral of |integrand| over the stroke
+FIRST_INTERVALS = 128
 KEYS = ("drive_squared", "energy", "energy_driving", "motor_load_squared", "motor_load_acceleration",
         "motor_acceleration_squared", "time")
 
@@ -54,6 +55,8 @@ def certified_integrals(cm, columns, nodes, sigma, tol=TOLERANCE) -> dict:
     nodes = np.asarray(nodes, float)
     lo, hi = float(np.min(nodes)), float(np.max(nodes))
     profile = cm.profile
+    if profile is not None and profile.shape.motion_law is not None:
+        return _in_time(profile, columns, tol)
     if profile is None:
         speed = abs(cm.speed)
         V, breaks, m_lo, m_hi = None, np.zeros(0), 1.0, 1.0
@@ -75,7 +78,10 @@ def certified_integrals(cm, columns, nodes, sigma, tol=TOLERANCE) -> dict:
             pieces.append((b, a, m_hi))
         else:
             pieces.append((a, b, m_lo if j == 0 else 1.0))
-    starts = [nodes[(nodes > min(a, b)) & (nodes < max(a, b))] for a, b, _ in pieces]
+    # the first intervals: the samples and at least FIRST_INTERVALS over the stroke (a load that 3
+    # samples cannot see is then found by the quadrature, whatever the sample count)
+    grid = np.r_[nodes, np.linspace(lo, hi, FIRST_INTERVALS + 1)]
+    starts = [grid[(grid > min(a, b)) & (grid < max(a, b))] for a, b, _ in pieces]
     last = len(pieces) - 1
     anchored_hi = pieces[-1][2] > 1 and pieces[-1][0] == hi
     motor = None
@@ -101,15 +107,22 @@ def certified_integrals(cm, columns, nodes, sigma, tol=TOLERANCE) -> dict:
         return np.vstack(rows + [w])
 
     result = integrate(f, pieces, starts, tol)
+    closed = profile is not None and profile.law_speed is None
+    return _report(result, motor, profile.duration if closed else None, exact_time=closed)
+
+
+def _report(result, motor, duration, exact_time) -> dict:
+    """The integrals' dict from the quadrature's ``result`` (``duration``: the stroke's time in
+    closed form, else the quadrature's)."""
     keys = [k for k in KEYS if motor or not k.startswith("motor")]
     values = dict(zip(keys, (float(v) for v in result.values)))
     errors = dict(zip(keys, (float(v) for v in result.errors)))
     bad = [k for k, ok in zip(keys, result.converged) if not ok]
     out = {k: values[k] for k in keys if k != "time"}
-    if profile is None or profile.law_speed is not None:
+    if exact_time:   # in closed form: the quadrature's time is a check of the weight (within its error)
+        errors["time"] = 0.0
+    else:
         duration = values["time"]
-    else:   # in closed form: the quadrature's time is a check of the weight (within its error)
-        duration, errors["time"] = profile.duration, 0.0
     out["duration"] = duration
     out["rms_time"] = math.sqrt(values["drive_squared"] / duration) if duration > 0 else math.nan
     errors["rms_time"] = rms_error(values["drive_squared"], errors["drive_squared"], duration, errors["time"])
@@ -118,6 +131,30 @@ def certified_integrals(cm, columns, nodes, sigma, tol=TOLERANCE) -> dict:
     out["not_converged"] = bad
     out["intervals"] = result.intervals
     return out
+
+
+def _in_time(profile, columns, tol) -> dict:
+    """A law in time (s = s_begin + sigma L f(tau), t = T tau): the integrals in tau on each of
+    its pieces, dt = T dtau (no weight to invert: the law's inverse is exact only to 2^-16 of
+    tau next to a rest), P dt = T_S qd T dtau."""
+    law, T, L = profile.shape.motion_law, profile.shape.time, profile.length
+    position = profile.law_position()
+    edges = (0.0,) + tuple(law.breaks) + (1.0,)
+    pieces = [(a, b, 1.0) for a, b in zip(edges[:-1], edges[1:])]
+    starts = [np.linspace(a, b, FIRST_INTERVALS // len(pieces) + 1)[1:-1] for a, b, _ in pieces]
+    motor = None
+
+    def f(tau, d, piece):
+        nonlocal motor
+        c = columns(profile.s_begin + profile.sigma * L * position(tau))
+        e = c["drive"] * c["drive_speed"] * T
+        rows = [c["drive"] ** 2 * T, e, np.maximum(e, 0.0)]
+        motor = "motor_load_torque" in c
+        if motor:
+            tg, acc = c["motor_load_torque"], c["motor_acceleration"]
+            rows += [tg**2 * T, tg * acc * T, acc**2 * T]
+        return np.vstack(rows + [np.full(len(tau), T)])
+    return _report(integrate(f, pieces, starts, tol), motor, T, exact_time=True)
 
 
 def rms_error(squared, squared_error, duration, duration_error) -> float:
