@@ -30,6 +30,8 @@ def add_arguments(p):
                    "peaks and constraints in SI); without it, the summary in the scene's units")
     p.add_argument("--csv", metavar="FILE", help="write every sample as CSV, each header 'name [unit]' (- : to "
                    "standard output, the summary then to standard error)")
+    p.add_argument("--joints", action="store_true", help="the force at every pin and slider too (pin_force(P), "
+                   "its components, slider_normal(P), slider_moment(P)), their peaks certified")
 
 
 def run(args):
@@ -40,7 +42,7 @@ def run(args):
         results_folder(args.plot, "--plot", report.FIGURES)
     if args.csv:
         output_file(args.csv, "--csv")
-    result = analyse(scene_with_design(args), args.samples)
+    result = analyse(scene_with_design(args), args.samples, joints=args.joints)
     if args.plot:
         for path in report.analysis_figures(result, args.plot, label="--plot"):
             print(f"wrote {path}", file=sys.stderr)

@@ -80,7 +80,8 @@ def build_quantities(pb):
             if missing:
                 raise ExpressionError(f"{scene.path}: [objective] minimise = {pb.objective_text!r}: unknown "
                                       f"name {what!r}{near_miss(what, set(outputs))}: {missing}")
-            expr = mech.value(parse(what, f"{scene.path}: [objective] minimise"), f"{scene.path}: [objective] minimise")
+            expr = model_value(pb.model, parse(what, f"{scene.path}: [objective] minimise"),
+                               f"{scene.path}: [objective] minimise")
         pb.objective_quantity = len(rows)
         rows.append(expr)
         if what in ("drive", "power") and pb.objective_kind == "peak":

@@ -13,7 +13,8 @@ from ..scene.arguments import scene_argument
 from ..scene.expressions import evaluate
 from .certified import PEAKS, CertifiedExtremes
 from .mapped import MappedFunction
-from .quantities import environment, model_value
+from .joint_structure import JointStructureError
+from .quantities import environment, joint_calls, joint_forces, model_value
 from ..scene.cases import is_case_constraint
 from .cases import CaseAnalysis
 from .finite import check_columns, check_values
@@ -59,6 +60,8 @@ class AnalysisResult:
     certificates: dict = field(default_factory=dict)
     # [quantities]: name -> array over the samples (their units: scene.quantities)
     quantities: dict = field(default_factory=dict)
+    # why the joint forces (columns pin_force(P), ...: model/joints.py) are not there, or None
+    joints_note: str | None = None
 
     @property
     def drive_kind(self):
@@ -81,7 +84,7 @@ class Analysis:
     """The compiled stroke evaluation of one scene (a class under :func:`analyse`)."""
 
     def __init__(self, scene: Scene | ResolvedScene, samples: int | None = None, efficiency_smoothing: float = 0.0,
-                 certify: bool = True):
+                 certify: bool = True, joints: bool = False):
         t0 = time.perf_counter()
         self.mech = Mechanism(scene_argument("analyse", scene, ResolvedScene))
         self.resolved = self.mech.resolved
@@ -97,6 +100,16 @@ class Analysis:
         self.per_stroke = [c for c in scene.constraints if c.expr.is_aggregate]
         for c in self.per_sample:
             outs[f"constraint:{c.name}"] = model_value(self.model, c.expr, f"[[constraints]] {c.name}")
+        # with ``joints``, the force at every joint (model/joints.py): columns pin_force(P), ...
+        # (their certified peaks took the toggle press's build from 0.8 to 3.8 s, measured: so they are
+        # asked for); where the joint structure cannot be derived, none, and the reason in joints_note
+        self.joints, self.joints_note = {}, None
+        try:
+            self.joints = joint_forces(self.model).outputs() if joints else {}
+        except JointStructureError as exc:
+            self.joints_note = str(exc)
+        outs.update(self.joints)
+        self.peak_names = [k for k in PEAKS if k in outs] + [k for k in self.joints if k.startswith("pin_force(")]
         for name, expr in self.mech.quantities.items():
             outs[f"quantity:{name}"] = expr + 0 * self.mech.s
         self.names = list(outs)
@@ -141,7 +154,7 @@ class Analysis:
         s = self.s_values
         sampled_stroke = self._per_stroke(p_values, s)
         peaks_sampled, peak_at = {}, {}
-        for k in PEAKS:
+        for k in self.peak_names:
             if k in columns:
                 i = int(np.argmax(np.abs(columns[k])))
                 peaks_sampled[k] = float(abs(columns[k][i]))
@@ -171,16 +184,18 @@ class Analysis:
         return AnalysisResult(self.scene, columns, bodies, constraints, peaks, timings, peaks_sampled,
                               peak_at, extremes, sampled_stroke,
                               cases=self.case_analysis.run(p_values) if self.case_analysis else None,
-                              certificates=certificates, quantities=quantities)
+                              certificates=certificates, quantities=quantities, joints_note=self.joints_note)
 
     def _per_stroke(self, p_values, s_values):
         """The per-stroke constraints with their aggregates taken over ``s_values``."""
         if not self.per_stroke:
             return {}
         mech = self.mech
-        # the model's columns that the per-stroke constraints use (model/quantities.py)
-        used = set().union(*(c.expr.names() for c in self.per_stroke)) - set(mech.env)
-        columns = {k: v for k, v in environment(self.model).items() if k in used}
+        # the model's columns and joint forces that the per-stroke constraints use (model/quantities.py)
+        columns = {}
+        for c in self.per_stroke:
+            used = (c.expr.names() | {f"{f}({p})" for f, p in joint_calls(c.expr)}) - set(mech.env)
+            columns.update({k: v for k, v in environment(self.model, c.expr).items() if k in used})
         if self._points is None:  # built once, on the first run that needs it
             self._points = MappedFunction(mech.function("points", dict(mech.points, **columns)))
         names = list(mech.points)
@@ -193,8 +208,11 @@ class Analysis:
                 for c in self.per_stroke}
 
 
-def analyse(scene: Scene | ResolvedScene, samples: int | None = None, certify: bool = True) -> AnalysisResult:
+def analyse(scene: Scene | ResolvedScene, samples: int | None = None, certify: bool = True,
+            joints: bool = False) -> AnalysisResult:
     """The reduced model of ``scene`` over its stroke (front door).  Assembly and dead centres
     are checked over the continuous stroke; the peaks and constraint extremes are certified
-    over it too, unless ``certify`` is False (then they are the samples' own)."""
-    return Analysis(scene, samples, certify=certify).run()
+    over it too, unless ``certify`` is False (then they are the samples' own).  ``joints``: the
+    force at every joint too (columns ``pin_force(P)``, ``pin_force_x(P)``, ...; their peaks
+    certified like the drive load's; :mod:`optdesign.model.joints`)."""
+    return Analysis(scene, samples, certify=certify, joints=joints).run()

@@ -243,12 +243,14 @@ def case_nodes(s, profile):
     scene's samples."""
     s = np.asarray(s, float)
     breaks = profile.breakpoints() if profile is not None else np.zeros(0)
-    if not breaks.size:
+    if not breaks.size and (profile is None or profile.shape.motion_law is None):   # (a law in time: its time nodes)
         return s.copy(), np.ones(len(s), bool)
     delta = 0.5e-9 * abs(s[-1] - s[0])
     extra = np.r_[breaks - delta, breaks + delta]
     for lo, hi, inner in profile.jerk_segments():  # an s-curve's jerk segments, evenly in time
         extra = np.r_[extra, inner]
+    # a node in time that falls on a sample (a law's middle on an odd grid) is that sample
+    extra = np.unique(extra[np.min(np.abs(extra[:, None] - s[None, :]), axis=1) > 1e-13 * abs(s[-1] - s[0])])
     nodes = np.r_[s, extra]
     order = np.argsort(nodes, kind="stable")
     if s[-1] < s[0]:

@@ -32,9 +32,9 @@ class CertifiedExtremes:
     def __init__(self, analysis):
         mech = analysis.mech
         self.mech = mech
-        outputs = analysis.model.outputs()
+        outputs = dict(analysis.model.outputs(), **analysis.joints)
         rows, self.peak_rows, self.constraint_rows, self.aggregate_rows = [], {}, {}, []
-        for name in PEAKS:
+        for name in analysis.peak_names:   # the model's PEAKS and the pins' forces
             if name in outputs:
                 self.peak_rows[name] = len(rows)
                 rows.append(outputs[name])

@@ -10,14 +10,15 @@ from .cases import FIGURES as CASE_FIGURES
 from .cases import cases_figures, cases_json, cases_table
 from .checks import violation_text, violations, violations_json
 from .output import SCHEMA, Rows, table_chunks
+from .units import ColumnUnits
 
 UNITS = {
-    "rotary": {"q": "rad", "reduced_inertia": "kg m^2", "reduced_inertia_dq": "kg m^2/rad",
-               "static_load": "N m", "damping_load": "N m", "inertia_term": "N m", "velocity_term": "N m",
-               "drive": "N m",
-               "power": "W", "k": "rad/unit of s"},
-    "linear": {"q": "m", "reduced_inertia": "kg", "reduced_inertia_dq": "kg/m", "static_load": "N", "damping_load": "N",
-               "inertia_term": "N", "velocity_term": "N", "drive": "N", "power": "W", "k": "m/unit of s"},
+    "rotary": ColumnUnits({"q": "rad", "reduced_inertia": "kg m^2", "reduced_inertia_dq": "kg m^2/rad",
+                           "static_load": "N m", "damping_load": "N m", "inertia_term": "N m", "velocity_term": "N m",
+                           "drive": "N m", "power": "W", "k": "rad/unit of s"}),
+    "linear": ColumnUnits({"q": "m", "reduced_inertia": "kg", "reduced_inertia_dq": "kg/m", "static_load": "N",
+                           "damping_load": "N", "inertia_term": "N", "velocity_term": "N", "drive": "N", "power": "W",
+                           "k": "m/unit of s"}),
 }
 SEED_NAMES = {
     "rotary": {"reduced_inertia": "I_zS", "reduced_inertia_dq": "dI_zS/dalpha", "static_load": "T_Su",
@@ -97,6 +98,7 @@ def analysis_json(result) -> dict:
         "constraint_extremes": result.constraint_extremes,
         "certificates": result.certificates,   # the enclosures' bounds, or why there is none
         "quantity_units": {q.name: q.unit for q in result.scene.quantities},   # [quantities]
+        "joints_note": result.joints_note,   # why no joint forces (pin_force(P), ...) are given, or None
         "violations": violations_json(result),   # violated scene constraints: how far, where (report/checks.py)
         "samples": samples,
         **cases_json(result),   # with [[cases]]: cases, governing, duty, drive_train (report/cases.py)
@@ -158,6 +160,8 @@ def analysis_peaks_chunks(result, case_samples: bool = True):
                  "acceleration given in [drive])")
     lines += certificate_lines(result)
     lines += [f"violated: {violation_text(result, v)}" for v in violations(result)]   # report/checks.py
+    if result.joints_note:
+        lines.append(f"joint forces: none ({result.joints_note})")
     yield "\n" + "\n".join(lines)
     yield cases_table(result, case_samples)   # with [[cases]] (report/cases.py)
 

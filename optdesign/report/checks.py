@@ -7,14 +7,14 @@ from __future__ import annotations
 import numpy as np
 
 from ..scene import ResolvedScene
-from .units import DEG, constraint_scale, number, scaled, sweep_scale, sweep_unit
+from .units import DEG, ColumnUnits, constraint_scale, number, scaled, sweep_scale, sweep_unit
 
-SI = {"rotary": {"q": "rad", "reduced_inertia": "kg m^2", "reduced_inertia_dq": "kg m^2/rad", "static_load": "N m",
-                 "damping_load": "N m", "inertia_term": "N m", "velocity_term": "N m", "drive": "N m", "power": "W",
-                 "k": "rad/unit of s"},
-      "linear": {"q": "m", "reduced_inertia": "kg", "reduced_inertia_dq": "kg/m", "static_load": "N",
-                 "damping_load": "N", "inertia_term": "N", "velocity_term": "N", "drive": "N", "power": "W",
-                 "k": "m/unit of s"}}
+SI = {"rotary": ColumnUnits({"q": "rad", "reduced_inertia": "kg m^2", "reduced_inertia_dq": "kg m^2/rad",
+                             "static_load": "N m", "damping_load": "N m", "inertia_term": "N m", "velocity_term": "N m",
+                             "drive": "N m", "power": "W", "k": "rad/unit of s"}),
+      "linear": ColumnUnits({"q": "m", "reduced_inertia": "kg", "reduced_inertia_dq": "kg/m", "static_load": "N",
+                             "damping_load": "N", "inertia_term": "N", "velocity_term": "N", "drive": "N", "power": "W",
+                             "k": "m/unit of s"})}
 
 ORDER = ("s", "q", "k", "reduced_inertia", "reduced_inertia_dq", "static_load", "damping_load", "inertia_term",
          "velocity_term", "drive", "power", "efficiency_factor")

@@ -47,7 +47,8 @@ UNARY = {
     "sin": ca.sin, "cos": ca.cos, "tan": ca.tan, "asin": ca.asin, "acos": ca.acos,
     "atan": ca.atan, "sqrt": ca.sqrt, "abs": ca.fabs, "exp": ca.exp, "log": ca.log,
 }
-GEOMETRIC = {"length": 2, "angle": 3, "x": 1, "y": 1}
+GEOMETRIC = {"length": 2, "angle": 3, "x": 1, "y": 1, "pin_force": 1, "pin_force_x": 1, "pin_force_y": 1,
+             "slider_normal": 1, "slider_moment": 1}  # the joint forces: model/quantities.py
 AGGREGATES = ("min", "max")
 STROKE_ENDS = ("start", "end")  # the value at the sweep's from / to: one value per stroke too
 FUNCTIONS = sorted(set(UNARY) | set(GEOMETRIC) | {"atan2"} | set(AGGREGATES) | set(STROKE_ENDS))
@@ -445,6 +446,8 @@ class _Evaluator:
             return ca.atan2(ca.fabs(cross), dot)
         if f in ("x", "y"):
             return self.point(args[0].name)[0 if f == "x" else 1, :]
+        if f in GEOMETRIC:  # a joint force: a name that model/quantities.py gives
+            return self.run(Name(f"{f}({args[0].name})"))
         vals = [self.run(a) for a in args]
         if f in UNARY:
             return UNARY[f](vals[0])
