@@ -405,3 +405,33 @@ def test_drawing_shows_the_pin_forces(tmp_path):
         d = tip - tail
         assert abs(d[0] * f[1] - d[1] * f[0]) <= 1e-9 * np.hypot(*d) * np.hypot(*f) and d @ f > 0, pin
         assert f"peak {optdesign.report.units.quantity(an.peaks[f'pin_force({pin})'], 'N', 3)}" in labels[pin]
+
+
+CASES = (ROOT / "problems" / "seed1_jib.toml").read_text().replace("[objective]", """[[constraints]]
+name = "pivot bearing"
+expr = "pin_force(A)"
+max = 30000
+
+[[cases]]
+name = "rated"
+direction = "forward"
+[[cases]]
+name = "test load"
+direction = "forward"
+set = { mC = 625.0 }
+
+[objective]""")
+
+
+def test_pin_force_constraints_hold_in_every_load_case():
+    """With [[cases]] a pin force constraint is evaluated per case, at the case's parameters:
+    each case's values are those of the scene with the case's payload (analyse(joints=True))."""
+    scene = optdesign.loads(CASES)
+    an = optdesign.analyse(scene, samples=31)
+    for name, mass in (("rated", 500.0), ("test load", 625.0)):
+        alone = optdesign.analyse(optdesign.load(ROOT / "problems" / "seed1_jib.toml").with_parameters(mC=mass),
+                                  samples=31, joints=True)
+        case = an.cases.cases[name]
+        np.testing.assert_allclose(case.constraints["pivot bearing"], alone.columns["pin_force(A)"], rtol=1e-12)
+    assert np.max(an.cases.cases["test load"].constraints["pivot bearing"]) > \
+        np.max(an.cases.cases["rated"].constraints["pivot bearing"])
