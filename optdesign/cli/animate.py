@@ -32,7 +32,11 @@ def run(args):
     from ..model.analysis import analyse
     from ..report.animate import animate, ffmpeg_available
 
+    from ..scene.arguments import animation_frames
+
     still = args.frame is not None
+    if not still:
+        animation_frames(args.frames)   # before the analysis: a film too long to draw is refused at once
     gif = Path(args.out or default_file(args, "-frame.png" if still else "-animation.gif"))
     suffix = ".png" if still else ".gif"
     if args.out == "-":

@@ -9,13 +9,15 @@ sample points, and its retries come from its own share of the reserve, so the re
 same whatever the order of the starts or the number of workers."""
 from __future__ import annotations
 
+import concurrent.futures as cf
 import multiprocessing
 import os
 import time
+from concurrent.futures.process import BrokenProcessPool
 
 import numpy as np
 
-from ..errors import OptimisationInterrupted, casadi_messages_hidden, interruptible, resume_after_interrupt, worker_process
+from ..errors import OptimisationInterrupted, SolverError, casadi_messages_hidden, interruptible, resume_after_interrupt, worker_process
 from ..scene import Scene
 from ..scene.arguments import optimise_arguments, scene_argument
 from .clusters import local_optima
@@ -117,18 +119,36 @@ def solve_starts(solver: Solver, repair: Repair, plan, workers=1, progress=None)
     ctx = multiprocessing.get_context("fork")
     _FORKED = (solver, repair, plan)
     runs = {}
+    # a pool that says when one of its processes died (a multiprocessing.Pool replaces it and
+    # waits for ever for the start it was solving)
+    pool = cf.ProcessPoolExecutor(workers, mp_context=ctx, initializer=worker_process, initargs=(os.getpid(),))
     try:
-        with ctx.Pool(workers, initializer=worker_process, initargs=(os.getpid(),)) as pool:
-            for i, run in pool.imap_unordered(_solve_one, range(n)):  # a worker's exception is raised here
-                runs[i] = run
-                if progress is not None:
-                    progress(len(runs), n)
+        for f in cf.as_completed([pool.submit(_solve_one, i) for i in range(n)]):
+            i, run = f.result()   # a worker's exception is raised here
+            runs[i] = run
+            if progress is not None:
+                progress(len(runs), n)
     except KeyboardInterrupt as exc:   # Ctrl-C: the caller keeps the starts that finished
         exc.finished = [runs[i] for i in sorted(runs)]
         raise
+    except BrokenProcessPool:
+        raise SolverError(f"a worker process of --workers {workers} died while solving the starts (killed, out of "
+                          f"memory or crashed) after {len(runs)} of {n} starts had finished; run again, with fewer "
+                          "--workers if memory is short") from None
     finally:
         _FORKED = None
+        _end_pool(pool, wait=len(runs) == n)
     return [runs[i] for i in range(n)]
+
+
+def _end_pool(pool, wait):
+    """Shut the pool down; when it is left early (Ctrl-C, a dead process) its workers are
+    stopped at once rather than left to finish the start they are solving."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())   # no public way before 3.14
+    pool.shutdown(wait=wait, cancel_futures=True)
+    if not wait:
+        for process in processes:
+            process.terminate()
 
 
 _FORKED = None  # what forked workers inherit: (solver, repair, plan)
@@ -243,6 +263,8 @@ def summarise(problem, solver, reports, solutions, timings, plan=None, fixed=Non
     message = ("local optimum: IPOPT converged and the continuous check agrees (1 start: "
                "a local optimum, run more starts to search for a better one)" if n == 1 else
                "optimal: the best of the starts' local optima; IPOPT converged and the continuous check agrees")
+    if sol.notes:   # what the enclosure could not prove (kinematics/enclosure.py): said, never pretended
+        message += "; " + "; ".join(f"{name} {sense}: {note}" for (name, sense), note in sorted(sol.notes.items()))
     return OptimisationResult(
         scene=pb.scene, design=dict(zip(pb.design_names, map(float, np.clip(sol.x, pb.lower, pb.upper)))),
         objective=best_value, objective_sampled=objective_value(pb, sol, certified=False),

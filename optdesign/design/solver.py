@@ -62,7 +62,7 @@ class Solver:
         # slots follow them, and the solves can cycle between designs that each exploit a gap
         # between the samples (the toggle press's sharp forming-force peak).  A design is
         # accepted only with no excess and off the limit: a local optimum of the continuous problem.
-        step, worst_before = None, np.inf
+        step, worst_before, cap = None, np.inf, 1.0
         for exchange in range(st.max_exchanges + 1):
             box = self._step_box(x_ref, step)
             res, stats, its = self._nlp(w, pb.nlp_parameters(fixed, s_pts, x_ref, tracking), pb.row_bounds(s_pts),
@@ -88,9 +88,14 @@ class Solver:
             if step is None:
                 step = STEP_START
             elif worst > 0 and worst >= worst_before:
+                # a step that made the excess worse: halved, and never doubled back past it (else
+                # halving and doubling alternate and the solves cycle through the same designs:
+                # the knuckle press's blanking bump, four designs over and over until the 20th
+                # exchange, 5 starts of 20 failed)
                 step *= 0.5
+                cap = step
             elif on_limit:
-                step = min(2.0 * step, 1.0)
+                step = min(2.0 * step, cap)
             worst_before = worst
             slots, rows = self._slots(violations, s_now, rows, np.asarray(res["lam_g"]).ravel())
             s_pts = np.r_[pb.base_points, slots]
@@ -220,7 +225,7 @@ class Solver:
             lam_x=np.asarray(res["lam_x"]).ravel(), lam_p=np.asarray(res["lam_p"]).ravel(),
             g=np.asarray(res["g"]).ravel(), f=float(res["f"]), s_points=s_pts, status=status, success=success and converged,
             iterations=iterations, exchanges=exchanges, certified=certified, sampled=sampled,
-            converged=converged,
+            converged=converged, notes=dict(self.checker.notes) if success and converged else {},
         )
 
     def _initial_w(self, x0, fixed, s_pts):

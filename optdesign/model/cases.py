@@ -50,7 +50,9 @@ class CaseModel:
         out = {}
         if self.profile is not None:
             sd, sdd, _, t = self.profile.graphs(mech.s, lambda e: mech.value(e, "[profiles] speed"))
-            out["sd"] = sd
+            out["sd"], out["sdd"] = sd, sdd + 0 * mech.s
+            if self.profile.shape.motion_law is not None:   # a law in time: its jerk in closed form
+                out["jerk"] = self.profile.jerk(mech.s)
             if t is not None:
                 out["t"] = t
         out["drive_speed"] = m.qd + 0 * mech.s
@@ -245,12 +247,14 @@ def case_nodes(s, profile):
     scene's samples."""
     s = np.asarray(s, float)
     breaks = profile.breakpoints() if profile is not None else np.zeros(0)
-    if not breaks.size:
+    if not breaks.size and (profile is None or profile.shape.motion_law is None):   # (a law in time: its time nodes)
         return s.copy(), np.ones(len(s), bool)
     delta = 0.5e-9 * abs(s[-1] - s[0])
     extra = np.r_[breaks - delta, breaks + delta]
     for lo, hi, inner in profile.jerk_segments():  # an s-curve's jerk segments, evenly in time
         extra = np.r_[extra, inner]
+    # a node in time that falls on a sample (a law's middle on an odd grid) is that sample
+    extra = np.unique(extra[np.min(np.abs(extra[:, None] - s[None, :]), axis=1) > 1e-13 * abs(s[-1] - s[0])])
     nodes = np.r_[s, extra]
     order = np.argsort(nodes, kind="stable")
     if s[-1] < s[0]:

@@ -70,6 +70,9 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None, 
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
+    from ..scene.arguments import animation_frames
+
+    frames = animation_frames(frames, dpi) if at is None else frames
     geometry = Geometry(scene)
     scene = geometry.scene
     top = topology(scene)
