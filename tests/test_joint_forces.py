@@ -435,3 +435,21 @@ def test_pin_force_constraints_hold_in_every_load_case():
         np.testing.assert_allclose(case.constraints["pivot bearing"], alone.columns["pin_force(A)"], rtol=1e-12)
     assert np.max(an.cases.cases["test load"].constraints["pivot bearing"]) > \
         np.max(an.cases.cases["rated"].constraints["pivot bearing"])
+
+
+def test_pin_force_errors_name_the_pin(tmp_path):
+    """pin_force(P) of a point that is no pin, and of a scene whose joint structure cannot be
+    derived: a SceneError naming it (exit status 2 on the command line, no traceback)."""
+    import subprocess
+
+    jib = (ROOT / "problems" / "seed1_jib.toml").read_text()
+    text = jib.replace("[objective]", '[[constraints]]\nname = "tip"\nexpr = "pin_force(C)"\nmax = 1\n\n[objective]')
+    with pytest.raises(optdesign.errors.SceneError, match=r"'C' is no pin of the mechanism's joint structure; its pins: A, B, D"):
+        optdesign.analyse(optdesign.loads(text), samples=11)
+    path = tmp_path / "loader.toml"
+    path.write_text((ROOT / "problems" / "lib_wheel_loader_arm.toml").read_text().replace(
+        "[objective]", '[[constraints]]\nname = "pivot"\nexpr = "pin_force(A)"\nmax = 1e6\n\n[objective]'))
+    out = subprocess.run([sys.executable, "-m", "optdesign", "optimise", str(path), "--starts", "2"],
+                         capture_output=True, text=True)
+    assert out.returncode == 2, out.stderr
+    assert "'bucket' does not turn and hangs on one pin" in out.stderr and "Traceback" not in out.stderr
