@@ -40,6 +40,7 @@ class CatalogueResult:
     not_tried: tuple = ()
     interrupted: str | None = None
     interrupted_starts: tuple = ()
+    motors: tuple = ()   # every motor of the catalogue, in the order tried (smallest rated torque first)
 
 
 def optimise_catalogue(scene, progress=None, **options) -> CatalogueResult:
@@ -73,7 +74,7 @@ def optimise_catalogue(scene, progress=None, **options) -> CatalogueResult:
                 chosen = motor.name
                 break
     best = results[chosen] if chosen else results[motors[-1].name]
-    return CatalogueResult(results, chosen, best, tuple(m.name for m in motors[len(results):]))
+    return CatalogueResult(results, chosen, best, tuple(m.name for m in motors[len(results):]), motors=tuple(motors))
 
 
 def interrupted_catalogue(motors, results, stop) -> OptimisationInterrupted:
@@ -91,5 +92,5 @@ def interrupted_catalogue(motors, results, stop) -> OptimisationInterrupted:
     decided = [r for name, r in results.items() if name != motor]
     best = results[chosen] if chosen else (decided[-1] if decided else None)
     stop.catalogue = CatalogueResult(results, chosen, best, tuple(m.name for m in motors[len(decided) + 1:]),
-                                     motor, (stop.finished, stop.total))
+                                     motor, (stop.finished, stop.total), tuple(motors))
     return stop

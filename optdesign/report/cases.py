@@ -12,7 +12,7 @@ import numpy as np
 
 from .output import new_figure, save_figure, table
 
-FIGURES = ("cases.png", "duty.png")
+FIGURES = ("cases.png", "duty.png", "torque_speed.png", "cylinder.png")
 CASE_COLUMNS = ("s", "t", "q", "sd", "drive_speed", "drive_acceleration", "static_load", "inertia_term",
                 "velocity_term", "drive", "power", "efficiency_factor", "motor_speed", "motor_acceleration",
                 "motor_load_torque", "motor_torque", "rod_buckling")
@@ -176,33 +176,48 @@ def _train_lines(train, kind):
 
 # --- figures ---------------------------------------------------------------------------------
 def cases_figures(result, folder) -> list:
-    """cases.png and duty.png into ``folder`` (nothing without cases); the paths written."""
+    """cases.png, duty.png and the figures of what was sized (torque_speed.png, cylinder.png:
+    report/sized.py) into ``folder`` (nothing without cases); the paths written."""
     cr = _cases(result)
     if cr is None:
         return []
-    folder, kind = Path(folder), result.scene.drive.kind
-    units, sweep = UNITS[kind], result.scene.sweep.name
-    keys = [k for k in ("drive", "motor_torque") if any(k in c.columns for c in cr.cases.values())]
+    from .sized import sized_figures
+
+    folder = Path(folder)
+    written = [case_load_figure(cr, result.scene, folder / "cases.png")]
+    if "reason" not in cr.duty:
+        written.append(folder / "duty.png")
+        save_figure(_duty_figure(cr, UNITS[result.scene.drive.kind]), written[-1])
+    return written + sized_figures(cr, folder)
+
+
+def case_load_figure(cr, scene, path, title="load cases over the stroke") -> Path:
+    """Each case's drive load (and motor torque, rod buckling) over the stroke, the sweep in the
+    unit the scene wrote, the governing case of each marked: ``path`` (a CasesResult ``cr``)."""
+    from .units import number, quantity, scaled, sweep_scale
+
+    units, sweep = UNITS[scene.drive.kind], scene.sweep.name
+    sf, su = sweep_scale(scene)
+    keys = [k for k in ("drive", "motor_torque", "rod_buckling") if any(k in c.columns for c in cr.cases.values())]
     fig, axes = new_figure(len(keys), 1, figsize=(7, 3.2 * len(keys)))
     axes = np.atleast_1d(axes)
     for ax, key in zip(axes, keys):
+        unit = units.get(key, "") if units.get(key) != "1" else ""
+        f, shown = scaled(np.concatenate([np.asarray(c.columns[key], float) for c in cr.cases.values()
+                                          if key in c.columns]), unit)   # kN where large
         for name, c in cr.cases.items():
-            ax.plot(c.columns["s"], c.columns[key], label=name)
+            ax.plot(np.asarray(c.columns["s"]) * sf, np.asarray(c.columns[key]) * f, label=name)
         g = cr.governing.get(key)
         if g:
-            ax.plot([g["s"]], [np.sign(cr.cases[g["case"]].peak_at[key]["value"]) * g["value"]], "k*", ms=10,
-                    label=f"governing: {g['case']}")
-        ax.set_ylabel(f"{key} [{units.get(key, '')}]")
+            ax.plot([g["s"] * sf], [np.sign(cr.cases[g["case"]].peak_at[key]["value"]) * g["value"] * f], "k*", ms=10,
+                    label=f"governing: {g['case']}, {quantity(g['value'], unit)} at {number(g['s'] * sf)} {su}".rstrip())
+        ax.set_ylabel(f"{key} [{shown or '-'}]")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
-    axes[-1].set_xlabel(f"sweep {sweep}")
-    axes[0].set_title("load cases over the stroke")
-    written = [folder / "cases.png"]
-    save_figure(fig, written[-1])
-    if "reason" not in cr.duty:
-        written.append(folder / "duty.png")
-        save_figure(_duty_figure(cr, units), written[-1])
-    return written
+    axes[-1].set_xlabel(f"{sweep} [{su}]" if su else sweep)
+    axes[0].set_title(title)
+    save_figure(fig, Path(path))
+    return Path(path)
 
 
 def _duty_figure(cr, units):
