@@ -27,7 +27,7 @@ def add_arguments(p):
     add_design_argument(p, "analyse")
     p.add_argument("--plot", metavar="DIR", help="write figures (PNG) into DIR")
     p.add_argument("--table", action="store_true", help="print the table over every sample (after which the "
-                   "peaks and constraints in SI); without it, the summary in the scene's units")
+                   "peaks and constraints in SI, then the summary in the scene's units); without it, the summary")
     p.add_argument("--csv", metavar="FILE", help="write every sample as CSV, each header 'name [unit]'")
 
 
@@ -47,7 +47,16 @@ def run(args):
 
         print(f"wrote {write_atomic(args.csv, csv_text(result))}", file=sys.stderr)
     emit(args, lambda: report.analysis_json(result),
-         lambda: report.analysis_table_chunks(result) if args.table else summary_chunks(report, result))
+         lambda: table_chunks(report, result) if args.table else summary_chunks(report, result))
+
+
+def table_chunks(report, result):
+    """--table: the table over every sample, then the summary (it keeps the summary)."""
+    yield from report.analysis_table_chunks(result)
+    yield "\n\n"
+    from ..report.checks import summary_lines
+
+    yield "\n".join(summary_lines(result))
 
 
 def summary_chunks(report, result):

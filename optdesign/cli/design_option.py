@@ -42,6 +42,7 @@ def scene_with_design(args):
         raise OptdesignError(f"--design {path}: no 'design' table of numbers in it (expected the result.json of "
                              "`optdesign optimise`)")
     variables = [q.name for q in scene.parameters if q.is_design]
+    scene = with_chosen_motor(scene, data.get("chosen_motor"))
     try:
         return scene.with_parameters(**design)
     except OptdesignError as exc:
@@ -57,3 +58,18 @@ def default_file(args, suffix) -> Path:
     """optdesign-results/<scene name><suffix>, e.g. optdesign-results/truck_crane-draw.png."""
     stem = Path(args.scene).stem + ("-optimum" if getattr(args, "design", None) else "")
     return DEFAULT_ROOT / f"{stem}{suffix}"
+
+
+def with_chosen_motor(scene, chosen):
+    """With a motor catalogue's result (``chosen``: its chosen_motor), the scene's duty cycle in
+    time ([simulation] motor) runs the motor the result chose, not the one the file names."""
+    import dataclasses
+
+    sim = scene.simulation
+    if not isinstance(chosen, str) or sim is None or sim.motor in (None, chosen):
+        return scene
+    if chosen not in {m.name for m in scene.motors}:
+        raise OptdesignError(f"--design: its chosen motor {chosen!r} is not in this scene's [[motors]] "
+                             f"({', '.join(m.name for m in scene.motors)}): give the result of an optimisation of "
+                             "this scene")
+    return dataclasses.replace(scene, simulation=dataclasses.replace(sim, motor=chosen))

@@ -70,8 +70,12 @@ def cases_table(result, samples: bool = True) -> str:
     cr = _cases(result)
     if cr is None:
         return ""
+    from .units import sweep_scale
+
     kind = result.scene.drive.kind
     units, sweep = UNITS[kind], result.scene.sweep.name
+    sf, su = sweep_scale(result.scene)   # the sweep in the unit the scene wrote (deg)
+    at = lambda s: f"{sweep} = {s * sf:.8g}{' ' + su if su else ''}"  # noqa: E731
     first = next(iter(cr.cases.values()))
     cols = {sweep: first.columns["s"][first.on_samples]}
     for name, c in cr.cases.items():
@@ -92,17 +96,17 @@ def cases_table(result, samples: bool = True) -> str:
                      + (f"stroke time {c.duration:.6g} s" if math.isfinite(c.duration) else
                         "no stroke time (the constant [drive] speed with an acceleration is no motion in time)"))
         for key, value in c.peaks.items():
-            lines.append(f"  peak |{key}| = {value:.8g}{_unit(units, key)} at {sweep} = {c.peak_at[key]['s']:.8g}")
+            lines.append(f"  peak |{key}| = {value:.8g}{_unit(units, key)} at {at(c.peak_at[key]['s'])}")
         for key, v in c.constraints.items():
-            lines.append(f"  constraint {key!r}: min {np.min(v):.8g} at {sweep} = {c.columns['s'][np.argmin(v)]:.8g}, "
-                         f"max {np.max(v):.8g} at {sweep} = {c.columns['s'][np.argmax(v)]:.8g}")
+            lines.append(f"  constraint {key!r}: min {np.min(v):.8g} at {at(c.columns['s'][np.argmin(v)])}, "
+                         f"max {np.max(v):.8g} at {at(c.columns['s'][np.argmax(v)])}")
         if c.integrals:
             lines.append(f"  RMS over its time {c.integrals['rms_time']:.8g} {units['drive']}, energy "
                          f"{c.integrals['energy']:.8g} J (driving {c.integrals['energy_driving']:.8g} J)")
             lines += unresolved_lines(c.integrals.get("unresolved"), units)
     lines.append("governing cases:")
     for key, g in cr.governing.items():
-        lines.append(f"  peak |{key}| = {g['value']:.8g}{_unit(units, key)}: case {g['case']!r} at {sweep} = {g['s']:.8g}")
+        lines.append(f"  peak |{key}| = {g['value']:.8g}{_unit(units, key)}: case {g['case']!r} at {at(g['s'])}")
     lines += _duty_lines(cr.duty, units) + _train_lines(cr.train, kind)
     return "\n".join(lines)
 
@@ -152,18 +156,21 @@ def _train_lines(train, kind):
         return []
     if kind == "linear":
         t = train
-        return [f"cylinder at {t['pressure']:.6g} Pa: peak push {t['peak_push']:.8g} N, pull {t['peak_pull']:.8g} N, "
-                f"full extension {t['full_extension']:.6g} m",
-                f"  bore needed {t['bore_needed']:.6g} m, rod needed for buckling {t['rod_needed_buckling']:.6g} m; with "
-                f"bore {t['bore']:.6g} m, rod {t['rod']:.6g} m: Euler load {t['euler_force']:.8g} N, buckling "
-                f"utilisation {t['buckling_utilisation']:.4g}, pressures {t['pressure_push']:.6g} / "
-                f"{t['pressure_pull']:.6g} Pa, pump flow {t['pump_flow'] * 6e4:.6g} l/min"]
-    lines = [f"drive train: gear ratio i = {train['ratio']:.6g}"]
+        return [f"cylinder at {t['pressure'] * 1e-5:.6g} bar: peak push {t['peak_push']:.8g} N, pull "
+                f"{t['peak_pull']:.8g} N, full extension {t['full_extension'] * 1e3:.6g} mm",
+                f"  bore needed {t['bore_needed'] * 1e3:.6g} mm, rod needed for buckling "
+                f"{t['rod_needed_buckling'] * 1e3:.6g} mm; with bore {t['bore'] * 1e3:.6g} mm, rod {t['rod'] * 1e3:.6g} "
+                f"mm: Euler load {t['euler_force']:.8g} N, buckling utilisation {t['buckling_utilisation']:.4g}, "
+                f"pressures {t['pressure_push'] * 1e-5:.6g} / {t['pressure_pull'] * 1e-5:.6g} bar (push / pull), "
+                f"pump flow {t['pump_flow'] * 6e4:.6g} l/min"]
+    lines = [f"drive train: gear ratio i = {train['ratio']:.6g} (motor speed / drive speed)"]
+    rpm = 30 / math.pi
     for name, m in train.get("motors", {}).items():
         rms = (f"RMS {m['rms']:.6g} N m" if "rms" in m else "RMS not checked (no duty cycle in time)")
         lines.append(f"  motor {name!r}: peak {m['peak']:.6g} N m (peak torque {m['peak_torque']:.6g}), "
-                     f"{rms} (rated {m['rated_torque']:.6g}), speed {m['peak_speed']:.6g} rad/s "
-                     f"(max {m['max_speed']:.6g}); {inertia_ratio_text(m, 'J_load/(i^2 J_r) = ', 'optimal ratio')}: "
+                     f"{rms} (rated {m['rated_torque']:.6g}), speed {m['peak_speed']:.6g} rad/s = "
+                     f"{m['peak_speed'] * rpm:.5g} rpm (max {m['max_speed']:.6g} rad/s = {m['max_speed'] * rpm:.5g} rpm); "
+                     f"{inertia_ratio_text(m, 'J_load/(i^2 J_r) = ', 'optimal ratio')}: "
                      f"{'fits' if m['fits'] else 'does not fit'}")
     if train.get("motors"):
         lines.append(f"  smallest motor that fits: {train['smallest_fitting'] or 'none'} (J_load = "
