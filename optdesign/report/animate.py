@@ -111,7 +111,7 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None, 
     markers = []
     if analysis is not None:
         ax = fig.add_axes([0, 0, 1, 1])
-        name, base, drive_s, drive = drive_curve(scene, analysis)
+        name, drive_s, drive, base = drive_curve(scene, analysis)
         k, shown = scaled(drive, base)
         x = drive_s * factor
         ax.plot(x, drive * k, color="#1f77b4", lw=1.6)
