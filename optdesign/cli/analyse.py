@@ -28,7 +28,8 @@ def add_arguments(p):
     p.add_argument("--plot", metavar="DIR", help="write figures (PNG) into DIR")
     p.add_argument("--table", action="store_true", help="print the table over every sample (after which the "
                    "peaks and constraints in SI, then the summary in the scene's units); without it, the summary")
-    p.add_argument("--csv", metavar="FILE", help="write every sample as CSV, each header 'name [unit]'")
+    p.add_argument("--csv", metavar="FILE", help="write every sample as CSV, each header 'name [unit]' (with "
+                   "[[cases]], also FILE-STEM_case-NAME.csv per case and FILE-STEM_cycle.csv for the duty cycle)")
 
 
 def run(args):
@@ -46,6 +47,10 @@ def run(args):
         from ..report.output import write_atomic
 
         print(f"wrote {write_atomic(args.csv, csv_text(result))}", file=sys.stderr)
+        from ..report.cases import cases_csv
+
+        for path in cases_csv(result, args.csv):   # with [[cases]]: one per case and the duty cycle's
+            print(f"wrote {path}", file=sys.stderr)
     emit(args, lambda: report.analysis_json(result),
          lambda: table_chunks(report, result) if args.table else summary_chunks(report, result))
 

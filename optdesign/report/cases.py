@@ -181,6 +181,75 @@ def _train_lines(train, kind):
     return lines
 
 
+# --- CSV -------------------------------------------------------------------------------------
+def cases_csv(result, path) -> list:
+    """Beside ``path`` (analyse --csv FILE): FILE-STEM_case-NAME.csv per case (its samples, every
+    header 'name [unit]', SI but the sweep in the unit the scene wrote) and FILE-STEM_cycle.csv
+    (the duty cycle's time series: the cases' samples in time, holds and dwells as their two
+    ends); the paths written (none without cases)."""
+    import csv
+    import io
+    import re
+
+    from .output import write_atomic
+    from .units import sweep_scale
+
+    cr = _cases(result)
+    if cr is None:
+        return []
+    path = Path(path)
+    units = UNITS[result.scene.drive.kind]
+    sf, su = sweep_scale(result.scene)
+    sweep = result.scene.sweep.name
+
+    more = {"q": "rad" if result.scene.drive.kind == "rotary" else "m", "inertia_term": units["drive"],
+            "velocity_term": units["drive"], "sd": f"{'rad' if su in ('deg', 'rad') else 'm'}/s"}
+
+    def head(key):
+        unit = {**units, **more}.get(key, "")
+        return f"{sweep} [{su or '-'}]" if key == "s" else f"{key} [{unit if unit not in ('', '1') else '-'}]"
+
+    def text(heads, rows):
+        buf = io.StringIO()
+        writer = csv.writer(buf, lineterminator="\n")
+        writer.writerow(heads)
+        writer.writerows(rows)
+        return buf.getvalue()
+
+    written = []
+    for name, c in cr.cases.items():
+        keys = [k for k in CASE_COLUMNS if k in c.columns]
+        cols = [np.asarray(c.columns[k], float) * (sf if k == "s" else 1.0) for k in keys]
+        slug = re.sub(r"[^A-Za-z0-9]+", "_", name).strip("_")
+        written.append(write_atomic(path.with_name(f"{path.stem}_case-{slug}.csv"),
+                                    text([head(k) for k in keys], [[repr(float(x)) for x in row] for row in zip(*cols)])))
+    if "reason" not in cr.duty:
+        keys = [k for k in ("s", "drive", "power", "motor_speed", "motor_torque") if k in first_columns(cr)]
+        rows, t0 = [], 0.0
+        for step in cr.duty["steps"]:
+            if step["kind"] == "case":
+                c = cr.cases[step["case"]]
+                order = np.argsort(c.columns["t"], kind="stable")
+                for _ in range(math.ceil(step["repeat"])):
+                    for i in order:
+                        rows.append([repr(t0 + float(c.columns["t"][i])), step["case"]]
+                                    + [repr(float(c.columns[k][i]) * (sf if k == "s" else 1.0)) for k in keys])
+                    t0 += c.duration
+            else:
+                for end in (t0, t0 + step["time"]):
+                    level = step.get("load", 0.0) if step["kind"] == "hold" else 0.0
+                    rows.append([repr(end), step["kind"]] + [repr(level) if k == "drive" else "" for k in keys])
+                t0 += step["time"]
+        written.append(write_atomic(path.with_name(f"{path.stem}_cycle.csv"),
+                                    text(["t [s]", "step"] + [head(k) for k in keys], rows)))
+    return written
+
+
+def first_columns(cr) -> set:
+    """The columns every case has."""
+    return set.intersection(*(set(c.columns) for c in cr.cases.values()))
+
+
 # --- figures ---------------------------------------------------------------------------------
 def cases_figures(result, folder) -> list:
     """cases.png, duty.png and the figures of what was sized (torque_speed.png, cylinder.png:
