@@ -45,7 +45,7 @@ sys.path[:0] = [str(ROOT), str(ROOT / "tests"), str(ROOT / "tests" / "library"),
 import optdesign  # noqa: E402
 from optdesign.design import multistart, nlp, phase1, problem, solver, sqp, starts  # noqa: E402
 from optdesign.errors import OptdesignError  # noqa: E402
-from optdesign.report.output import write_atomic  # noqa: E402
+from optdesign.report.files import write_file  # noqa: E402
 
 STARTS, SEED = 20, 0
 AT_GLOBAL = 1e-6       # a start reached the global optimum: certified objective within this, relative
@@ -481,8 +481,8 @@ def main(argv=None):
         if "refused" not in d and d.get("design"):
             row["dense_peak"] = dense_peak(path, d["design"])
         data["scenes"][path.stem] = row
-        write_atomic(Path(args.out).with_suffix(".json"), json.dumps(data, indent=1, default=float) + "\n")
-        write_atomic(Path(args.out), report(data))
+        write_file(Path(args.out).with_suffix(".json"), json.dumps(data, indent=1, default=float) + "\n")
+        write_file(Path(args.out), report(data))
     print(f"wrote {args.out}")
 
 

@@ -73,7 +73,7 @@ from optdesign.design.problem import DesignProblem  # noqa: E402
 from optdesign.design.repair import Repair  # noqa: E402
 from optdesign.design.solver import Solver  # noqa: E402
 from optdesign.errors import OptdesignError  # noqa: E402
-from optdesign.report.output import write_atomic  # noqa: E402
+from optdesign.report.files import write_file  # noqa: E402
 from optdesign.scene.file import load  # noqa: E402
 
 BEST_TOL = 1e-3
@@ -512,7 +512,7 @@ def main(argv=None):
     if skipped:
         text += "\nSkipped: optimise refuses these scenes as they stand: " + "; ".join(
             f"`{p.relative_to(ROOT)}` ({why.split(': ', 1)[-1]})" for p, why in skipped) + ".\n"
-    write_atomic(Path(args.out), text)
+    write_file(Path(args.out), text)
     if not args.scene:   # the whole library: its summary in results/bench.md
         write_section("per_start", summary(results, args, git))
     print(f"wrote {args.out}")

@@ -55,7 +55,7 @@ from optdesign.design.problem import DesignProblem  # noqa: E402
 from optdesign.design.repair import Repair  # noqa: E402
 from optdesign.design.solver import Solver  # noqa: E402
 from optdesign.model.analysis import Analysis  # noqa: E402
-from optdesign.report.output import write_atomic  # noqa: E402
+from optdesign.report.files import write_file  # noqa: E402
 from optdesign.scene.file import load  # noqa: E402
 
 SAMPLES = (101, 1001, 10001)
@@ -183,7 +183,7 @@ def main(argv=None):
     lines += axis_table("Samples (2 design variables, no cases)", "samples", by_samples, list(SAMPLES), 1.0)
     lines += axis_table("Design variables (201 samples, no cases)", "design variables", by_vars, list(VARIABLES), None)
     lines += axis_table("Load cases (201 samples, 2 design variables)", "cases", by_cases, list(CASES), 1.0)
-    write_atomic(Path(args.out), "\n".join(lines).rstrip() + "\n")
+    write_file(Path(args.out), "\n".join(lines).rstrip() + "\n")
     print(f"wrote {args.out}")
     return 0
 

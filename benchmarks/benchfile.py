@@ -11,7 +11,7 @@ import subprocess
 import time
 from pathlib import Path
 
-from optdesign.report.output import write_atomic
+from optdesign.report.files import write_file
 
 ROOT = Path(__file__).resolve().parents[1]
 BENCH_MD = ROOT / "results" / "bench.md"
@@ -29,7 +29,7 @@ def write_section(name: str, markdown: str, path: Path = BENCH_MD) -> Path:
                 re.finditer(r"<!-- begin (\w+) -->\n.*?<!-- end \1 -->\n", text, flags=re.S)}
     sections[name] = f"<!-- begin {name} -->\n{markdown.rstrip()}\n<!-- end {name} -->\n"
     names = [n for n in ORDER if n in sections] + sorted(n for n in sections if n not in ORDER)
-    write_atomic(path, TITLE + "\n" + "\n".join(sections[n] for n in names))
+    write_file(path, TITLE + "\n" + "\n".join(sections[n] for n in names))
     return path
 
 

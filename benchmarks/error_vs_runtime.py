@@ -39,7 +39,7 @@ import casadi as ca  # noqa: E402
 import numpy as np  # noqa: E402
 
 from benchfile import cpu_model, git_state  # noqa: E402
-from optdesign.report.output import write_atomic  # noqa: E402
+from optdesign.report.files import write_file  # noqa: E402
 
 FIGURES = "error_vs_runtime"
 SECTIONS = (("derivatives", "evr_derivatives"), ("peak", "evr_peak"), ("motion", "evr_motion"),
@@ -114,7 +114,7 @@ def main(argv=None):
         parts, durations = run_sections(figures)
         text = header(started, load_start, os.getloadavg(), git, durations) + "\n".join(parts)
         replace_folder(figures, out.parent / FIGURES)
-        write_atomic(out, text)
+        write_file(out, text)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
     print(f"wrote {out} and {out.parent / FIGURES}/", file=sys.stderr)

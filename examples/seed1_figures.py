@@ -38,7 +38,8 @@ import numpy as np
 
 import optdesign
 from optdesign.scene.expressions import constant_value
-from optdesign.report.output import save_figure, write_atomic
+from optdesign.report.files import write_file
+from optdesign.report.output import save_figure
 
 ROOT = Path(__file__).resolve().parents[1]
 SLIDER_CRANK = ROOT / "problems" / "seed1_slider_crank.toml"
@@ -312,7 +313,7 @@ def write_figures(figures, folder) -> list:
     written = []
     for figure in figures:
         csv_path = folder / f"{figure.stem}.csv"
-        write_atomic(csv_path, csv_text(figure))
+        write_file(csv_path, csv_text(figure))
         fig = draw(figure)
         png_path = folder / f"{figure.stem}.png"
         save_figure(fig, png_path)

@@ -54,6 +54,22 @@ class ResultError(OptdesignError, ValueError):
     constraint) and the first stroke position where it appears."""
 
 
+class OutputError(OptdesignError, OSError):
+    """A result file that cannot be written where it was asked for (a folder, a read-only or
+    full disk, a path under a file, the kernel's /proc): the message names the path and what
+    to do (report/files.py); ``errno`` and ``strerror`` are the OSError's."""
+
+    def __init__(self, message, errno=None, strerror=None):
+        super().__init__(message)
+        self.errno, self.strerror = errno, strerror
+
+    def __str__(self):
+        return self.args[0]
+
+    def __reduce__(self):
+        return type(self), (str(self), self.errno, self.strerror)
+
+
 class SolverError(OptdesignError, RuntimeError):
     """A numerical solver that failed (IPOPT, an integrator)."""
 

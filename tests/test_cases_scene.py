@@ -232,8 +232,9 @@ def test_case_keys_and_names():
     assert "the case name 'raise rated' is used twice" in error(mutate('name = "lower rated"', 'name = "raise rated"'))
     assert "[[cases]] 'raise rated', direction: missing key 'direction'" in error(
         mutate('direction = "forward"\nset = { mL = 800 }\nprofile = "luff"', 'set = { mL = 800 }\nprofile = "luff"'))
-    assert "[profiles] luff, kind: expected one of 'constant', 'trapezoidal', 's-curve', 'law', found 'trapezoid'; " \
-           "did you mean 'trapezoidal'?" in error(mutate('kind = "trapezoidal"', 'kind = "trapezoid"'))
+    msg = error(mutate('kind = "trapezoidal"', 'kind = "trapezoid"'))
+    assert "[profiles] luff, kind: expected one of 'constant', 'trapezoidal', 's-curve', 'law', 'cycloidal', " in msg
+    assert "'polynomial-4567', 'polynomial', found 'trapezoid'; did you mean 'trapezoidal'?" in msg
 
 
 def test_a_profile_may_not_depend_on_a_design_variable():

@@ -150,7 +150,7 @@ def test_no_python_is_evaluated(text, monkeypatch):
     ("1 + 2)", ["unexpected ')'"]),
     ("2 3", ["unexpected '3' after a complete expression", "missing operator"]),
     ("length(A)", ["length() takes 2 point names, found 1 argument"]),
-    ("angle(A, B)", ["angle() takes 3 point names, found 2 arguments"]),
+    ("angle(A, B, C, D)", ["angle() takes 2 or 3 point names, found 4 arguments"]),
     ("x(3)", ["x() takes point names as arguments, found 3"]),
     ("y(A + B)", ["y() takes point names as arguments, found an expression"]),
     ("x(pi)", ["x() takes point names as arguments, found pi"]),

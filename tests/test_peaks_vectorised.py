@@ -145,9 +145,10 @@ def test_a_plateau_gives_its_grid_points():
     assert interior == [(s, 1.0) for s in on_plateau]
 
 
-def test_a_flat_row_costs_one_evaluation_per_sample():
-    """A constant row: every interior sample is a grid maximum, with no sign change of v' on
-    its bracket.  The brackets share their samples: one call, each sample evaluated once."""
+def test_a_flat_row_costs_no_evaluation():
+    """A constant row: every interior sample would be a grid maximum, none of them telling; the
+    stroke's ends and the largest sample stand for them (between the samples, the enclosure
+    speaks for such a row, kinematics/enclosure.py), and nothing is evaluated."""
     grid = np.linspace(0.0, 1.0, 21)
     calls = []
 
@@ -156,8 +157,8 @@ def test_a_flat_row_costs_one_evaluation_per_sample():
         return many(lambda x: (2.5, 0.0, 0.0))(s)
 
     ext = continuous_maxima_rows(evaluate_many, grid, np.full((1, 21), 2.5), [Request(0, "max")])[0]
-    assert sorted(e.s for e in ext) == sorted(grid) and all(e.value == 2.5 for e in ext)
-    assert calls == [sorted(grid)]
+    assert {e.s for e in ext} <= set(grid) and all(e.value == 2.5 for e in ext)
+    assert calls == []
 
 
 @pytest.mark.parametrize("f, c", [(lorentzian(0.53, 0.01), 0.53), (hyperbola(0.47, 0.004), 0.47)])

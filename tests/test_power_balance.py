@@ -92,6 +92,51 @@ acceleration = 2.0
 """
 
 
+# The same four-bar with one force element of each kind (issue 30): a spring with a preload
+# from the ground to the coupler, a gas spring by its table from the ground to the rocker, a
+# damper across the coupler's ends, a constant pull, and torsion springs between the ground
+# and the crank and between the coupler and the rocker.  The strut's compression runs from
+# 0.074 to 0.197 m: over two segments of its table and beyond its last row.
+FOURBAR_FORCES = FOURBAR_LOOP + """
+[[forces]]
+name = "counterbalance"
+kind = "spring"
+between = ["A", "C"]
+rate = 800.0
+length = 0.3
+preload = 120.0
+[[forces]]
+name = "strut"
+kind = "gas_spring"
+between = ["B", "D"]
+extended_length = 0.42
+table = [[0.0, 150.0], [0.05, 180.0], [0.12, 260.0], [0.18, 300.0]]
+[[forces]]
+name = "damper"
+kind = "damper"
+between = ["A", "C"]
+rate = 55.0
+[[forces]]
+name = "cable"
+kind = "constant"
+between = ["B", "D"]
+tension = 40.0
+[[forces]]
+name = "crank spring"
+kind = "torsion"
+bodies = ["crank"]
+rate = 12.0
+free_angle = "10 deg"
+[[forces]]
+name = "knee spring"
+kind = "torsion"
+bodies = ["coupler", "rocker"]
+rate = 7.0
+angle = "-20 deg"
+preload = 4.0
+"""
+
+
 def shipped_scenes():
     """Every shipped scene with a [drive]: (id, scene)."""
     out = []
@@ -116,6 +161,7 @@ def all_scenes():
         "the shipped scenes should include the seed-1 slider-crank (rotary) and jib (linear)"
     scenes.append(("test_fourbar_loop", loads(FOURBAR_LOOP, "<test fourbar loop>")))
     scenes.append(("test_jib_extra_loads", jib_with_extra_loads()))
+    scenes.append(("test_fourbar_forces", loads(FOURBAR_FORCES, "<test fourbar forces>")))
     return scenes
 
 
@@ -189,7 +235,50 @@ def mechanism_power(scene):
             dEdt += num(b.inertia) * omega * eps
         if b.torque is not None:
             applied += num(b.torque) * omega
+    applied += forces_power(scene, kin, num)
     return kin, dEdt, applied
+
+
+def forces_power(scene, kin, num):
+    """The power of the scene's [[forces]] from the kinematics, by their laws as written in
+    docs/scenes.md: an element of tension T (pulling its points together) between P and Q takes
+    T dL/dt, a torsion spring of torque M (turning B back towards its reference angle) takes
+    M (omega_B - omega_A); a damper's tension is c dL/dt."""
+    power = 0.0
+    for f in scene.forces:
+        n = {k: num(e) for k, e in f.numbers.items()}
+        if f.kind == "torsion":
+            bodies = [kin.bodies[b] for b in f.bodies]
+            theta = bodies[-1]["angle"] - (bodies[0]["angle"] if len(bodies) == 2 else 0)
+            omega = bodies[-1]["omega"] - (bodies[0]["omega"] if len(bodies) == 2 else 0)
+            ref = n.get("free_angle", n.get("angle"))
+            turned = np.mod(theta - ref + np.pi, 2 * np.pi) - np.pi
+            power = power - (n.get("preload", 0.0) + n["rate"] * turned) * omega
+            continue
+        p, q = (kin.points[name] for name in f.between)
+        d = np.array([q["x"] - p["x"], q["y"] - p["y"]])
+        v = np.array([q["vx"] - p["vx"], q["vy"] - p["vy"]])
+        length = np.hypot(d[0], d[1])
+        rate = (d[0] * v[0] + d[1] * v[1]) / length
+        if f.kind == "spring":
+            ref = n.get("free_length", n.get("length"))
+            tension = n.get("preload", 0.0) + n["rate"] * (length - ref)
+        elif f.kind == "damper":
+            tension = n["rate"] * rate
+        elif f.kind == "constant":
+            tension = n["tension"]
+        elif f.table is not None:
+            x, y = np.array(f.table).T
+            c = n["extended_length"] - length
+            inside = np.interp(c, x, y)
+            below = y[0] + (y[1] - y[0]) / (x[1] - x[0]) * (c - x[0])
+            above = y[-1] + (y[-1] - y[-2]) / (x[-1] - x[-2]) * (c - x[-1])
+            tension = -np.where(c < x[0], below, np.where(c > x[-1], above, inside))
+        else:
+            stroke = (n["extended_length"] - length) / (n["extended_length"] - n["compressed_length"])
+            tension = -n["extended_force"] * (1 + (n["progression"] - 1) * stroke)
+        power = power - tension * rate
+    return power
 
 
 def check_balance(scene, label):

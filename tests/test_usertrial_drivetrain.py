@@ -256,12 +256,20 @@ def test_a_law_profile_that_never_gets_there_is_refused(tmp_path, law, says):
     assert says in str(err.value) and "barrier.toml" in str(err.value)
 
 
-def test_a_law_profile_that_starts_like_a_square_root_has_its_time(tmp_path):
+def test_a_law_profile_that_starts_like_a_square_root_has_its_time(tmp_path, monkeypatch):
     """V = w sqrt(sin(2 theta)) is 0 at both ends and reaches them in a finite time:
     T = int_0^(pi/2) dtheta / (w sqrt(sin 2 theta)) = Gamma(1/4)^2 / (2 sqrt(2 pi)) / w."""
     from math import gamma
 
+    from optdesign.errors import ResultError
+    from optdesign.model import cases
+
     path = _barrier_with(tmp_path, (LAW[0], LAW[1].format("1.5*sqrt(sin(2*theta))")))
+    # its acceleration V dV/dtheta at theta = 0 is 0 * inf: the case's load there is NaN, which
+    # analyse names (issue 32: it printed 'peak |drive| = nan' and 'RMS nan'); its time is right
+    with pytest.raises(ResultError, match=r"^case 'close': the drive load is NaN at the sweep value 0 \(node 1 of "):
+        optdesign.analyse(optdesign.load(path))
+    monkeypatch.setattr(cases, "check_cases", lambda *a: None)
     res = optdesign.analyse(optdesign.load(path))
     T = gamma(0.25) ** 2 / (2 * np.sqrt(2 * np.pi)) / 1.5
     assert res.cases.cases["close"].duration == pytest.approx(T, rel=1e-6)

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import sys
 
-from .common import add_scene_arguments, emit, results_folder
+from .common import add_scene_arguments, emit, output_file, results_folder
 from .design_option import add_design_argument, scene_with_design
 
 HELP = "the reduced one-element model (drive torque or force) over the stroke"
@@ -28,8 +28,11 @@ def add_arguments(p):
     p.add_argument("--plot", metavar="DIR", help="write figures (PNG) into DIR")
     p.add_argument("--table", action="store_true", help="print the table over every sample (after which the "
                    "peaks and constraints in SI, then the summary in the scene's units); without it, the summary")
-    p.add_argument("--csv", metavar="FILE", help="write every sample as CSV, each header 'name [unit]' (with "
-                   "[[cases]], also FILE-STEM_case-NAME.csv per case and FILE-STEM_cycle.csv for the duty cycle)")
+    p.add_argument("--csv", metavar="FILE", help="write every sample as CSV, each header 'name [unit]' (- : to "
+                   "standard output, the summary then to standard error; with [[cases]], also FILE-STEM_case-NAME.csv "
+                   "per case and FILE-STEM_cycle.csv for the duty cycle)")
+    p.add_argument("--joints", action="store_true", help="the force at every pin and slider too (pin_force(P), "
+                   "its components, slider_normal(P), slider_moment(P)), their peaks certified")
 
 
 def run(args):
@@ -38,19 +41,22 @@ def run(args):
 
     if args.plot:
         results_folder(args.plot, "--plot", report.FIGURES)
-    result = analyse(scene_with_design(args), args.samples)
+    if args.csv:
+        output_file(args.csv, "--csv")
+    result = analyse(scene_with_design(args), args.samples, joints=args.joints)
     if args.plot:
         for path in report.analysis_figures(result, args.plot, label="--plot"):
             print(f"wrote {path}", file=sys.stderr)
     if args.csv:
         from ..report.checks import csv_text
-        from ..report.output import write_atomic
+        from ..report.files import write_file
 
-        print(f"wrote {write_atomic(args.csv, csv_text(result))}", file=sys.stderr)
-        from ..report.cases import cases_csv
+        print(f"wrote {write_file(args.csv, csv_text(result), '--csv')}", file=sys.stderr)
+        if args.csv != "-":
+            from ..report.cases import cases_csv
 
-        for path in cases_csv(result, args.csv):   # with [[cases]]: one per case and the duty cycle's
-            print(f"wrote {path}", file=sys.stderr)
+            for path in cases_csv(result, args.csv):   # with [[cases]]: one per case and the duty cycle's
+                print(f"wrote {path}", file=sys.stderr)
     emit(args, lambda: report.analysis_json(result),
          lambda: table_chunks(report, result) if args.table else summary_chunks(report, result))
 

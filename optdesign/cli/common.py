@@ -93,6 +93,30 @@ def results_folder(path, flag, produces):
     return path
 
 
+FILE_OPTIONS = {"analyse": ("csv",), "draw": ("out", "dxf", "svg"), "animate": ("out",)}
+
+
+def output_file(path, flag):
+    """A single file an option names, checked before any work (report/files.py: a folder, a path
+    under a file, a read-only folder, /proc are errors now, not after the computation)."""
+    from ..report.files import target
+
+    target(path, flag)
+    return path
+
+
+def prints_to_stderr(args) -> bool:
+    """Whether a file option of the command names standard output (``-``, ``/dev/stdout``): the
+    file is then what standard output carries, and what the command prints goes to standard
+    error.  Two options naming it are an error."""
+    from ..report.files import names_stdout
+
+    taken = [f"--{o}" for o in FILE_OPTIONS.get(args.command, ()) if names_stdout(getattr(args, o, None))]
+    if len(taken) > 1:
+        raise OptdesignError(f"{' and '.join(taken)}: only one file can go to standard output")
+    return bool(taken)
+
+
 def emit(args, json_part, table_part):
     """Print the --json document or the table.  Each part is a string, a dict (a JSON document,
     its :class:`~optdesign.report.output.Rows` streamed), an iterable of text pieces, or a
@@ -106,15 +130,18 @@ def emit(args, json_part, table_part):
         part = json_chunks(part)
     elif isinstance(part, str):
         part = (part,)
-    write_out(part)
+    write_out(part, sys.stderr if getattr(args, "to_stderr", False) else None)
 
 
-def write_out(pieces):
+def write_out(pieces, stream=None):
     """Write text pieces and a final newline to standard output.  A reader that stops reading
     (``| head``) ends the command quietly (status 141, as SIGPIPE would); a full disk or another
-    write error is an error saying the output is incomplete."""
+    write error is an error saying the output is incomplete.  ``stream``: standard error instead."""
     import os
 
+    if stream is not None:
+        stream.write("".join(pieces) + "\n")
+        return
     try:
         for piece in pieces:
             sys.stdout.write(piece)

@@ -41,18 +41,53 @@ def scene_with_design(args):
     if not isinstance(design, dict) or not all(isinstance(v, (int, float)) for v in design.values()):
         raise OptdesignError(f"--design {path}: no 'design' table of numbers in it (expected the result.json of "
                              "`optdesign optimise`)")
+    return _with_design(scene, design, data, path, args)
+
+
+def _with_design(scene, design, data, path, args):
+    """The scene with the result's design set, by explicit rules: the result must be of this scene
+    and give every design variable (or --set gives the ones it lacks); --set wins over the
+    design's value of a variable, and an unsuccessful or interrupted result is used as it is;
+    both are said on standard error."""
+    import sys
+
+    from .common import overrides
+
     variables = [q.name for q in scene.parameters if q.is_design]
-    scene = with_chosen_motor(scene, data.get("chosen_motor"))
-    try:
-        return scene.with_parameters(**design)
-    except OptdesignError as exc:
-        if all(name in variables for name in design):
-            raise
-        made = f" (made from {data['file']})" if isinstance(data.get("file"), str) else ""
+    scene = with_chosen_motor(scene, data.get("chosen_motor"))   # a catalogue's result: its motor
+    made = f" (made from {data['file']})" if isinstance(data.get("file"), str) else ""
+    give = f"give the result.json of an optimisation of {args.scene}"
+    if any(name not in variables for name in design):
+        try:
+            scene.with_parameters(**design)
+        except OptdesignError as exc:
+            if all(name in variables for name in design):
+                raise
+            raise OptdesignError(f"--design {path}: {exc}; its design ({', '.join(design)}) is not this scene's "
+                                 f"({', '.join(variables) or 'none'}): is the result of another scene{made}? "
+                                 f"{give[0].upper()}{give[1:]}") from None
+    if (isinstance(data.get("file"), str) and isinstance(data.get("title"), str) and scene.path
+            and Path(data["file"]).name != Path(scene.path).name and data["title"] != scene.title):
+        raise OptdesignError(f"--design {path}: made from {data['file']} ({data['title']!r}), not from "
+                             f"{args.scene} ({scene.title!r}): {give}")
+    given = overrides(getattr(args, "set", None))
+    missing = [name for name in variables if name not in design and name not in given]
+    if missing:
         raise OptdesignError(
-            f"--design {path}: {exc}; its design ({', '.join(design)}) is not this scene's "
-            f"({', '.join(variables) or 'none'}): is the result of another scene{made}? Give the "
-            f"result.json of an optimisation of {args.scene}") from None
+            f"--design {path}: gives no value for the design variable{'s' if len(missing) > 1 else ''} "
+            f"{', '.join(missing)} of {args.scene} (it holds {', '.join(design) or 'none'}): it is the result of an "
+            f"older version of the scene or of another one; optimise again, or give "
+            f"{' '.join(f'--set {name}=VALUE' for name in missing)}")
+    for name in (n for n in design if n in given):
+        print(f"note: --set {name}={given[name]} is used, not the design's {name} = {design[name]:.10g} from {path}",
+              file=sys.stderr)
+    if data.get("success") is False or data.get("interrupted") is True:
+        why = "was interrupted (the best of its finished starts)" if data.get("interrupted") else (
+            f"did not succeed ({data.get('status') or 'success: false'})")
+        print(f"note: --design {path}: the optimisation {why}: its design is used as it is, not as a proven optimum",
+              file=sys.stderr)
+    return scene.with_parameters(**{name: value for name, value in design.items() if name not in given})
+
 
 def default_file(args, suffix) -> Path:
     """optdesign-results/<scene name><suffix>, e.g. optdesign-results/truck_crane-draw.png."""

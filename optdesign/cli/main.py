@@ -9,6 +9,7 @@ import importlib
 import sys
 
 from ..errors import OptdesignError, casadi_messages_hidden
+from .common import prints_to_stderr
 
 COMMANDS = ("kinematics", "analyse", "optimise", "simulate", "study", "draw", "animate")
 
@@ -40,7 +41,8 @@ def main(argv=None):
     del folder.replaced[:]
     args.argv = list(sys.argv[1:] if argv is None else argv)   # for a message that repeats the command
     try:
-        with quiet(args.quiet, keep_stdout=getattr(args, "json", False)), casadi_messages_hidden():
+        args.to_stderr = prints_to_stderr(args)     # a file option names standard output
+        with quiet(args.quiet, keep_stdout=getattr(args, "json", False) or args.to_stderr), casadi_messages_hidden():
             args.func(args)
     except OptdesignError as exc:
         print(f"optdesign {args.command}: error: {exc}", file=sys.stderr)

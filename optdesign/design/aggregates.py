@@ -60,10 +60,34 @@ def outer_start(pb, expr):
     return outer_value(pb, expr, [aggregate_start(pb, ag) for ag in pb.aggregates])
 
 
-def stroke_value(pb, outer, extremes) -> float:
+def stroke_value(pb, outer, extremes, x=None) -> float:
     """A stroke expression evaluated with its aggregates taken from ``extremes``
-    ((aggregate name, 'max'|'min') -> value, as found by the continuous check)."""
-    return float(outer_value(pb, outer, [extremes.get((ag.name, ag.func), math.nan) for ag in pb.aggregates]))
+    ((aggregate name, 'max'|'min') -> value, as found by the continuous check) and its
+    parameters at the design ``x`` (default: the scene's values; a design variable in the
+    outer expression is read at the design reported, never at its start value)."""
+    p = None if x is None else pb.full_parameters(x)
+    return float(outer_value(pb, outer, [extremes.get((ag.name, ag.func), math.nan) for ag in pb.aggregates], p))
+
+
+def nonlinear_aggregates(pb) -> set:
+    """Indices (in ``pb.aggregates``) of the max/min aggregates that some outer expression (the
+    objective's or a stroke constraint's) holds non-linearly: max(L)/min(L), sqrt(max(e)).
+    Only those need the sign they have at the start design kept (:mod:`.nlp`): an outer
+    expression affine in an aggregate is regular at any value of it, and an aggregate of an
+    expression with a design variable in it (min(angle(A, B, B0) - mu) >= 0) must be free
+    to reach 0, whatever its sign at the start."""
+    a = ca.SX.sym("a", len(pb.aggregates))
+    p = ca.SX.sym("p", len(pb.mech.parameter_values))
+    outers = [outer for _, outer in pb.stroke_constraints]
+    if pb.objective_kind == "expression":
+        outers.append(pb.objective_expr)
+    out = set()
+    for outer in outers:
+        expr = outer_value(pb, outer, a, p)
+        for i, ag in enumerate(pb.aggregates):
+            if ag.func in ("max", "min") and ca.depends_on(expr, a[i]) and not ca.is_linear(expr, a[i]):
+                out.add(i)
+    return out
 
 
 def needs_location(pb, outer, lo, hi) -> set:

@@ -9,13 +9,15 @@ sample points, and its retries come from its own share of the reserve, so the re
 same whatever the order of the starts or the number of workers."""
 from __future__ import annotations
 
+import concurrent.futures as cf
 import multiprocessing
 import os
 import time
+from concurrent.futures.process import BrokenProcessPool
 
 import numpy as np
 
-from ..errors import OptimisationInterrupted, casadi_messages_hidden, interruptible, resume_after_interrupt, worker_process
+from ..errors import OptimisationInterrupted, SolverError, casadi_messages_hidden, interruptible, resume_after_interrupt, worker_process
 from ..scene import Scene
 from ..scene.arguments import optimise_arguments, scene_argument
 from .clusters import local_optima
@@ -23,7 +25,8 @@ from .phase1 import Phase1
 from .problem import DesignProblem, SolverSettings
 from .repair import Repair
 from .results import OptimisationResult, StartReport
-from .sensitivities import constraint_report, objective_gradient_factor, objective_value, sensitivities
+from .sensitivities import (constraint_report, objective_gradient_factor, objective_value, sensitivities,
+                            sensitivity_notes)
 from .solver import Solver
 from .starts import RETRIES, StartPlan, plan_starts
 
@@ -116,18 +119,36 @@ def solve_starts(solver: Solver, repair: Repair, plan, workers=1, progress=None)
     ctx = multiprocessing.get_context("fork")
     _FORKED = (solver, repair, plan)
     runs = {}
+    # a pool that says when one of its processes died (a multiprocessing.Pool replaces it and
+    # waits for ever for the start it was solving)
+    pool = cf.ProcessPoolExecutor(workers, mp_context=ctx, initializer=worker_process, initargs=(os.getpid(),))
     try:
-        with ctx.Pool(workers, initializer=worker_process, initargs=(os.getpid(),)) as pool:
-            for i, run in pool.imap_unordered(_solve_one, range(n)):  # a worker's exception is raised here
-                runs[i] = run
-                if progress is not None:
-                    progress(len(runs), n)
+        for f in cf.as_completed([pool.submit(_solve_one, i) for i in range(n)]):
+            i, run = f.result()   # a worker's exception is raised here
+            runs[i] = run
+            if progress is not None:
+                progress(len(runs), n)
     except KeyboardInterrupt as exc:   # Ctrl-C: the caller keeps the starts that finished
         exc.finished = [runs[i] for i in sorted(runs)]
         raise
+    except BrokenProcessPool:
+        raise SolverError(f"a worker process of --workers {workers} died while solving the starts (killed, out of "
+                          f"memory or crashed) after {len(runs)} of {n} starts had finished; run again, with fewer "
+                          "--workers if memory is short") from None
     finally:
         _FORKED = None
+        _end_pool(pool, wait=len(runs) == n)
     return [runs[i] for i in range(n)]
+
+
+def _end_pool(pool, wait):
+    """Shut the pool down; when it is left early (Ctrl-C, a dead process) its workers are
+    stopped at once rather than left to finish the start they are solving."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())   # no public way before 3.14
+    pool.shutdown(wait=wait, cancel_futures=True)
+    if not wait:
+        for process in processes:
+            process.terminate()
 
 
 _FORKED = None  # what forked workers inherit: (solver, repair, plan)
@@ -238,6 +259,7 @@ def summarise(problem, solver, reports, solutions, timings, plan=None, fixed=Non
     peak_c = abs(sol.certified[peak_key]) if peak_key in sol.certified else None
     peak_s = abs(sol.sampled[peak_key]) if peak_key in sol.sampled else None
     n = len(reports)
+    constraints = constraint_report(pb, sol, factor)
     message = ("local optimum: IPOPT converged and the continuous check agrees (1 start: "
                "a local optimum, run more starts to search for a better one)" if n == 1 else
                "optimal: the best of the starts' local optima; IPOPT converged and the continuous check agrees")
@@ -246,9 +268,9 @@ def summarise(problem, solver, reports, solutions, timings, plan=None, fixed=Non
         objective=best_value, objective_sampled=objective_value(pb, sol, certified=False),
         objective_kind=pb.objective_kind, peak_certified=peak_c, peak_sampled=peak_s,
         success=True, status=sol.status, message=message,
-        constraints=constraint_report(pb, sol, factor), sensitivities=sensitivities(pb, sol, factor),
+        constraints=constraints, sensitivities=sensitivities(pb, sol, factor, constraints),
         starts_total=n, starts_at_best=at_best, starts=tuple(reports), timings=timings,
-        settings=pb.settings, optima=optima, start_plan=starts_info)
+        settings=pb.settings, optima=optima, start_plan=starts_info, sensitivity_notes=sensitivity_notes(pb))
 
 
 def _with_optimum(report, j):

@@ -41,7 +41,8 @@ import numpy as np
 
 from ..errors import SceneError
 from ..model import compiled
-from .aggregates import aggregate_start, located_aggregates, outer_start, outer_value, quadrature, rms_panels
+from .aggregates import (aggregate_start, located_aggregates, nonlinear_aggregates, outer_start, outer_value,
+                         quadrature, rms_panels)
 from .bounds import numeric_bounds
 from .cases import at_points, case_nlp, needs_mx
 
@@ -171,11 +172,15 @@ def build_nlp(pb):
     pb.solver = compiled.solver("design", "ipopt", pb._nlp_function, opts)
     pb.solver_options = opts  # IPOPT options (the warm solver and the benchmark reuse them)
     pb.lbg, pb.ubg = np.array(lbg), np.array(ubg)
-    # an epigraph's aggregate keeps the sign it has at the start design: this keeps outer
-    # expressions such as max(L)/min(L) regular and monotone (a min(...) cannot run to zero or
-    # below); a located extreme or an end value is a value of the stroke, free of any such bound
+    # an epigraph's aggregate that an outer expression holds non-linearly keeps the sign it has
+    # at the start design: this keeps outer expressions such as max(L)/min(L) regular and
+    # monotone (a min(...) cannot run to zero or below); a located extreme or an end value is a
+    # value of the stroke, and an aggregate held linearly is regular anywhere: free of any such
+    # bound (issue 27's crank-rocker: min(angle(A, B, B0) - mu) >= 0 held above 1e-3 of its
+    # start value, mu* 3.6e-4 low from mu = 0.3; infeasible from mu = 0.65, where it starts < 0)
     a_start = np.array([aggregate_start(pb, ag) for ag in pb.aggregates])
-    free = np.array([i in pb.located for i in range(len(pb.aggregates))], bool)
+    kept = nonlinear_aggregates(pb)
+    free = np.array([i in pb.located or i not in kept for i in range(len(pb.aggregates))], bool)
     ends = np.array([ag.func in ("start", "end") for ag in pb.aggregates], bool)
     a_lo = np.where(ends, 0.0, np.where((a_start > 0) & ~free, 1e-3 * a_start, -np.inf))
     a_hi = np.where(ends, 0.0, np.where((a_start < 0) & ~free, 1e-3 * a_start, np.inf))

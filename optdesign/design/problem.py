@@ -243,10 +243,11 @@ class DesignProblem:
         """The aggregate's value on the scene's samples at the start design."""
         return aggregates.aggregate_start(self, ag)
 
-    def stroke_value(self, outer, extremes) -> float:
+    def stroke_value(self, outer, extremes, x=None) -> float:
         """A stroke expression evaluated with its aggregates taken from ``extremes``
-        ((aggregate name, 'max'|'min') -> value, as found by the continuous check)."""
-        return aggregates.stroke_value(self, outer, extremes)
+        ((aggregate name, 'max'|'min') -> value, as found by the continuous check) and its
+        parameters at the design ``x`` (default: the scene's values)."""
+        return aggregates.stroke_value(self, outer, extremes, x)
 
     def _outer(self, expr, a, p):
         """A stroke expression of the aggregate values ``a`` and parameters ``p`` (kept for

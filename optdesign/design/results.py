@@ -77,6 +77,7 @@ class OptimisationResult:
     least_violating: dict | None = None  # when infeasible: {design, violated: {constraint: amount}}
     start_plan: dict = field(default_factory=dict)  # how the starts were drawn: method, candidates screened
     interrupted: bool = False        # Ctrl-C stopped the starts: the best of those that finished
+    sensitivity_notes: dict = field(default_factory=dict)  # parameter -> why its sensitivity is partial or none
 
     def __repr__(self):
         state = "optimum" if self.success else f"failed ({self.status})"

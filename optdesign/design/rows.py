@@ -22,6 +22,7 @@ import numpy as np
 
 from ..errors import ExpressionError, SceneError
 from ..model.mapped import MappedFunction
+from ..model.quantities import model_value
 from ..scene.expressions import Call, Expression, Name, parse
 from ..scene.cases import is_case_constraint
 from ..scene.where import near_miss
@@ -79,7 +80,8 @@ def build_quantities(pb):
             if missing:
                 raise ExpressionError(f"{scene.path}: [objective] minimise = {pb.objective_text!r}: unknown "
                                       f"name {what!r}{near_miss(what, set(outputs))}: {missing}")
-            expr = mech.value(parse(what, f"{scene.path}: [objective] minimise"), f"{scene.path}: [objective] minimise")
+            expr = model_value(pb.model, parse(what, f"{scene.path}: [objective] minimise"),
+                               f"{scene.path}: [objective] minimise")
         pb.objective_quantity = len(rows)
         rows.append(expr)
         if what in ("drive", "power") and pb.objective_kind == "peak":
@@ -112,7 +114,7 @@ def build_quantities(pb):
             pb.stroke_constraints.append((c, lift(pb, c.expr, c.name)))
         else:
             lo, hi = numeric_bounds(mech.resolved, c)
-            expr = mech.value(c.expr, f"[[constraints]] {c.name}")
+            expr = model_value(pb.model, c.expr, f"[[constraints]] {c.name}")
             # a constraint on the design alone (no dependence on the sweep) is one row,
             # not one per sample point (repeated rows would be degenerate)
             kind = "constraint" if ca.depends_on(expr, mech.s) else "design constraint"
@@ -121,7 +123,7 @@ def build_quantities(pb):
     case_constraint_rows(pb, rows, Block)  # the drive train's, per load case (design/cases.py)
     for a in pb.aggregates:
         a.index = len(rows)
-        rows.append(mech.value(a.inner, a.name))
+        rows.append(model_value(pb.model, a.inner, a.name))
     # a construction that does not move with the sweep has one margin, not one per point
     # (repeated rows would be degenerate and cost time)
     pb.constant_margins = set()

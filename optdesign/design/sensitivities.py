@@ -21,7 +21,7 @@ def objective_value(pb: DesignProblem, sol: Solution, certified=True) -> float:
         return values[(pb.objective_text, "rms")]
     if pb.objective_kind in ("rms_time", "mix"):
         return time_rms(pb, sol)
-    return pb.stroke_value(pb.objective_expr, values)
+    return pb.stroke_value(pb.objective_expr, values, sol.x)
 
 
 def objective_gradient_factor(pb: DesignProblem, sol: Solution) -> float:
@@ -35,10 +35,71 @@ def objective_gradient_factor(pb: DesignProblem, sol: Solution) -> float:
     return pb.objective_scale
 
 
-def sensitivities(pb: DesignProblem, sol: Solution, factor: float) -> dict:
-    """d objective / d parameter for each fixed parameter (``factor``: dJ/df)."""
+def sensitivities(pb: DesignProblem, sol: Solution, factor: float, constraints: dict | None = None) -> dict:
+    """d objective / d parameter for each fixed parameter (``factor``: dJ/df): through the
+    NLP's parameters (IPOPT's multipliers of them) plus, for a parameter named in a
+    constraint's bound, the bound's multiplier times d bound / d parameter (``constraints``:
+    :func:`constraint_report`'s, made here when not given).  A parameter used only in bounds
+    (a stroke length H in ``min = "H - Lb"``) enters the NLP as a number in lbg/ubg, which
+    lam_p does not see."""
     # CasADi's lam_p is minus the gradient of the Lagrangian in p: dJ*/dp = -lam_p (scaled)
-    return {name: float(-factor * sol.lam_p[j]) for j, name in enumerate(pb.fixed_names)}
+    out = {name: float(-factor * sol.lam_p[j]) for j, name in enumerate(pb.fixed_names)}
+    constraints = constraint_report(pb, sol, factor) if constraints is None else constraints
+    for (name, side), gradient in bound_gradients(pb).items():
+        entry = constraints.get(name)
+        if entry is None or entry["active"] != side or not entry["multiplier"]:
+            continue
+        for j, fixed_name in enumerate(pb.fixed_names):
+            out[fixed_name] += float(entry["multiplier"] * gradient[j])
+    return out
+
+
+def sensitivity_notes(pb: DesignProblem) -> dict:
+    """{fixed parameter: why its sensitivity is not the whole story} for the parameters that
+    load cases set ([[cases]] set): the NLP's parameter is the scene's value, which a case
+    that sets its own does not use, so d objective / d parameter holds only the cases that
+    keep the scene's value (none: no sensitivity exists, the reported 0 is not one)."""
+    cases = getattr(pb.scene, "cases", None) or ()
+    resolved = pb.mech.resolved
+    out = {}
+    for name in pb.fixed_names:
+        # a case whose value is an expression of the scene's (mP = "1.25*mP") keeps it: counted
+        setting = [c.name for c in cases if name in c.overrides and not (
+            hasattr(c.overrides[name], "names") and resolved.depends_on(c.overrides[name], [name]))]
+        if not setting:
+            continue
+        if len(setting) == len(cases):
+            out[name] = (f"every load case sets its own {name} ({', '.join(setting)}): the scene's value enters no "
+                         "case, so no sensitivity to it exists; to see one case's, change that case's value "
+                         "and optimise again")
+        else:
+            out[name] = (f"only the cases that keep the scene's {name}; the cases that set their own "
+                         f"({', '.join(setting)}) are not in this value")
+    return out
+
+
+def bound_gradients(pb: DesignProblem) -> dict:
+    """{(constraint name, 'lower'|'upper'): d bound / d fixed parameter (one per fixed
+    parameter, in the order of ``pb.fixed_names``)} for every bound of the scene's
+    constraints that names a parameter (through derived parameters too), by CasADi."""
+    import casadi as ca
+
+    from ..scene.expressions import evaluate
+
+    mech = pb.mech
+    p = ca.SX.sym("p", len(mech.parameter_values))
+    env = mech.resolved.environment(p)
+    out = {}
+    for c in pb.scene.constraints:   # the problem's own (a Pareto point's with_bounds has its own)
+        for side, expr in (("lower", c.lower), ("upper", c.upper)):
+            if expr is None or not expr.names():
+                continue
+            bound = evaluate(expr, env, {}, f"[[constraints]] {c.name}")
+            if not isinstance(bound, ca.SX) or not ca.depends_on(bound, p):
+                continue
+            gradient = ca.Function("g", [p], [ca.gradient(bound, p)])(mech.parameter_values)
+            out[(c.name, side)] = np.asarray(gradient, float).ravel()[pb.fixed_index]
+    return out
 
 
 def constraint_report(pb: DesignProblem, sol: Solution, factor: float) -> dict:
@@ -60,7 +121,7 @@ def constraint_report(pb: DesignProblem, sol: Solution, factor: float) -> dict:
                  "multiplier": -lam * factor / scale + 0.0,
                  "active": _side(lam)}
         if kind == "stroke constraint":
-            entry["value"] = pb.stroke_value(pb.stroke_outer[name], sol.certified)
+            entry["value"] = pb.stroke_value(pb.stroke_outer[name], sol.certified, sol.x)
         elif kind == "cycle constraint":  # its row, in physical units (design/cases.py)
             entry["value"] = float(sol.g[start] * scale)
         else:

@@ -87,6 +87,8 @@ class Equations:
         M_s = model.M_s if model.has_inertia else 0
         dM_s = mech.ds(M_s) if model.has_inertia else 0
         Q_s = model.Q_s if model.has_static else 0
+        if model.forces.damping_s is not None:  # dampers ([[forces]]): Q_s = D_s sd at the state's own speed
+            Q_s = Q_s + model.forces.damping_s * sd
         if inertia is not None:
             J = inertia
         else:

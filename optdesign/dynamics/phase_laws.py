@@ -60,6 +60,8 @@ def profile_distance(shape, t):
     tt = ca.fmin(ca.fmax(t, 0.0), T)
     if shape.kind == "constant":
         return shape.speed * tt
+    if shape.motion_law is not None:   # a law in time: L f(t/T)
+        return L * shape.motion_law.derivatives(tt / T)[0]
     up, down, v = shape.accelerate, shape.decelerate, shape.speed
     return ca.if_else(tt <= up.duration, _phase_distance(tt, up, v),
                       ca.if_else(tt >= T - down.duration, L - _phase_distance(T - tt, down, v),
@@ -73,6 +75,8 @@ def profile_rate(shape, t):
     tt = ca.fmin(ca.fmax(t, 0.0), T)
     if shape.kind == "constant":
         return ca.if_else(ca.logic_and(t >= 0, t <= T), shape.speed, 0.0)
+    if shape.motion_law is not None:   # a law in time: L/T f'(t/T)
+        return ca.if_else(ca.logic_and(t >= 0, t <= T), shape.length / T * shape.motion_law.derivatives(tt / T)[1], 0.0)
     up, down, v = shape.accelerate, shape.decelerate, shape.speed
     return ca.if_else(tt <= up.duration, _phase_rate(tt, up, v),
                       ca.if_else(tt >= T - down.duration, _phase_rate(T - tt, down, v), v))

@@ -41,7 +41,8 @@ from .result import SimulationResult, event_record
 
 QUADRATURES = ("motor_squared", "motor_work", "drive_work")
 OVERRUN = 1e-2  # a phase may run this share of the stroke past its ends (where the mechanism assembles)
-CONNECT = 1e-3   # a phase connects where the state is within this share of the stroke (and rate) of its start
+CONNECT = 1e-3   # a profile connects where the state is within this share of the stroke of its start
+HOLD_REST = 1e-3  # a hold connects where the kinetic energy left is within this share of the cycle's peak so far
 
 
 class PhasedSimulator:
@@ -159,7 +160,7 @@ class PhasedSimulator:
                                  f"starts ({self._state(x)}); raise [simulation] t_end")
             p = self.parameters(ph)
             if ph.kind == "hold":
-                piece, record = self._hold_phase(ph, x, p, t0, t_end, dt)
+                piece, record = self._hold_phase(ph, x, p, t0, t_end, dt, pieces)
             else:
                 piece, record, evs, cnt = self._moving_phase(ph, x, p, t0, t_end, dt, method, tol, scale)
                 events.extend(evs)
@@ -322,13 +323,18 @@ class PhasedSimulator:
         torque = np.asarray(eq.columns(y, p, np.ones(len(times)), np.ones(len(times)))["drive"]) / self.ratio
         return (None if found is None else float(times[-1])), times, torque
 
-    def _hold_phase(self, ph, x, p, t0, t_end, dt):
+    def _hold_phase(self, ph, x, p, t0, t_end, dt, before):
         where = ph.where()
-        rate = max(abs(self.qd_start), (self.hi - self.lo) / self.t_end)
-        if abs(x[1]) > CONNECT * rate:
+        # at rest, judged on the cycle's own motion: the kinetic energy the hold would take away
+        # against the most the cycle had before it (not a speed against stroke / t_end, which a
+        # longer t_end or a looser tolerance's residual speed at a profile's end tripped)
+        peak = max((float(np.max(np.abs(pc["kinetic_energy"]))) for pc in before), default=0.0)
+        energy = abs(float(before[-1]["kinetic_energy"][-1])) if before else 0.0
+        if (energy > HOLD_REST * peak) if before else x[1] != 0.0:
+            share = f"; its kinetic energy is {energy / peak:.3g} of the cycle's peak before it" if before else ""
             raise SceneError(f"{self.scene.path}: {where}: the phases do not connect: a hold keeps the mechanism at "
-                             f"rest, but it is moving at t = {t0:.9g} s ({self._state(x)}); end the phase before with "
-                             "until = \"rest\"")
+                             f"rest, but it is moving at t = {t0:.9g} s ({self._state(x)}{share}); end the phase "
+                             "before with until = \"rest\"")
         duration = min(self.resolved.constant(ph.until_value, f"{where}, until.time"), t_end - t0)
         Q_s, k = (float(v) for v in self._hold(x[0], p))
         eta_m = float(ca.Function("eta", [self.mech.p], [self.model.eta])(p)) if self.model.uses_efficiency else 1.0

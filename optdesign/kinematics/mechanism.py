@@ -65,6 +65,9 @@ class Mechanism:
         self.loops: list[LoopGraph] = []
         for c in scene.points:
             self._construct(c)
+        # [quantities] by name, for text read after the scene (the objective): scene/quantities.py
+        self.quantities = {q.name: self.value(q.expr, f"[quantities] {q.name}") for q in scene.quantities}
+        env.update(self.quantities)
         self.body_angle = {}
         self.body_com = {}
         for b in scene.bodies:

@@ -22,12 +22,22 @@ import numpy as np
 
 SENSES = ("abs", "max", "min")
 MAX_STEPS = 200  # Newton/bisection steps per bracket (bisection alone gets to 1e-13 of it in ~45)
+CERTIFY_TOL = 1e-9   # the certificate's tolerance, relative to the row's scale (its largest |v|)
+MAX_PASSES = 60      # subdivision passes of the branch and bound before it gives up
+MAX_INTERVALS = 4096   # intervals alive at once, idem
 
 
 @dataclass(frozen=True)
 class Extremum:
+    """A located extremum: the quantity v at s.  The largest of a request's list carries, when
+    it was certified by an enclosure, ``bound``: an upper bound of the target (|v|, v or -v)
+    over the whole stroke, within the tolerance of the located value; ``note`` says why there
+    is no such bound where one was asked for (the enclosure not available, or not closing)."""
+
     s: float
     value: float  # the quantity v at s (signed)
+    bound: float | None = None
+    note: str = ""
 
 
 @dataclass(frozen=True)
@@ -84,17 +94,31 @@ def continuous_maxima(evaluate, s_grid, values, sense="abs", s_tol=1e-13, only_a
     return continuous_maxima_rows(evaluate_many, s_grid, v, [Request(0, sense, only_above)], s_tol)[0]
 
 
-def continuous_maxima_rows(evaluate_many, s_grid, V, requests, s_tol=1e-13):
+def continuous_maxima_rows(evaluate_many, s_grid, V, requests, s_tol=1e-13, enclosure=None, tol=CERTIFY_TOL):
     """:func:`continuous_maxima` of several rows of ``V`` (rows x samples on ``s_grid``) at once.
 
     ``evaluate_many(s) -> (V, dV/ds, d2V/ds2)``, each rows x len(s): every row at every sweep
     value in ``s`` (the brackets of all ``requests`` are refined in lockstep, see
-    :func:`refine_all`).  Returns one list of extrema per request, largest target first."""
+    :func:`refine_all`).  Returns one list of extrema per request, largest target first.
+
+    ``enclosure``: an :class:`~.enclosure.Enclosure` of the same rows (or an
+    :class:`~.enclosure.Unavailable` saying why there is none): the located maxima are then
+    certified by branch and bound (:func:`certify`): the largest extremum of each request
+    carries ``bound``, an upper bound of its target over the continuous stroke within ``tol``
+    (relative to the row's largest sampled |v|) of its value, and maxima between the samples
+    that the grid does not bracket are found and located too.  Without it the extrema are the
+    refined grid maxima (no proof).  Either way the largest reported target is never below the
+    largest sampled one (a :class:`~optdesign.errors.ResultError` otherwise)."""
     s_grid = np.asarray(s_grid, float)
     V = np.asarray(V, float)
-    brackets, owners = [], []
+    brackets, owners, found_flat = [], [], {}
     for k, req in enumerate(requests):
         indices, sign = grid_maxima(V[req.row], req.sense, req.only_above)
+        if _flat(V[req.row]):   # every sample a grid maximum, none telling: the largest stands for them
+            target = sign * V[req.row]
+            indices = indices[:0]
+            top = int(np.argmax(target))
+            found_flat[k] = Extremum(float(s_grid[top]), float(V[req.row, top]))
         for i in indices:
             brackets.append((req.row, s_grid[i - 1], s_grid[i + 1], s_grid[i], sign[i]))
             owners.append((k, i, sign[i]))
@@ -106,12 +130,144 @@ def continuous_maxima_rows(evaluate_many, s_grid, V, requests, s_tol=1e-13):
                     owners.append((k, i, sign[i]))
     found = [[Extremum(float(s_grid[0]), float(V[r.row, 0])), Extremum(float(s_grid[-1]), float(V[r.row, -1]))]
              for r in requests]
+    for k, e in found_flat.items():
+        found[k].append(e)
     for (k, i, sign), (s_star, v_star) in zip(owners, refine_all(evaluate_many, brackets, s_tol)):
         v_i = V[requests[k].row, i]
         if sign * v_star < sign * v_i:  # never report less than the grid point itself
             s_star, v_star = float(s_grid[i]), float(v_i)
         found[k].append(Extremum(float(s_star), float(v_star)))
-    return [sorted(ext, key=lambda e: _target(e.value, r.sense), reverse=True) for ext, r in zip(found, requests)]
+    bounds = notes = None
+    if enclosure is not None:
+        bounds, notes = certify(enclosure, evaluate_many, s_grid, V, requests, found, s_tol, tol)
+    out = []
+    for k, (ext, r) in enumerate(zip(found, requests)):
+        ext = sorted(ext, key=lambda e: _target(e.value, r.sense), reverse=True)
+        _check_invariant(ext[0], V[r.row], r)
+        if bounds is not None:
+            ext[0] = Extremum(ext[0].s, ext[0].value, bounds[k], notes[k])
+        out.append(ext)
+    return out
+
+
+def _flat(values) -> bool:
+    """A row equal at every sample to 1e-14 of its size (a constraint on the design alone)."""
+    with np.errstate(invalid="ignore"):
+        return bool(np.ptp(values) <= 1e-14 * max(float(np.max(np.abs(values))), 1e-300)) if len(values) else False
+
+
+def _check_invariant(top, sampled, request):
+    """The largest located target is never below the largest sampled one (those above
+    ``only_above``): a certification that fails this check is an error, never a result."""
+    values = np.asarray(sampled, float)
+    if not values.size or not np.all(np.isfinite(values)):
+        return
+    best = float(np.max(target_sign(values, request.sense) * values))
+    if request.only_above is not None and best < request.only_above:
+        return
+    if not _target(top.value, request.sense) >= best:
+        from ..errors import ResultError
+
+        raise ResultError(f"the certified extremum ({request.sense}) of row {request.row}, {top.value!r} at s = "
+                          f"{top.s!r}, is below the largest sampled one ({best!r}): the certification failed "
+                          "its own check")
+
+
+def certify(enclosure, evaluate_many, s_grid, V, requests, found, s_tol=1e-13, tol=CERTIFY_TOL):
+    """Branch and bound over the stroke: bound each request's target over every sample interval
+    with ``enclosure.bounds``; an interval whose bound exceeds the best located target by more
+    than the tolerance (and ``only_above``) is split and bounded again, until none is left.  A
+    split interval whose midpoint beats the best located target has its maximum located by
+    :func:`refine_all` (its Extremum joins ``found``, in place).  All intervals of all requests
+    are bounded together, one enclosure evaluation per pass.
+
+    Returns (bounds, notes) per request: the upper bound of the target over the stroke (the
+    largest bound of the intervals left behind; None without one) and why it is missing or
+    wider than the tolerance ("" when certified)."""
+    n_req = len(requests)
+    notes = [""] * n_req
+    if getattr(enclosure, "reason", None) is not None:   # no enclosure for these rows
+        return [None] * n_req, [f"not certified: {enclosure.reason}"] * n_req
+    s_grid = np.asarray(s_grid, float)
+    rows = np.array([r.row for r in requests], int)
+    sense = np.array([SENSES.index(r.sense) for r in requests], int)
+    best = np.array([max(_target(e.value, r.sense) for e in found[k]) for k, r in enumerate(requests)])
+    with np.errstate(invalid="ignore"):
+        scale = np.array([np.nanmax(np.abs(V[r.row]), initial=0.0) for r in requests])
+    tol_abs = tol * np.maximum(np.abs(best), scale) + 1e-300
+    floor = np.array([-np.inf if r.only_above is None else r.only_above for r in requests])
+    bound = np.full(n_req, -np.inf)
+    span = abs(float(s_grid[-1] - s_grid[0])) if len(s_grid) > 1 else 0.0
+    limits = (float(s_grid.min()), float(s_grid.max())) if len(s_grid) else (0.0, 0.0)
+    n_int = max(len(s_grid) - 1, 0)
+    req = np.repeat(np.arange(n_req), n_int)
+    lo, hi = np.tile(s_grid[:-1], n_req), np.tile(s_grid[1:], n_req)
+    left_ub = np.full(len(req), np.inf)   # bounds of the intervals still open (inf: not bounded yet)
+    for _ in range(MAX_PASSES):
+        if not len(req):
+            break
+        pairs, where = np.unique(np.c_[lo, hi], axis=0, return_inverse=True)
+        where = where.ravel()
+        L, U, vm_lo, vm_hi = enclosure.bounds(pairs[:, 0], pairs[:, 1])
+        r_of, code = rows[req], sense[req]
+        ub = _target_bound(L[r_of, where], U[r_of, where], code, upper=True)
+        vm_lo, vm_hi = vm_lo[r_of, where], vm_hi[r_of, where]
+        at_mid = _target_bound(vm_lo, vm_hi, code, upper=False)
+        _locate_better(evaluate_many, requests, found, best, req, lo, hi, at_mid, vm_lo + vm_hi, s_tol, limits)
+        threshold = np.maximum(best + tol_abs, floor)[req]
+        keep = ~(ub <= threshold)   # NaN: not bounded, split again
+        if np.any(~keep):
+            np.maximum.at(bound, req[~keep], ub[~keep])
+        req, lo, hi, left_ub = req[keep], lo[keep], hi[keep], np.where(np.isnan(ub[keep]), np.inf, ub[keep])
+        width = hi - lo
+        if not len(req) or len(req) > MAX_INTERVALS or np.any(width <= max(span, 1e-300) * 1e-13):
+            break
+        pieces = int(max(2, min(16, 1024 // len(req))))
+        t = np.arange(pieces + 1) / pieces
+        edges = lo[:, None] + width[:, None] * t[None, :]
+        edges[:, -1] = hi
+        req, left_ub = np.repeat(req, pieces), np.repeat(left_ub, pieces)
+        lo, hi = edges[:, :-1].ravel(), edges[:, 1:].ravel()
+    for k in np.unique(req):
+        left = req == k
+        bound[k] = max(bound[k], float(np.max(left_ub[left])))
+        where_s = float(0.5 * (lo[left][0] + hi[left][0]))
+        notes[k] = (f"not certified: the enclosure did not close within {tol:g} of the located value near "
+                    f"s = {where_s:.9g} (bound {bound[k]:.9g} against {best[k]:.9g})")
+    bound = np.maximum(bound, best)
+    return [float(b) for b in bound], notes
+
+
+def _target_bound(L, U, code, upper):
+    """Per interval, an upper (``upper``) or lower bound of its request's target from v's bounds
+    [L, U]; ``code``: the request's sense, an index into SENSES (abs, max, min)."""
+    if upper:
+        return np.select([code == 1, code == 2], [U, -L], np.maximum(U, -L))
+    return np.select([code == 1, code == 2], [L, -U], np.maximum(L, -U))
+
+
+def _locate_better(evaluate_many, requests, found, best, req, lo, hi, at_mid, v_mid, s_tol, limits):
+    """Where an interval's midpoint beats its request's best located target, locate the maximum
+    near it (Newton on dv/ds = 0 in the interval widened by its width each side, from the
+    midpoint) and add it to ``found``; ``best`` is updated in place."""
+    better = np.flatnonzero(at_mid > best[req])
+    if not len(better):
+        return
+    chosen = {}
+    for i in better:   # the best midpoint of each request
+        k = int(req[i])
+        if k not in chosen or at_mid[i] > at_mid[chosen[k]]:
+            chosen[k] = i
+    brackets = []
+    for k, i in chosen.items():
+        r, w, m = requests[k], hi[i] - lo[i], 0.5 * (lo[i] + hi[i])
+        sign = 1.0 if r.sense == "max" else -1.0 if r.sense == "min" else (1.0 if v_mid[i] >= 0 else -1.0)
+        brackets.append((r.row, max(lo[i] - w, limits[0]), min(hi[i] + w, limits[1]), m, sign))
+    for (k, _), (s_star, v_star) in zip(chosen.items(), refine_all(evaluate_many, brackets, s_tol)):
+        value = _target(v_star, requests[k].sense)
+        if value == value:
+            found[k].append(Extremum(float(s_star), float(v_star)))
+            best[k] = max(best[k], value)
 
 
 def _target(value, sense):

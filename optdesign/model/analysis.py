@@ -13,6 +13,8 @@ from ..scene.arguments import scene_argument
 from ..scene.expressions import evaluate
 from .certified import PEAKS, CertifiedExtremes
 from .mapped import MappedFunction
+from .joint_structure import JointStructureError
+from .quantities import environment, joint_calls, joint_forces, model_value
 from ..scene.cases import is_case_constraint
 from .cases import CaseAnalysis
 from .finite import check_columns, check_values
@@ -52,6 +54,14 @@ class AnalysisResult:
     # the scene's [[cases]] (model/cases.py: CasesResult): every case, the governing case of
     # each peak, the duty cycle and the drive train; None without cases
     cases: object = None
+    # what the enclosures proved (model/certified.py): per peak and constraint extreme, the
+    # bound over the continuous stroke (within kinematics.peaks.CERTIFY_TOL of the value) or the
+    # note saying why there is none; empty without certification
+    certificates: dict = field(default_factory=dict)
+    # [quantities]: name -> array over the samples (their units: scene.quantities)
+    quantities: dict = field(default_factory=dict)
+    # why the joint forces (columns pin_force(P), ...: model/joints.py) are not there, or None
+    joints_note: str | None = None
 
     @property
     def drive_kind(self):
@@ -74,7 +84,7 @@ class Analysis:
     """The compiled stroke evaluation of one scene (a class under :func:`analyse`)."""
 
     def __init__(self, scene: Scene | ResolvedScene, samples: int | None = None, efficiency_smoothing: float = 0.0,
-                 certify: bool = True):
+                 certify: bool = True, joints: bool = False):
         t0 = time.perf_counter()
         self.mech = Mechanism(scene_argument("analyse", scene, ResolvedScene))
         self.resolved = self.mech.resolved
@@ -89,7 +99,19 @@ class Analysis:
                            and not is_case_constraint(scene, c)]   # those per load case: model/cases.py
         self.per_stroke = [c for c in scene.constraints if c.expr.is_aggregate]
         for c in self.per_sample:
-            outs[f"constraint:{c.name}"] = self.mech.value(c.expr, f"[[constraints]] {c.name}")
+            outs[f"constraint:{c.name}"] = model_value(self.model, c.expr, f"[[constraints]] {c.name}")
+        # with ``joints``, the force at every joint (model/joints.py): columns pin_force(P), ...
+        # (their certified peaks took the toggle press's build from 0.8 to 3.8 s, measured: so they are
+        # asked for); where the joint structure cannot be derived, none, and the reason in joints_note
+        self.joints, self.joints_note = {}, None
+        try:
+            self.joints = joint_forces(self.model).outputs() if joints else {}
+        except JointStructureError as exc:
+            self.joints_note = str(exc)
+        outs.update(self.joints)
+        self.peak_names = [k for k in PEAKS if k in outs] + [k for k in self.joints if k.startswith("pin_force(")]
+        for name, expr in self.mech.quantities.items():
+            outs[f"quantity:{name}"] = expr + 0 * self.mech.s
         self.names = list(outs)
         self.function = self.mech.function("reduced_model", outs)
         self.mapped = self.function.map(len(self.s_values))
@@ -115,10 +137,12 @@ class Analysis:
         n = len(self.s_values)
         values = {k: np.broadcast_to(np.asarray(v, float).ravel(), (n,)).copy() for k, v in raw.items()}
         columns = {"s": self.s_values.copy()}
-        bodies, constraints = {}, {}
+        bodies, constraints, quantities = {}, {}, {}
         for key, arr in values.items():
             if key.startswith("constraint:"):
                 constraints[key.split(":", 1)[1]] = arr
+            elif key.startswith("quantity:"):
+                quantities[key.split(":", 1)[1]] = arr
             elif ":" in key:
                 body, name = key.split(":", 1)
                 bodies.setdefault(body, {})[name] = arr
@@ -130,7 +154,7 @@ class Analysis:
         s = self.s_values
         sampled_stroke = self._per_stroke(p_values, s)
         peaks_sampled, peak_at = {}, {}
-        for k in PEAKS:
+        for k in self.peak_names:
             if k in columns:
                 i = int(np.argmax(np.abs(columns[k])))
                 peaks_sampled[k] = float(abs(columns[k][i]))
@@ -141,10 +165,11 @@ class Analysis:
             extremes[name] = {"min": float(v[lo]), "min_s": float(s[lo]), "max": float(v[hi]), "max_s": float(s[hi])}
         timings = {"build_s": self.build_time, "evaluate_s": time.perf_counter() - t0}
         peaks, stroke = dict(peaks_sampled), dict(sampled_stroke)
+        certificates = {}
         if self.certified is not None:
             t1 = time.perf_counter()
             found = self.certified(s, p_values, columns, constraints, narrow)
-            peaks, peak_at = found["peaks"], found["peak_at"]
+            peaks, peak_at, certificates = found["peaks"], found["peak_at"], found["certificates"]
             extra = sorted({x for located in found["aggregates"].values() for x in located})
             if extra:  # the located extrema join the samples, inside: start()/end() keep the ends
                 stroke = self._per_stroke(p_values, np.r_[s[:-1], extra, s[-1:]])
@@ -158,26 +183,36 @@ class Analysis:
                             **{f"peak |{k}|": v for k, v in peaks.items()}})
         return AnalysisResult(self.scene, columns, bodies, constraints, peaks, timings, peaks_sampled,
                               peak_at, extremes, sampled_stroke,
-                              cases=self.case_analysis.run(p_values) if self.case_analysis else None)
+                              cases=self.case_analysis.run(p_values) if self.case_analysis else None,
+                              certificates=certificates, quantities=quantities, joints_note=self.joints_note)
 
     def _per_stroke(self, p_values, s_values):
         """The per-stroke constraints with their aggregates taken over ``s_values``."""
         if not self.per_stroke:
             return {}
         mech = self.mech
+        # the model's columns and joint forces that the per-stroke constraints use (model/quantities.py)
+        columns = {}
+        for c in self.per_stroke:
+            used = (c.expr.names() | {f"{f}({p})" for f, p in joint_calls(c.expr)}) - set(mech.env)
+            columns.update({k: v for k, v in environment(self.model, c.expr).items() if k in used})
         if self._points is None:  # built once, on the first run that needs it
-            self._points = MappedFunction(mech.function("points", dict(mech.points)))
+            self._points = MappedFunction(mech.function("points", dict(mech.points, **columns)))
         names = list(mech.points)
         rows = self._points(s_values, p_values)
         values = self.resolved.environment(p_values)
         values[self.scene.sweep.name] = ca.DM(np.asarray(s_values, float)[None, :])
         points = {k: ca.DM(np.asarray(v)) for k, v in zip(names, rows)}
+        values.update({k: ca.DM(np.asarray(v)).reshape((1, -1)) for k, v in zip(columns, rows[len(names):])})
         return {c.name: float(evaluate(c.expr, values, points, f"[[constraints]] {c.name}"))
                 for c in self.per_stroke}
 
 
-def analyse(scene: Scene | ResolvedScene, samples: int | None = None, certify: bool = True) -> AnalysisResult:
+def analyse(scene: Scene | ResolvedScene, samples: int | None = None, certify: bool = True,
+            joints: bool = False) -> AnalysisResult:
     """The reduced model of ``scene`` over its stroke (front door).  Assembly and dead centres
     are checked over the continuous stroke; the peaks and constraint extremes are certified
-    over it too, unless ``certify`` is False (then they are the samples' own)."""
-    return Analysis(scene, samples, certify=certify).run()
+    over it too, unless ``certify`` is False (then they are the samples' own).  ``joints``: the
+    force at every joint too (columns ``pin_force(P)``, ``pin_force_x(P)``, ...; their peaks
+    certified like the drive load's; :mod:`optdesign.model.joints`)."""
+    return Analysis(scene, samples, certify=certify, joints=joints).run()

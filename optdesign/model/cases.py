@@ -20,6 +20,7 @@ import numpy as np
 from ..scene.cases import CASE_COLUMNS, Case, case_values
 from ..scene.expressions import evaluate
 from .duty import PEAK_KEYS, CaseTimes, DutyCycle, case_integrals, motor_report
+from .finite import check_cases
 from .mapped import MappedFunction
 from .profiles import check_law, constant_motion, case_profile
 from .reduction import ReducedModel
@@ -194,7 +195,9 @@ class CaseAnalysis:
                 add_motor_torque(results, duty, train["motors"][chosen])
         if self.mech.scene.cylinder is not None:
             train = cylinder_report(self.mech.scene, values, results)
-        return CasesResult(results, governing_cases(results), duty, train)
+        result = CasesResult(results, governing_cases(results), duty, train)
+        check_cases(result, "N m" if self.mech.scene.drive.kind == "rotary" else "N")
+        return result
 
     def _evaluate(self, cm, names, function, nodes, p_case):
         """The case's outputs at ``nodes`` (q unwrapped for a crank) and its times."""
@@ -240,12 +243,14 @@ def case_nodes(s, profile):
     scene's samples."""
     s = np.asarray(s, float)
     breaks = profile.breakpoints() if profile is not None else np.zeros(0)
-    if not breaks.size:
+    if not breaks.size and (profile is None or profile.shape.motion_law is None):   # (a law in time: its time nodes)
         return s.copy(), np.ones(len(s), bool)
     delta = 0.5e-9 * abs(s[-1] - s[0])
     extra = np.r_[breaks - delta, breaks + delta]
     for lo, hi, inner in profile.jerk_segments():  # an s-curve's jerk segments, evenly in time
         extra = np.r_[extra, inner]
+    # a node in time that falls on a sample (a law's middle on an odd grid) is that sample
+    extra = np.unique(extra[np.min(np.abs(extra[:, None] - s[None, :]), axis=1) > 1e-13 * abs(s[-1] - s[0])])
     nodes = np.r_[s, extra]
     order = np.argsort(nodes, kind="stable")
     if s[-1] < s[0]:

@@ -16,9 +16,11 @@ import math
 import casadi as ca
 import numpy as np
 
-from ..kinematics.peaks import Extremum, Request, continuous_maxima_rows, resolving_points
+from ..kinematics.enclosure import Enclosures
+from ..kinematics.peaks import Request, continuous_maxima_rows, resolving_points
 from ..scene.expressions import Expression
 from .mapped import MappedFunction
+from .quantities import model_value
 
 PEAKS = ("drive", "static_load", "reduced_inertia", "power")
 
@@ -30,23 +32,24 @@ class CertifiedExtremes:
     def __init__(self, analysis):
         mech = analysis.mech
         self.mech = mech
-        outputs = analysis.model.outputs()
+        outputs = dict(analysis.model.outputs(), **analysis.joints)
         rows, self.peak_rows, self.constraint_rows, self.aggregate_rows = [], {}, {}, []
-        for name in PEAKS:
+        for name in analysis.peak_names:   # the model's PEAKS and the pins' forces
             if name in outputs:
                 self.peak_rows[name] = len(rows)
                 rows.append(outputs[name])
         for c in analysis.per_sample:
             self.constraint_rows[c.name] = len(rows)
-            rows.append(mech.value(c.expr, f"[[constraints]] {c.name}"))
+            rows.append(model_value(analysis.model, c.expr, f"[[constraints]] {c.name}"))
         for c in analysis.per_stroke:
             for func, inner in aggregates(c.expr):
                 self.aggregate_rows.append((c.name, func, len(rows)))
-                rows.append(mech.value(inner, f"[[constraints]] {c.name}"))
+                rows.append(model_value(analysis.model, inner, f"[[constraints]] {c.name}"))
         self.n_rows = len(rows)
         v = ca.vertcat(*rows) if rows else ca.DM.zeros(0, 1)
         dv = mech.ds(v)
         self.derivatives = MappedFunction(mech.function("certified_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)}))
+        self.enclosures = Enclosures(self.derivatives.func)   # the same program, in intervals
         self.values = MappedFunction(mech.function("certified_v", {"v": v}))
         self.q = MappedFunction(mech.function("q", {"q": mech.q}))
 
@@ -87,37 +90,30 @@ class CertifiedExtremes:
         for _, func, i in self.aggregate_rows:
             requests.append(Request(i, func, ends=True))
         extrema = self._extrema(s_values, V, p, requests)
-        out = {"peaks": {}, "peak_at": {}, "constraint_extremes": {}, "aggregates": {}}
+        out = {"peaks": {}, "peak_at": {}, "constraint_extremes": {}, "aggregates": {}, "certificates": {}}
         located = iter(extrema)
         for name in self.peak_rows:
             e = next(located)
             out["peaks"][name] = abs(e.value)
             out["peak_at"][name] = {"s": e.s, "q": self._q(e.s, s_values, q_sampled, p), "value": e.value}
+            out["certificates"][f"peak |{name}|"] = _certificate(e)
         for name in self.constraint_rows:
             hi, lo = next(located), next(located)
             out["constraint_extremes"][name] = {"min": lo.value, "min_s": lo.s, "max": hi.value, "max_s": hi.s}
+            out["certificates"][f"{name} max"] = _certificate(hi)
+            out["certificates"][f"{name} min"] = _certificate(lo, -1.0)
         for name, _, _ in self.aggregate_rows:
             out["aggregates"].setdefault(name, []).append(next(located).s)
         return out
 
     def _extrema(self, s_values, V, p, requests):
-        """The largest continuous extremum of each request (a row flat over the samples keeps
-        its sampled extreme: every sample of it would be a bracket, none of them telling)."""
+        """The largest continuous extremum of each request, certified by the enclosure of the
+        same rows (its ``bound`` and ``note``: :func:`~optdesign.kinematics.peaks.certify`)."""
         ascending = len(s_values) < 2 or s_values[-1] >= s_values[0]
         grid, values = (s_values, V) if ascending else (s_values[::-1], V[:, ::-1])
-        flat = [np.ptp(values[r.row]) <= 1e-14 * max(float(np.max(np.abs(values[r.row]))), 1e-300)
-                for r in requests]
-        live = [r for r, f in zip(requests, flat) if not f]
-        found = iter(continuous_maxima_rows(lambda s: self.derivatives(s, p), grid, values, live) if live else [])
-        out = []
-        for r, f in zip(requests, flat):
-            if f:
-                row = values[r.row]
-                k = int(np.argmax(np.abs(row)) if r.sense == "abs" else np.argmax(row) if r.sense == "max" else np.argmin(row))
-                out.append(Extremum(float(grid[k]), float(row[k])))
-            else:
-                out.append(next(found)[0])
-        return out
+        found = continuous_maxima_rows(lambda s: self.derivatives(s, p), grid, values, requests,
+                                       enclosure=self.enclosures.at(p)) if requests else []
+        return [ext[0] for ext in found]
 
     def _q(self, s, s_values, q_sampled, p):
         """The drive coordinate at s, on the branch of the sampled (unwrapped) q."""
@@ -127,6 +123,13 @@ class CertifiedExtremes:
         known = np.isfinite(q_sampled)
         near = q_sampled[known][int(np.argmin(np.abs(s_values[known] - s)))]
         return float(near + math.remainder(q - near, 2 * math.pi))
+
+
+def _certificate(e, sign=1.0) -> dict:
+    """What the enclosure proved of one extremum: ``bound`` (of |v|, of v for a max, of v from
+    below for a min; None without one) and ``note`` (why not, "" when certified)."""
+    bound = None if e.bound is None else sign * e.bound
+    return {"bound": bound, "note": e.note}
 
 
 def aggregates(expr: Expression) -> list:

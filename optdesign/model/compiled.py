@@ -61,8 +61,10 @@ def flags_for(size: int) -> tuple:
 
 
 # the compiler's bounds (gcc needed 14.6 GB at -O0 for an exact-Hessian SQP of the press's duty
-# cycle): at most MAX_SOURCE of C, COMPILER_MEMORY and COMPILE_TIMEOUT_S, else marked failed
-MAX_SOURCE = 8_000_000
+# cycle): at most MAX_SOURCE of C, COMPILER_MEMORY and COMPILE_TIMEOUT_S, else marked failed.
+# Issue 27's knuckle press: 10.4 MB of C, gcc -O0 33 s of CPU and 1.2 GB; so about 25 MB fits
+# in COMPILER_MEMORY (was 8 MB: the knuckle press ran on the virtual machine)
+MAX_SOURCE = 25_000_000
 # a graph serialized in more than MAX_GRAPH is not written as C (crane_luffing_drive's NLP: 40.8
 # MB, 669 MB of C after 80 s; the largest that compiles, level_luffing_cylinder's, 1.3 MB)
 MAX_GRAPH = 4_000_000

@@ -21,7 +21,8 @@ from ..errors import ResultError
 
 LABELS = {"s": "the sweep value", "q": "the drive coordinate q", "k": "the ratio k = dq/ds",
           "reduced_inertia": "the reduced inertia", "reduced_inertia_dq": "the reduced inertia's derivative",
-          "static_load": "the static load", "inertia_term": "the inertia term", "velocity_term": "the velocity term",
+          "static_load": "the static load", "damping_load": "the dampers' load",
+          "inertia_term": "the inertia term", "velocity_term": "the velocity term",
           "drive": "the drive load", "power": "the drive power", "efficiency_factor": "the efficiency factor"}
 
 
@@ -139,3 +140,58 @@ def _items(analysis, s_value, p_values):
 
 
 __all__ = ["check_columns", "check_values", "cause"]
+
+
+# the figures of the load cases that are infinite by their definition: a rotor of no inertia
+# has an infinite inertia ratio and optimal gear ratio (the report says so in words)
+INFINITE_BY_DEFINITION = {"inertia_ratio", "optimal_ratio"}
+FIGURES = {"drive_squared": "the time integral of the drive load squared (its RMS over time)",
+           "rms_time": "the RMS over time", "energy": "the energy", "energy_driving": "the driving energy",
+           "mean_power": "the mean power", "motor_load_squared": "the time integral of the motor's load torque squared"}
+
+
+def check_cases(result, unit) -> None:
+    """Every figure of a load-case analysis finite: each case's integrals over time (its RMS,
+    energy), the duty cycle's (RMS over time, energy, mean power) and the drive train's numbers;
+    else a ResultError naming the case or figure and the largest drive load of the cases (a
+    load whose square exceeds a float's range, 1.8e308, made an RMS of NaN with exit 0)."""
+    for name, r in result.cases.items():
+        bad = np.flatnonzero(~np.isfinite(r.columns["drive"]))
+        if bad.size:
+            i = bad[0]
+            raise ResultError(f"case {name!r}: the drive load is {_what(r.columns['drive'][i])} at the sweep value "
+                              f"{r.columns['s'][i]:.10g} (node {i + 1} of {r.columns['drive'].size}): the "
+                              "case's motion or load is not defined there (e.g. a speed law with an infinite "
+                              "slope where its speed is 0); check the case's profile and values")
+    loads = {name: float(np.max(np.abs(r.columns["drive"]))) for name, r in result.cases.items()}
+    worst = max(loads, key=loads.get) if loads else None
+    cause = "" if worst is None else (
+        f": the drive load of case {worst!r} reaches {loads[worst]:.3g} {unit}"
+        + (f" (the case sets {', '.join(f'{k} = {v:g}' for k, v in result.cases[worst].overrides.items())})"
+           if result.cases[worst].overrides else "")
+        + (", whose square exceeds the largest number a float holds (1.8e308)" if loads[worst] > 1e154 else ""))
+    places = [(f"case {name!r}", r.integrals) for name, r in result.cases.items()]
+    places += [("the duty cycle", result.duty), ("the drive train", result.train)]
+    for where, figures in places:
+        found = _first_not_finite(figures)
+        if found is not None:
+            key, value = found
+            what = FIGURES.get(key.rsplit(".", 1)[-1], key)
+            raise ResultError(f"{where}: {what} is {_what(value)}{cause}; check the values of the scene and of its "
+                              "cases")
+
+
+def _first_not_finite(value, key=""):
+    """(the dotted key, the value) of the first number in ``value`` that is not finite, or None."""
+    if isinstance(value, dict):
+        items = value.items()
+    elif isinstance(value, (list, tuple)):
+        items = ((str(i), v) for i, v in enumerate(value))
+    else:
+        ok = not isinstance(value, (float, np.floating)) or math.isfinite(value)
+        return None if ok or key.rsplit(".", 1)[-1] in INFINITE_BY_DEFINITION else (key, float(value))
+    for k, v in items:
+        found = _first_not_finite(v, f"{key}.{k}" if key else str(k))
+        if found is not None:
+            return found
+    return None

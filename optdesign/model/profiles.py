@@ -132,6 +132,12 @@ class MotionProfile:
         if sh.kind == "constant":
             v = sh.speed
             return sigma * v + 0 * x, 0 * x, v**2 + 0 * x, x / v
+        if sh.motion_law is not None:   # a law in time: tau = f^-1(x/L), t = T tau
+            T, L = sh.time, self.length
+            tau = sh.motion_law.inverse(x / L)
+            _, speed, acceleration, _ = sh.motion_law.derivatives(tau)
+            V = L / T * speed
+            return sigma * V, sigma * L / T**2 * acceleration, V**2, T * tau
         up, down, v = sh.accelerate, sh.decelerate, sh.speed
         t_up, V_up, A_up = _phase_graph(x, up, v)
         t_dn, V_dn, A_dn = _phase_graph(y, down, v)
@@ -165,8 +171,8 @@ class MotionProfile:
     def breakpoints(self) -> np.ndarray:
         """Sweep values inside the stroke where the profile's acceleration law changes."""
         sh = self.shape
-        if sh.kind in ("law", "constant"):
-            return np.zeros(0)
+        if sh.kind in ("law", "constant") or sh.motion_law is not None:   # (a law in time: its acceleration is
+            return np.zeros(0)                                             # continuous; its pieces' ends are nodes)
         xs = [sh.accelerate.distance, self.length - sh.decelerate.distance]
         xs += _phase_breaks(sh.accelerate, sh.speed)
         xs += [self.length - b for b in _phase_breaks(sh.decelerate, sh.speed)]
@@ -176,8 +182,12 @@ class MotionProfile:
     JERK_NODES = 16  # intervals per jerk segment of an s-curve (evenly spaced in time)
 
     def jerk_segments(self) -> list:
-        """The s-curve's jerk segments as (s_lo, s_hi, interior nodes evenly spaced in time)."""
+        """The s-curve's jerk segments as (s_lo, s_hi, interior nodes evenly spaced in time); a
+        law in time: each of its pieces (smooth in time, not in s at a rest), LAW_NODES over
+        the whole motion."""
         sh = self.shape
+        if sh.motion_law is not None:
+            return self._law_segments()
         if sh.kind != "s-curve":
             return []
         out = []
@@ -195,6 +205,24 @@ class MotionProfile:
                 s_lo, s_hi = sorted((self.s_begin + self.sigma * lo, self.s_begin + self.sigma * hi))
                 out.append((s_lo, s_hi, self.s_begin + self.sigma * np.asarray(inner)))
         return out
+
+    LAW_NODES = 96   # nodes evenly spaced in time over a law in time
+
+    def law_nodes(self) -> np.ndarray:
+        """A law in time's nodes, in the motion's order: each piece's ends and a multiple of 4
+        intervals evenly spaced in time inside it (about LAW_NODES over the motion), so that
+        Simpson's rule in time on them and on every other one pairs them within each piece."""
+        law = self.shape.motion_law
+        edges = (0.0,) + law.breaks + (1.0,)
+        tau = [0.0]
+        for a, b in zip(edges[:-1], edges[1:]):
+            n = 4 * max(1, math.ceil(self.LAW_NODES * (b - a) / 4))
+            tau += list(np.linspace(a, b, n + 1)[1:])
+        return self.s_begin + self.sigma * law.evaluate(np.array(tau))[0] * self.length
+
+    def _law_segments(self) -> list:
+        s = self.law_nodes()
+        return [(float(min(s[0], s[-1])), float(max(s[0], s[-1])), s[1:-1])]
 
     def times(self, s_values) -> np.ndarray:
         """The time at each sweep value (at s_begin: 0)."""

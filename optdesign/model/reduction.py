@@ -20,6 +20,10 @@ are applied loads (a force does positive work when its point moves along it; so 
 
 Terms a scene does not use (no gravity, no forces, no mass, no inertia, eta = 1, zero speed or
 acceleration) are not built: their outputs are absent, not zero.
+
+The scene's force elements ([[forces]]: springs, gas springs, torsion springs, constant forces)
+add to Q_s by virtual work, dampers add the damping load D_s qd / k^2 (column ``damping_load``)
+at the drive's speed (:mod:`optdesign.model.forces`).
 """
 from __future__ import annotations
 
@@ -31,6 +35,7 @@ import numpy as np
 from ..errors import DeadCentreError, SceneError
 from ..kinematics.mechanism import Mechanism, _fmt_s
 from ..kinematics.peaks import Request, continuous_maxima_rows, narrow_minima
+from .forces import ForceLoads
 from .mapped import MappedFunction
 from ..scene.expressions import Expression
 
@@ -116,6 +121,7 @@ class ReducedModel:
                 t["Q_s"] = load
                 self.loaded.append(b.name)
             self.body_terms[b.name] = t
+        self.forces = ForceLoads(m)  # [[forces]]: springs, gas springs, dampers (model/forces.py)
 
     def _generalised(self):
         m = self.mech
@@ -132,14 +138,21 @@ class ReducedModel:
         for t in self.body_terms.values():
             if "Q_s" in t:
                 Q_s = Q_s + t["Q_s"]
-        self.has_static = bool(self.loaded)
+        if self.forces.static_s is not None:
+            Q_s = Q_s + self.forces.static_s
+        self.has_static = bool(self.loaded) or self.forces.static_s is not None
         self.Q_s = Q_s if self.has_static else None
+        # dampers: Q_s = D_s sd with sd = qd / k (absent without dampers or without speed)
+        self.damping_s = self.forces.damping_s if self.uses_speed else None
 
         # referred to the drive coordinate q
         u = 0
         if self.has_static:
             self.Q_q = self.Q_s / k
             u = u + self.Q_q
+        if self.damping_s is not None:
+            self.damping_q = self.damping_s * self.qd / k**2
+            u = u + self.damping_q
         if self.has_inertia:
             self.M_q = self.M_s / k**2
             self.dM_q = m.ds(self.M_q) / k
@@ -182,6 +195,8 @@ class ReducedModel:
             out["reduced_inertia_dq"] = c * self.dM_q
         if self.has_static:
             out["static_load"] = c * self.Q_q
+        if self.damping_s is not None:
+            out["damping_load"] = c * self.damping_q
         if self.has_inertia and self.uses_acceleration:
             out["inertia_term"] = c * self.M_q * self.qdd
         if self.has_inertia and self.uses_speed:
@@ -242,6 +257,8 @@ class ReducedModel:
         rest = ideal
         if self.has_static:
             rest = rest - self.Q_q
+        if self.damping_s is not None:
+            rest = rest - self.damping_q
         if self.uses_speed:
             rest = rest - 0.5 * self.dM_q * self.qd2
         return rest / self.M_q
@@ -260,6 +277,8 @@ class ReducedModel:
         n = 0
         if self.has_static:
             n = n + self.Q_s * k**3
+        if self.damping_s is not None:
+            n = n + self.damping_s * self.qd * k**2
         if self.has_inertia and self.uses_acceleration:
             n = n + self.M_s * k**2 * self.qdd
         if self.has_inertia and self.uses_speed:

@@ -111,14 +111,21 @@ def cylinder_sizing(values_of, push, pull, full_length, peak_extend_speed, peak_
     rod_needed = (64 * S * push * (K * full_length) ** 2 / (math.pi**3 * E)) ** 0.25
     rod = rod_needed if rod_given is None else rod_given
     bore_needed = max(math.sqrt(4 * push / (math.pi * p)), math.sqrt(4 * pull / (math.pi * p) + rod**2))
+    out = {"pressure": p, "peak_push": push, "peak_pull": pull, "full_extension": full_length,
+           "bore_needed": bore_needed, "rod_needed_buckling": rod_needed, "rod": rod,
+           "euler_force": euler_force(E, rod, full_length, K),
+           "buckling_utilisation": push * S / euler_force(E, rod, full_length, K)}
+    if bore_given is None and not bore_needed > rod:
+        # nothing pulls and the rod given is thicker than the push needs: any bore larger than the
+        # rod holds, so no bore (nor its pressures and pump flow) follows from the forces
+        out["bore_undetermined"] = (f"any bore larger than the rod ({rod:.6g} m): nothing pulls, and the push alone "
+                                    f"needs {math.sqrt(4 * push / (math.pi * p)):.6g} m; give [cylinder] bore for the "
+                                    "pressures and the pump flow")
+        return out
     bore = bore_needed if bore_given is None else bore_given
     area, annulus = math.pi * bore**2 / 4, math.pi * (bore**2 - rod**2) / 4
-    out = {"pressure": p, "peak_push": push, "peak_pull": pull, "full_extension": full_length,
-           "bore_needed": bore_needed, "rod_needed_buckling": rod_needed, "bore": bore, "rod": rod,
-           "euler_force": euler_force(E, rod, full_length, K),
-           "buckling_utilisation": push * S / euler_force(E, rod, full_length, K),
-           "pressure_push": push / area, "pressure_pull": pull / annulus if annulus > 0 else math.inf,
-           "pump_flow": max(area * peak_extend_speed, annulus * peak_retract_speed)}
+    out.update(bore=bore, pressure_push=push / area, pressure_pull=pull / annulus if pull > 0 else 0.0,
+               pump_flow=max(area * peak_extend_speed, annulus * peak_retract_speed))
     return out
 
 

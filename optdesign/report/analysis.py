@@ -10,13 +10,15 @@ from .cases import FIGURES as CASE_FIGURES
 from .cases import cases_figures, cases_json, cases_table
 from .checks import violation_text, violations, violations_json
 from .output import SCHEMA, Rows, table_chunks
+from .units import ColumnUnits
 
 UNITS = {
-    "rotary": {"q": "rad", "reduced_inertia": "kg m^2", "reduced_inertia_dq": "kg m^2/rad",
-               "static_load": "N m", "inertia_term": "N m", "velocity_term": "N m", "drive": "N m",
-               "power": "W", "k": "rad/unit of s"},
-    "linear": {"q": "m", "reduced_inertia": "kg", "reduced_inertia_dq": "kg/m", "static_load": "N",
-               "inertia_term": "N", "velocity_term": "N", "drive": "N", "power": "W", "k": "m/unit of s"},
+    "rotary": ColumnUnits({"q": "rad", "reduced_inertia": "kg m^2", "reduced_inertia_dq": "kg m^2/rad",
+                           "static_load": "N m", "damping_load": "N m", "inertia_term": "N m", "velocity_term": "N m",
+                           "drive": "N m", "power": "W", "k": "rad/unit of s"}),
+    "linear": ColumnUnits({"q": "m", "reduced_inertia": "kg", "reduced_inertia_dq": "kg/m", "static_load": "N",
+                           "damping_load": "N", "inertia_term": "N", "velocity_term": "N", "drive": "N", "power": "W",
+                           "k": "m/unit of s"}),
 }
 SEED_NAMES = {
     "rotary": {"reduced_inertia": "I_zS", "reduced_inertia_dq": "dI_zS/dalpha", "static_load": "T_Su",
@@ -24,7 +26,7 @@ SEED_NAMES = {
     "linear": {"reduced_inertia": "m_zS", "reduced_inertia_dq": "dm_zS/dx", "static_load": "F_Su",
                "inertia_term": "m_zS*a_S", "velocity_term": "dF_S", "drive": "F_S"},
 }
-COLUMN_ORDER = ("s", "q", "k", "reduced_inertia", "reduced_inertia_dq", "static_load", "inertia_term",
+COLUMN_ORDER = ("s", "q", "k", "reduced_inertia", "reduced_inertia_dq", "static_load", "damping_load", "inertia_term",
                 "velocity_term", "drive", "power", "efficiency_factor")
 
 
@@ -77,6 +79,8 @@ def analysis_json(result) -> dict:
             row["bodies"] = {b: {k: v[i] for k, v in d.items()} for b, d in result.bodies.items()}
         if per_sample:
             row["constraints"] = {k: v[i] for k, v in per_sample.items()}
+        if result.quantities:
+            row["quantities"] = {k: v[i] for k, v in result.quantities.items()}
         return row
 
     samples = Rows(n, sample)
@@ -92,10 +96,27 @@ def analysis_json(result) -> dict:
         "constraints": {k: v for k, v in result.constraints.items() if not np.ndim(v)},
         "constraints_sampled": result.constraints_sampled,
         "constraint_extremes": result.constraint_extremes,
+        "certificates": result.certificates,   # the enclosures' bounds, or why there is none
+        "quantity_units": {q.name: q.unit for q in result.scene.quantities},   # [quantities]
+        "joints_note": result.joints_note,   # why no joint forces (pin_force(P), ...) are given, or None
         "violations": violations_json(result),   # violated scene constraints: how far, where (report/checks.py)
         "samples": samples,
         **cases_json(result),   # with [[cases]]: cases, governing, duty, drive_train (report/cases.py)
     }
+
+
+def certificate_lines(result) -> list:
+    """What the enclosures proved: one line for all certified figures, one per figure without
+    a certificate (docs/certification.md)."""
+    certs = getattr(result, "certificates", {}) or {}
+    missing = [(k, c["note"]) for k, c in certs.items() if c["note"]]
+    lines = []
+    if certs and len(missing) < len(certs):
+        lines.append("(certified by interval enclosures: no value between the samples exceeds these by more than "
+                     "1e-9 of the quantity's largest sampled value)" if not missing else
+                     f"(certified by interval enclosures, but for the {len(missing)} below)")
+    lines += [f"{k}: {note}" for k, note in missing]
+    return lines
 
 
 def analysis_table(result) -> str:
@@ -108,6 +129,8 @@ def analysis_table_chunks(result):
     for name, v in result.constraints.items():
         if np.ndim(v):
             cols[name.replace(" ", "_")] = v
+    for name, v in result.quantities.items():   # [quantities], by name (quantity_NAME where a column has it)
+        cols[name if name not in cols else f"quantity_{name}"] = v
     yield from table_chunks(cols, ordered(result.columns) + [c for c in cols if c not in result.columns])
     yield from analysis_peaks_chunks(result)
 
@@ -135,12 +158,15 @@ def analysis_peaks_chunks(result, case_samples: bool = True):
     lines.append(f"(peaks and extremes over the continuous stroke, located between the samples where "
                  f"they lie there; the drive load at every {sweep} is the load at the drive speed and "
                  "acceleration given in [drive])")
+    lines += certificate_lines(result)
     lines += [f"violated: {violation_text(result, v)}" for v in violations(result)]   # report/checks.py
+    if result.joints_note:
+        lines.append(f"joint forces: none ({result.joints_note})")
     yield "\n" + "\n".join(lines)
     yield cases_table(result, case_samples)   # with [[cases]] (report/cases.py)
 
 
-FIGURES = ("drive.png", "reduced_inertia.png", "constraints.png") + CASE_FIGURES
+FIGURES = ("drive.png", "reduced_inertia.png", "constraints.png", "quantities.png") + CASE_FIGURES
 
 
 def analysis_figures(result, folder, label="folder") -> list:
@@ -154,7 +180,7 @@ def analysis_figures(result, folder, label="folder") -> list:
 def _analysis_figures(result, folder) -> list:
     """drive.png, reduced_inertia.png and constraints.png over the sweep in the scene's units, bounds
     shaded and violations red (report/stroke_plots.py), and the cases' figures."""
-    from .stroke_plots import inertia_figure, stroke_figure
+    from .stroke_plots import inertia_figure, quantities_figure, stroke_figure
 
     folder = Path(folder)
     written = [stroke_figure([("", result)], folder / "drive.png", components=True, constraints=False,
@@ -164,4 +190,6 @@ def _analysis_figures(result, folder) -> list:
     if any(np.ndim(v) for v in result.constraints.values()):
         written.append(stroke_figure([("", result)], folder / "constraints.png", drive=False,
                                      title=f"{result.scene.title}\nconstraints over the stroke"))
+    if result.quantities:   # [quantities]
+        written.append(quantities_figure(result, folder / "quantities.png"))
     return written + cases_figures(result, folder)

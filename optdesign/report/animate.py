@@ -8,15 +8,16 @@ velocity of its two pins (CasADi's derivative in s): mu = 90 deg when the whole 
 pins goes into the actuator's length, 0 at a dead centre."""
 from __future__ import annotations
 
+import io
 import os
 import shutil
-import tempfile
 import textwrap
 from pathlib import Path
 
 import numpy as np
 
 from .drawing import context, draw_mechanism, draw_paths, frame_view, limits
+from .files import place, temporary_for, write_file
 from .geometry import Geometry
 from .layout import animation_layout
 from .topology import topology
@@ -76,16 +77,20 @@ def transmission(scene, geometry, analysis, s):
     return "transmission angle (actuator to its pins' motion)", 90.0 - np.degrees(np.arccos(c)), "deg", None
 
 
-def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None, at=None) -> list:
+def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None, at=None, label="") -> list:
     """Write the animation of ``scene`` to every path in ``paths`` (.gif always; .mp4 only where
     ffmpeg is available: others are skipped; .png: the first frame alone); returns the paths
     written.  ``at``: fractions of the stroke (0 its start, 1 its end) to draw instead of
     ``frames`` evenly spread ones (a still: ``at=[0.6]`` with a .png path).  ``analysis``: an
     :class:`~optdesign.model.analysis.AnalysisResult` of the same scene (made here if None and
-    the scene has a drive)."""
+    the scene has a drive).  Each file is written by report/files.py (``label``: the option that
+    named the paths; ``-``: a GIF on standard output)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
+    from ..scene.arguments import animation_frames
+
+    frames = animation_frames(frames, dpi) if at is None else frames
     geometry = Geometry(scene)
     scene = geometry.scene
     top = topology(scene)
@@ -128,11 +133,11 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None, 
         markers.append((dot, line, values))
     if trans is not None:
         ax = fig.add_axes([0, 0, 1, 1])
-        label, values, tunit, bounds = trans
+        trans_name, values, tunit, bounds = trans
         ax.plot(curve_s * factor, curve[1], color="#2ca02c", lw=1.6)
         if bounds:
             bound_lines(ax, *bounds)
-        ax.set_ylabel(textwrap.fill(f"{label} [{tunit}]", 32), fontsize=8)
+        ax.set_ylabel(textwrap.fill(f"{trans_name} [{tunit}]", 32), fontsize=8)
         ax.grid(alpha=0.3)
         ax.tick_params(labelsize=7)
         (dot,) = ax.plot([], [], "o", color="black", ms=6)
@@ -187,11 +192,11 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None, 
             a.remove()
         return image
 
-    paths = [Path(p) for p in paths]
-    mp4 = [p for p in paths if p.suffix.lower() == ".mp4"] if ffmpeg_available() else []
+    paths = [p if str(p) == "-" else Path(p) for p in paths]
+    mp4 = [p for p in paths if Path(p).suffix.lower() == ".mp4"] if ffmpeg_available() else []
     w, h = canvas.get_width_height(physical=True)
     # the MP4 is encoded by ffmpeg while the frames are drawn, from the same frames as the GIF
-    streams = [Mp4Stream(p, w, h, fps) for p in mp4]
+    streams = [Mp4Stream(p, w, h, fps, label) for p in mp4]
     try:
         images = []
         for i in range(len(s)):
@@ -200,35 +205,29 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None, 
                 stream.add(images[-1])
         written = []
         for path in paths:
-            if path.suffix.lower() == ".png":
+            suffix = Path(path).suffix.lower()
+            if suffix == ".png":
                 from PIL import Image
 
-                _write(path, lambda tmp: Image.fromarray(np.ascontiguousarray(images[0][..., :3])).save(tmp, format="PNG"))
-            elif path.suffix.lower() == ".mp4":
-                if path not in mp4:
-                    continue
-                streams[mp4.index(path)].finish()
+                written.append(write_file(path, _encoded(lambda fh: Image.fromarray(
+                    np.ascontiguousarray(images[0][..., :3])).save(fh, format="PNG")), label))
+            elif suffix == ".mp4":
+                if path in mp4:
+                    written.append(streams[mp4.index(path)].finish())
             else:
-                _write(path, lambda tmp: write_gif(images, tmp, fps))
-            written.append(path)
+                written.append(write_file(path, _encoded(lambda fh: write_gif(images, fh, fps)), label))
     finally:
         for stream in streams:
             stream.abandon()
     return written
 
 
-def _write(path, write):
-    """``write(tmp)`` into a temporary file beside ``path``, then renamed onto it (atomic)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=path.suffix)
-    os.close(fd)
-    try:
-        write(tmp)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+def _encoded(write) -> bytes:
+    """The bytes that ``write(file)`` writes (a GIF or PNG made in memory, then written by
+    report/files.py: a FIFO or standard output cannot be sought in as Pillow may)."""
+    buf = io.BytesIO()
+    write(buf)
+    return buf.getvalue()
 
 
 def write_gif(images, path, fps):
@@ -261,20 +260,19 @@ def _ffmpeg_command(w, h, fps, path):
 
 
 class Mp4Stream:
-    """An MP4 written by ffmpeg as its frames come (:meth:`add`), into a temporary file beside
-    ``path`` that :meth:`finish` renames onto it (atomic); a feeding thread keeps the drawing of
+    """An MP4 written by ffmpeg as its frames come (:meth:`add`), into a temporary file that
+    :meth:`finish` puts at ``path`` (report/files.place: renamed onto a regular file, copied
+    into a FIFO or device); a feeding thread keeps the drawing of
     the next frame from waiting on the pipe.  :meth:`abandon` stops it and removes the
     temporary file (after :meth:`finish`: nothing to do)."""
 
-    def __init__(self, path, w, h, fps):
+    def __init__(self, path, w, h, fps, label=""):
         import queue
         import subprocess
         import threading
 
-        self.path = Path(path)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        fd, self.tmp = tempfile.mkstemp(dir=self.path.parent, prefix=f".{self.path.name}.", suffix=".mp4")
-        os.close(fd)
+        self.path, self.label = Path(path), label
+        self.tmp = temporary_for(self.path, label, suffix=".mp4")
         self.proc = subprocess.Popen(_ffmpeg_command(w, h, fps, self.tmp), stdin=subprocess.PIPE,
                                      stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
         self.frames = queue.Queue()
@@ -307,8 +305,7 @@ class Mp4Stream:
 
             raise OptdesignError(f"ffmpeg could not write {self.path}: "
                                  f"{err.decode(errors='replace').strip() or self.error}")
-        os.chmod(self.tmp, 0o644)
-        os.replace(self.tmp, self.path)
+        return place(self.tmp, self.path, self.label)
 
     def abandon(self):
         if self.thread.is_alive():

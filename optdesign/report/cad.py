@@ -105,13 +105,14 @@ def entities(scene, indices, samples=201) -> tuple:
     return out, layers
 
 
-def write_dxf(path, scene, indices, samples=201) -> Path:
-    """The entities as a DXF file (R2010, mm), written atomically; returns the path."""
+def write_dxf(path, scene, indices, samples=201, label="") -> Path:
+    """The entities as a DXF file (R2010, mm), written by report/files.py (``label``: the option
+    that named it); returns the path."""
     import io
 
     import ezdxf
 
-    from .output import write_atomic
+    from .files import write_file
 
     items, layers = entities(scene, indices, samples)
     doc = ezdxf.new("R2010")
@@ -131,17 +132,17 @@ def write_dxf(path, scene, indices, samples=201) -> Path:
             msp.add_text(e.text, height=e.r, dxfattribs=attrs).set_placement(e.a)
     buf = io.StringIO()
     doc.write(buf)
-    return write_atomic(path, buf.getvalue())
+    return write_file(path, buf.getvalue(), label)
 
 
 SVG_COLOURS = {1: "#d62728", 3: "#2ca02c", 5: "#1f3b5a", 7: "#000000", 8: "#555555"}
 
 
-def write_svg(path, scene, indices, samples=201) -> Path:
+def write_svg(path, scene, indices, samples=201, label="") -> Path:
     """The same entities as a plain SVG (one group per position, y up, 1 unit = 1 mm)."""
     from xml.sax.saxutils import escape
 
-    from .output import write_atomic
+    from .files import write_file
 
     items, layers = entities(scene, indices, samples)
     pts = np.array([e.a for e in items] + [e.b for e in items if e.kind == "line"], float)
@@ -168,4 +169,4 @@ def write_svg(path, scene, indices, samples=201) -> Path:
                            f'font-family="sans-serif" fill="{colour}">{escape(e.text)}</text>')
         out.append("</g>")
     out.append("</svg>")
-    return write_atomic(path, "\n".join(out) + "\n")
+    return write_file(path, "\n".join(out) + "\n", label)

@@ -156,6 +156,12 @@ def _train_lines(train, kind):
         return []
     if kind == "linear":
         t = train
+        if "bore_undetermined" in t:
+            return [f"cylinder at {t['pressure'] * 1e-5:.6g} bar: peak push {t['peak_push']:.8g} N, pull "
+                    f"{t['peak_pull']:.8g} N, full extension {t['full_extension'] * 1e3:.6g} mm",
+                    f"  bore needed: {t['bore_undetermined']}; rod needed for buckling "
+                    f"{t['rod_needed_buckling'] * 1e3:.6g} mm; with rod {t['rod'] * 1e3:.6g} mm: Euler load "
+                    f"{t['euler_force']:.8g} N, buckling utilisation {t['buckling_utilisation']:.4g}"]
         return [f"cylinder at {t['pressure'] * 1e-5:.6g} bar: peak push {t['peak_push']:.8g} N, pull "
                 f"{t['peak_pull']:.8g} N, full extension {t['full_extension'] * 1e3:.6g} mm",
                 f"  bore needed {t['bore_needed'] * 1e3:.6g} mm, rod needed for buckling "

@@ -7,15 +7,17 @@ from __future__ import annotations
 import numpy as np
 
 from ..scene import ResolvedScene
-from .units import DEG, constraint_scale, number, scaled, sweep_scale, sweep_unit
+from .units import DEG, ColumnUnits, constraint_scale, number, scaled, sweep_scale, sweep_unit
 
-SI = {"rotary": {"q": "rad", "reduced_inertia": "kg m^2", "reduced_inertia_dq": "kg m^2/rad", "static_load": "N m",
-                 "inertia_term": "N m", "velocity_term": "N m", "drive": "N m", "power": "W", "k": "rad/unit of s"},
-      "linear": {"q": "m", "reduced_inertia": "kg", "reduced_inertia_dq": "kg/m", "static_load": "N",
-                 "inertia_term": "N", "velocity_term": "N", "drive": "N", "power": "W", "k": "m/unit of s"}}
+SI = {"rotary": ColumnUnits({"q": "rad", "reduced_inertia": "kg m^2", "reduced_inertia_dq": "kg m^2/rad",
+                             "static_load": "N m", "damping_load": "N m", "inertia_term": "N m", "velocity_term": "N m",
+                             "drive": "N m", "power": "W", "k": "rad/unit of s"}),
+      "linear": ColumnUnits({"q": "m", "reduced_inertia": "kg", "reduced_inertia_dq": "kg/m", "static_load": "N",
+                             "damping_load": "N", "inertia_term": "N", "velocity_term": "N", "drive": "N", "power": "W",
+                             "k": "m/unit of s"})}
 
-ORDER = ("s", "q", "k", "reduced_inertia", "reduced_inertia_dq", "static_load", "inertia_term", "velocity_term",
-         "drive", "power", "efficiency_factor")
+ORDER = ("s", "q", "k", "reduced_inertia", "reduced_inertia_dq", "static_load", "damping_load", "inertia_term",
+         "velocity_term", "drive", "power", "efficiency_factor")
 
 
 def _bounds(result):
@@ -166,6 +168,10 @@ def csv_text(result) -> str:
             factor, unit = constraint_scale(bounds[name][0]) if name in bounds else (1.0, "")
             cols.append(np.asarray(v) * factor)
             heads.append(f"{name} [{unit or '-'}]")
+    units = {q.name: q.unit for q in result.scene.quantities}
+    for name, v in result.quantities.items():   # [quantities] in SI, with the unit the scene gave
+        cols.append(np.asarray(v))
+        heads.append(f"{name} [{units.get(name) or '-'}]")
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
     writer.writerow(heads)

@@ -6,7 +6,8 @@ import dataclasses
 from .design_cases import cases_json, cases_summary
 from . import design_figures
 from .design_figures import FIGURES, write_figures
-from .output import SCHEMA, to_json, write_atomic
+from .files import write_file
+from .output import SCHEMA, to_json
 from .units import ROUND_OFF, constraint_scale, objective_kind_text, peak_quantity
 
 
@@ -20,6 +21,7 @@ def optimisation_json(result) -> dict:
         "success": result.success, "status": result.status, "message": result.message,
         "starts_total": result.starts_total, "starts_at_best": result.starts_at_best,
         "constraints": result.constraints, "sensitivities": result.sensitivities,
+        "sensitivity_notes": getattr(result, "sensitivity_notes", {}),
         "starts": [dataclasses.asdict(s) for s in result.starts],
         "optima": [o.as_dict() for o in result.optima], "least_violating": result.least_violating,
         "start_plan": result.start_plan, "interrupted": getattr(result, "interrupted", False),
@@ -52,7 +54,9 @@ def summary(result, catalogue=None) -> str:
         lines += _lockup_notes(result)
         if result.sensitivities:
             lines.append("sensitivities d objective / d parameter:")
-            lines += [f"  {k}: {v:.6g}" for k, v in result.sensitivities.items()]
+            notes = getattr(result, "sensitivity_notes", {})
+            lines += [f"  {k}: {v:.6g}" + (f" ({notes[k]})" if k in notes else "")
+                      for k, v in result.sensitivities.items()]
         lines += [cases_summary(result, catalogue)] if result.scene.cases else []   # report/design_cases.py
     lines += starts_lines(result)
     lines.append(f"time: {result.timings.get('total_s', float('nan')):.3f} s "
@@ -176,8 +180,8 @@ def result_summary(result, catalogue=None) -> str:
 
 def _write_results(result, folder, workers, animate=True, catalogue=None, figures=None) -> list:
     written = [folder / "result.json", folder / "summary.txt"]
-    write_atomic(written[0], to_json(result_json(result, catalogue)) + "\n")
-    write_atomic(written[1], result_summary(result, catalogue) + "\n")
+    write_file(written[0], to_json(result_json(result, catalogue)) + "\n")
+    write_file(written[1], result_summary(result, catalogue) + "\n")
     if not result.success:   # no design to draw
         return written
     drawn = figures.write(result, folder, workers, animate) if figures is not None else None

@@ -77,17 +77,23 @@ def train_rows(doc, sweep) -> dict:
         out["governing"] = [(what, _at(doc, key, sweep)) for what, key in
                             (("motor peak torque", "motor_torque"), ("motor speed", "motor_speed"),
                              ("output peak torque", "drive")) if _at(doc, key, sweep)]
-    elif "bore" in train:
+    elif "bore" in train or "bore_undetermined" in train:
         t = train
-        out["cylinder"] = [
-            ("bore", f"{t['bore'] * MM:.4g} mm (needed {t['bore_needed'] * MM:.4g} mm)"),
-            ("rod", f"{t['rod'] * MM:.4g} mm (needed for buckling {t['rod_needed_buckling'] * MM:.4g} mm)"),
-            ("system pressure", f"{t['pressure'] * BAR:.4g} bar"),
-            ("pressure pushing", f"{t['pressure_push'] * BAR:.4g} bar at the peak push {t['peak_push'] / 1e3:.4g} kN"),
-            ("pressure pulling", f"{t['pressure_pull'] * BAR:.4g} bar at the peak pull {t['peak_pull'] / 1e3:.4g} kN"),
-            ("pump flow", f"{t['pump_flow'] * LPM:.4g} l/min"),
-            ("buckling utilisation", f"{t['buckling_utilisation']:.3g} (Euler load {t['euler_force'] / 1e3:.4g} kN at "
-                                     f"full extension {t['full_extension'] * MM:.4g} mm)")]
+        sized = "bore" in t   # else no bore follows (a rod without a bore where nothing pulls)
+        rows = [("bore", f"{t['bore'] * MM:.4g} mm (needed {t['bore_needed'] * MM:.4g} mm)" if sized
+                 else f"undetermined: {t['bore_undetermined']}"),
+                ("rod", f"{t['rod'] * MM:.4g} mm (needed for buckling {t['rod_needed_buckling'] * MM:.4g} mm)"),
+                ("system pressure", f"{t['pressure'] * BAR:.4g} bar")]
+        if sized:
+            rows += [("pressure pushing", f"{t['pressure_push'] * BAR:.4g} bar at the peak push "
+                                          f"{t['peak_push'] / 1e3:.4g} kN"),
+                     ("pressure pulling", f"{t['pressure_pull'] * BAR:.4g} bar at the peak pull "
+                                          f"{t['peak_pull'] / 1e3:.4g} kN"),
+                     ("pump flow", f"{t['pump_flow'] * LPM:.4g} l/min")]
+        rows.append(("buckling utilisation", f"{t['buckling_utilisation']:.3g} (Euler load "
+                                             f"{t['euler_force'] / 1e3:.4g} kN at full extension "
+                                             f"{t['full_extension'] * MM:.4g} mm)"))
+        out["cylinder"] = rows
         out["governing"] = [(what, _at(doc, key, sweep)) for what, key in
                             (("peak cylinder force", "drive"), ("rod buckling", "rod_buckling")) if _at(doc, key, sweep)]
     return out

@@ -115,7 +115,7 @@ def _check_parent(folder: Path, label):
 def _produced(name, produces) -> bool:
     if name in produces:
         return True
-    # a write_atomic temporary of a produced file, left by a killed run: ".NAME.XXXX.tmp"
+    # a write_file temporary of a produced file, left by a killed run: ".NAME.XXXX.tmp"
     return name.startswith(".") and name.endswith(".tmp") and any(name.startswith(f".{p}.") for p in produces)
 
 

@@ -208,7 +208,7 @@ def write_html(result, folder, analyses=(), files=()) -> Path:
     exist in ``folder``; ``analyses``: (label, AnalysisResult) of the start and the optimum."""
     from importlib import metadata
 
-    from .output import write_atomic
+    from .files import write_file
 
     folder = Path(folder)
     scene = result.scene
@@ -267,4 +267,4 @@ def write_html(result, folder, analyses=(), files=()) -> Path:
             "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
             f"<title>{_e(scene.title)}</title><style>{STYLE}</style></head><body><main>"
             + "\n".join(body) + "</main></body></html>\n")
-    return write_atomic(folder / "report.html", page)
+    return write_file(folder / "report.html", page)

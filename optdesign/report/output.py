@@ -1,38 +1,17 @@
-"""How results reach files: atomic writes (temp file + rename, so an interrupted run never leaves
-a half-written file), JSON with inf/nan as null, plain tables, figures without pyplot."""
+"""How results reach files: JSON with inf/nan as null, plain tables, figures without pyplot; each
+file written by report/files.py (atomic for a regular file, never replacing a link, FIFO or device)."""
 from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
+from .files import write_file
+
 SCHEMA = "optdesign/1"
-
-
-def write_atomic(path, text: str | bytes) -> Path:
-    """Write ``text`` to ``path`` through a temporary file in the same folder and a rename;
-    returns the path."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    mode = "wb" if isinstance(text, bytes) else "w"
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, mode) as fh:
-            fh.write(text)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; results are for everyone to read
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path
 
 
 def new_figure(nrows=1, ncols=1, figsize=(7, 4), layout="constrained", **subplot_kw):
@@ -48,28 +27,28 @@ def new_figure(nrows=1, ncols=1, figsize=(7, 4), layout="constrained", **subplot
     return fig, fig.subplots(nrows, ncols, **subplot_kw)
 
 
-def save_figure(fig, path):
-    """Save a matplotlib figure atomically.  A figure from :func:`new_figure` is laid out in
+def save_figure(fig, path, label=""):
+    """Save a matplotlib figure (report/files.py; ``label``: the option that named the path).  A figure from :func:`new_figure` is laid out in
     the one draw that saving makes; any other is cropped to its contents (a second draw)."""
     import io
 
     buf = io.BytesIO()
     tight = None if fig.get_layout_engine() is not None else "tight"
     fig.savefig(buf, format=Path(path).suffix.lstrip(".") or "png", dpi=120, bbox_inches=tight)
-    write_atomic(path, buf.getvalue())
+    return write_file(path, buf.getvalue(), label)
 
 
-def save_figures(fig, paths) -> list:
+def save_figures(fig, paths, label="") -> list:
     """Save a figure whose axes the caller placed (no layout engine: each save is one draw) to
     each of ``paths`` (PNG, SVG, ...) atomically, as it is (not cropped); returns the paths."""
     import io
 
-    paths = [Path(p) for p in paths]
+    written = []
     for path in paths:
         buf = io.BytesIO()
-        fig.savefig(buf, format=path.suffix.lstrip(".") or "png", dpi=120)
-        write_atomic(path, buf.getvalue())
-    return paths
+        fig.savefig(buf, format=Path(path).suffix.lstrip(".") or "png", dpi=120)
+        written.append(write_file(path, buf.getvalue(), label))
+    return written
 
 
 def _clean(value):

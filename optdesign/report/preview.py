@@ -58,9 +58,9 @@ def stroke_summary(scene, frames) -> str:
     return "; ".join(parts)
 
 
-def preview_figure(scene, paths, fractions="0,0.25,0.5,0.75,1", samples=201, title=None) -> tuple:
-    """Draw the preview of ``scene`` and save it to every path in ``paths``; returns (paths,
-    the stroke summary)."""
+def preview_figure(scene, paths, fractions="0,0.25,0.5,0.75,1", samples=201, title=None, label="") -> tuple:
+    """Draw the preview of ``scene`` and save it to every path in ``paths`` (``label``: the option
+    that named them); returns (the paths written, the stroke summary)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -97,9 +97,8 @@ def preview_figure(scene, paths, fractions="0,0.25,0.5,0.75,1", samples=201, tit
     bar = fig.add_subplot(grid[rows, :])
     _stroke_bar(bar, geometry.scene, frames, picks)
     fig.suptitle(textwrap.fill(title or geometry.scene.title, int(11 * panel * cols)), fontsize=10)
-    for path in paths:
-        save_figure(fig, path)
-    return [Path(p) for p in paths], stroke_summary(geometry.scene, frames)
+    written = [save_figure(fig, path, label) for path in paths]
+    return written, stroke_summary(geometry.scene, frames)
 
 
 def _stroke_bar(ax, scene, frames, picks):

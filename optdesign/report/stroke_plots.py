@@ -119,3 +119,22 @@ def inertia_figure(result, path):
     ax.grid(alpha=0.3)
     save_figure(fig, path)
     return path
+
+
+def quantities_figure(result, path):
+    """Each of the scene's [quantities] over the sweep (in the scene's sweep unit), one panel
+    each, labelled with its unit."""
+    scene = result.scene
+    units = {q.name: q.unit for q in scene.quantities}
+    factor, unit = sweep_scale(scene)
+    names = list(result.quantities)
+    fig, axes = new_figure(len(names), 1, figsize=(7, 1.0 + 2.0 * len(names)), sharex=True, squeeze=False)
+    s = np.asarray(result.columns["s"]) * factor
+    for ax, name in zip(axes[:, 0], names):
+        ax.plot(s, result.quantities[name])
+        ax.set_ylabel(f"{name} [{units.get(name) or '-'}]")
+        ax.grid(True, alpha=0.3)
+    axes[-1, 0].set_xlabel(f"{scene.sweep.name}" + (f" [{unit}]" if unit else ""))
+    axes[0, 0].set_title(textwrap.shorten(f"{scene.title}: quantities", 90))
+    save_figure(fig, path)
+    return path

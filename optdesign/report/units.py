@@ -11,6 +11,27 @@ from ..scene.written import sweep_unit, written_in_deg  # noqa: F401  (used by t
 DEG = math.pi / 180.0
 
 
+JOINT_UNITS = (("pin_force", "N"), ("slider_normal", "N"), ("slider_moment", "N m"))   # model/joints.py
+
+
+class ColumnUnits(dict):
+    """The units of the model's columns by name, and the joint forces' (``pin_force(P)``, ...:
+    :mod:`optdesign.model.joints`) by their prefix."""
+
+    def __missing__(self, key):
+        for prefix, unit in JOINT_UNITS:
+            if isinstance(key, str) and key.startswith(prefix) and key.endswith(")"):
+                return unit
+        raise KeyError(key)
+
+    def __contains__(self, key):
+        return dict.__contains__(self, key) or any(isinstance(key, str) and key.startswith(p) and key.endswith(")")
+                                                   for p, _ in JOINT_UNITS)
+
+    def get(self, key, default=None):
+        return self[key] if key in self else default
+
+
 def sweep_scale(scene) -> tuple:
     """(factor, unit): sweep values times factor are in the unit the scene wrote."""
     unit = sweep_unit(scene)

@@ -25,6 +25,10 @@ DIRECTIONS = {"forward": 1, "reverse": -1}
 CASE_COLUMNS = ("drive", "power", "static_load", "inertia_term", "velocity_term", "drive_speed",
                 "drive_acceleration", "motor_speed", "motor_acceleration", "motor_load_torque", "motor_torque",
                 "rod_buckling")
+# the reduced model's columns that a [[constraints]] expr or the objective may use in a scene
+# with a [drive] and no [[cases]] (model/quantities.py), e.g. end(static_load)
+MODEL_COLUMNS = ("drive", "power", "static_load", "damping_load", "inertia_term", "velocity_term",
+                 "reduced_inertia")
 
 
 def is_case_constraint(scene, constraint) -> bool:

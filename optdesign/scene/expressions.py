@@ -11,8 +11,8 @@ Grammar (never ``eval``)::
 ``**`` is read as ``^``.  So ``-2^2`` is -4, ``2^3^2`` is 512 and ``1 - 2 - 3`` is -4.
 Names are parameters, the sweep variable, ``pi`` and ``deg`` (pi/180).  ``25 deg`` is 25 degrees.
 Functions: ``sin cos tan asin acos atan atan2 sqrt abs exp log min max`` and the geometric
-measures ``length(P, Q)``, ``angle(P, Q, R)`` (at Q, between Q->P and Q->R, 0..pi), ``x(P)``,
-``y(P)``, whose arguments are point names.  ``min`` and ``max`` with one argument are taken over
+measures ``length(P, Q)``, ``angle(P, Q, R)`` (at Q, between Q->P and Q->R, 0..pi), ``angle(P, Q)``
+(the direction of P->Q from the x axis, -pi..pi), ``x(P)``, ``y(P)``, whose arguments are point names.  ``min`` and ``max`` with one argument are taken over
 the whole stroke (an aggregate); with two or more, element by element.  ``start(e)`` and
 ``end(e)`` are e at the stroke's first and last sample (the sweep's ``from`` and ``to``): one
 value per stroke, like an aggregate.
@@ -22,10 +22,8 @@ so the same tree gives a value per sample or, through the aggregates, one value 
 Every mistake (syntax, an unknown name or function, a wrong number of arguments) raises
 :class:`~optdesign.errors.ExpressionError` before CasADi sees the expression.
 
-Why one module of ~410 lines: the grammar's tables (CONSTANTS, UNARY, GEOMETRIC, AGGREGATES),
-its syntax tree, its parser and its evaluator change together (a new function is one entry in
-the tables, one case in the parser's argument check and one in the evaluator); split, each part
-would import the others' tables and a change would touch three files.
+Why one module: the grammar's tables, syntax tree, parser and evaluator change together (a new
+function is one entry in the tables, one case in the argument check and one in the evaluator).
 """
 from __future__ import annotations
 
@@ -49,7 +47,8 @@ UNARY = {
     "sin": ca.sin, "cos": ca.cos, "tan": ca.tan, "asin": ca.asin, "acos": ca.acos,
     "atan": ca.atan, "sqrt": ca.sqrt, "abs": ca.fabs, "exp": ca.exp, "log": ca.log,
 }
-GEOMETRIC = {"length": 2, "angle": 3, "x": 1, "y": 1}
+GEOMETRIC = {"length": 2, "angle": 3, "x": 1, "y": 1, "pin_force": 1, "pin_force_x": 1, "pin_force_y": 1,
+             "slider_normal": 1, "slider_moment": 1}  # the joint forces: model/quantities.py
 AGGREGATES = ("min", "max")
 STROKE_ENDS = ("start", "end")  # the value at the sweep's from / to: one value per stroke too
 FUNCTIONS = sorted(set(UNARY) | set(GEOMETRIC) | {"atan2"} | set(AGGREGATES) | set(STROKE_ENDS))
@@ -370,9 +369,9 @@ class _Parser:
     def _check_arguments(self, func, args):
         n = len(args)
         if func in GEOMETRIC:
-            want = GEOMETRIC[func]
+            want = 2 if func == "angle" and n == 2 else GEOMETRIC[func]   # angle(P, Q): a direction
             if n != want:
-                self._fail(f"{func}() takes {want} point name{'s' if want > 1 else ''}, found {n} argument"
+                self._fail(f"{func}() takes {'2 or 3' if func == 'angle' else want} point name{'s' if want > 1 else ''}, found {n} argument"
                            + ("s" if n != 1 else ""))
             for a in args:
                 if not isinstance(a, Name) or a.name in CONSTANTS:
@@ -436,6 +435,9 @@ class _Evaluator:
             p, q = (self.point(a.name) for a in args)
             d = p - q
             return ca.sqrt(d[0, :] ** 2 + d[1, :] ** 2)
+        if f == "angle" and len(args) == 2:   # the direction of P->Q
+            d = self.point(args[1].name) - self.point(args[0].name)
+            return ca.atan2(d[1, :], d[0, :])
         if f == "angle":
             p, q, r = (self.point(a.name) for a in args)
             u, v = p - q, r - q
@@ -444,6 +446,8 @@ class _Evaluator:
             return ca.atan2(ca.fabs(cross), dot)
         if f in ("x", "y"):
             return self.point(args[0].name)[0 if f == "x" else 1, :]
+        if f in GEOMETRIC:  # a joint force: a name that model/quantities.py gives
+            return self.run(Name(f"{f}({args[0].name})"))
         vals = [self.run(a) for a in args]
         if f in UNARY:
             return UNARY[f](vals[0])

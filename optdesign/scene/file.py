@@ -17,13 +17,15 @@ from .elements import (DRIVE_PINS, Body, Constraint, Drive, Gravity, Objective, 
                        Sweep)
 from .drawing import DRAWING_KEYS, Drawing
 from .file_sizing import SIZING_KEYS, read_sizing
+from .forces import FORCE_KEYS, read_force
 from .points import Attach, Closure, Dyad, Fixed, Loop, Polar, Slider
+from .quantities import read_quantities
 from .scene import Scene
 from .simulation import read_phases
 from .where import ARRAY_TABLES, Where, located_error, near_miss
 
-TOP_KEYS = ("title", "source", "parameters", "sweep", "points", "bodies", "gravity", "drive",
-            "constraints", "objective", "reference", "simulation", "drawing") + SIZING_KEYS
+TOP_KEYS = ("title", "source", "parameters", "sweep", "points", "bodies", "forces", "gravity", "drive",
+            "constraints", "objective", "reference", "simulation", "drawing", "quantities") + SIZING_KEYS
 REQUIRED_TOP = {"title": "a string naming the scene", "sweep": "the table [sweep] (the stroke)",
                 "points": "the table [points] (the constructions)"}
 CLOSED_FORM = {cls.KIND: cls for cls in (Fixed, Polar, Dyad, Slider, Attach)}
@@ -198,6 +200,7 @@ class _Reader:
             sweep=self.sweep(data["sweep"]),
             points=self.points(data["points"]),
             bodies=self.array("bodies", data.get("bodies", []), BODY_KEYS, self.body),
+            forces=self.array("forces", data.get("forces", []), FORCE_KEYS, read_force),
             gravity=self.gravity(data["gravity"]) if "gravity" in data else None,
             drive=self.drive(data["drive"]) if "drive" in data else None,
             constraints=self.array("constraints", data.get("constraints", []), CONSTRAINT_KEYS, self.constraint),
@@ -206,6 +209,7 @@ class _Reader:
             path=path,
             simulation=self.simulation(data["simulation"]) if "simulation" in data else None,
             drawing=self.drawing(data["drawing"]) if "drawing" in data else None,
+            quantities=read_quantities(data["quantities"]) if "quantities" in data else (),
             **read_sizing(self, data),
         )
 
@@ -276,7 +280,7 @@ class _Reader:
         for i, item in enumerate(data):
             where = Where(table, item.get("name") if isinstance(item, dict) else None, index=i)
             self.check_keys(where, item, allowed)
-            for key in ("name",) + {"bodies": ("frame",), "constraints": ("expr",)}.get(table, ()):
+            for key in ("name",) + {"bodies": ("frame",), "constraints": ("expr",), "forces": ("kind",)}.get(table, ()):
                 if key not in item:
                     _raise(where.at(key), f"missing key {key!r}")
             out.append(build(item))

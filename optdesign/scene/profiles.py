@@ -17,6 +17,13 @@ jerk per second cubed.  Kinds and their keys:
                 parameters, > 0 inside the stroke (it may be 0 at its ends)
 ==============  ===========================================================================
 
+and the motion laws in time (:mod:`optdesign.scene.motion_laws`): ``cycloidal``, ``harmonic``,
+``modified-sine``, ``modified-trapezoid``, ``polynomial-345``, ``polynomial-4567``, each from
+rest to rest over the stroke in ``time`` [s], or in the shortest time within a peak ``speed``,
+a peak ``acceleration`` or both (the time follows: T = C_v h / speed, T = sqrt(C_a h /
+acceleration)); and ``polynomial``: the quintic over ``time`` with ``start_speed``,
+``end_speed``, ``start_acceleration``, ``end_acceleration`` (sweep rates; absent: 0).
+
 This module holds the item (:class:`Profile`) and the numbers of its phases
 (:func:`profile_shape`, used by the validation and by :mod:`optdesign.model.profiles`, which
 turns them into CasADi graphs of s).
@@ -27,6 +34,7 @@ import math
 from dataclasses import dataclass, field
 
 from .expressions import Expression, constant_value
+from .motion_laws import GENERAL, LAWS, MotionLaw, general, standard
 from .values import check_name, parse_optional, set_field
 from .where import Where, fail, near_miss, show
 
@@ -35,8 +43,11 @@ KINDS = {
     "trapezoidal": (("speed", "acceleration", "deceleration"), ("time", "acceleration", "deceleration")),
     "s-curve": (("speed", "acceleration", "deceleration", "jerk"),),
     "law": (("speed",),),
+    **{law: (("time",), ("speed",), ("acceleration",), ("speed", "acceleration")) for law in LAWS},
 }
-KEYS = ("kind", "speed", "acceleration", "deceleration", "jerk", "time")
+ENDS = ("start_speed", "end_speed", "start_acceleration", "end_acceleration")
+KINDS[GENERAL] = tuple(("time",) + tuple(e for i, e in enumerate(ENDS) if mask >> i & 1) for mask in range(16))
+KEYS = ("kind", "speed", "acceleration", "deceleration", "jerk", "time") + ENDS
 
 
 @dataclass(frozen=True)
@@ -50,6 +61,10 @@ class Profile:
     deceleration: Expression | None = None
     jerk: Expression | None = None
     time: Expression | None = None
+    start_speed: Expression | None = None
+    end_speed: Expression | None = None
+    start_acceleration: Expression | None = None
+    end_acceleration: Expression | None = None
     place: Where | None = field(default=None, compare=False)   # an inline profile: where its case has it
 
     def __post_init__(self):
@@ -66,7 +81,8 @@ class Profile:
         given = tuple(k for k in KEYS[1:] if getattr(self, k) is not None)
         forms = KINDS[self.kind]
         if not any(set(given) == set(form) for form in forms):
-            wanted = " or ".join(", ".join(form) for form in forms)
+            wanted = " or ".join(", ".join(form) for form in forms) if self.kind != GENERAL else \
+                f"time, and any of {', '.join(ENDS)}"
             fail(where, f"a {self.kind!r} profile takes {wanted}; found {', '.join(given) or 'nothing'}")
 
     def where(self, key=None) -> Where:
@@ -106,6 +122,7 @@ class Shape:
     decelerate: Phase | None = None
     time: float = math.nan
     law: Expression | None = None
+    motion_law: MotionLaw | None = None   # a motion law in time: its normalised f(tau)
 
     @property
     def cruise(self) -> float:
@@ -135,6 +152,8 @@ def profile_shape(profile: Profile, values: dict, length: float, suffix: str = "
     to such a message (e.g. which case's values were used)."""
     if profile.kind == "law":
         return Shape("law", length, law=profile.speed)
+    if profile.kind in LAWS or profile.kind == GENERAL:
+        return _law_shape(profile, values, length, suffix)
     if profile.kind == "constant":
         v = _number(profile, "speed", values)
         zero = Phase(0.0, 0.0, 0.0, 0.0)
@@ -162,6 +181,35 @@ def profile_shape(profile: Profile, values: dict, length: float, suffix: str = "
                                 "raise the accelerations" + suffix)
     cruise = max(length - up.distance - down.distance, 0.0)
     return Shape(profile.kind, length, v, up, down, up.duration + cruise / v + down.duration)
+
+
+def _law_shape(profile, values, length, suffix) -> Shape:
+    """A motion law in time over the stroke: its duration (given, or the shortest within the
+    peak speed and acceleration given), its peak speed, and the normalised law."""
+    if profile.kind == GENERAL:
+        T = _number(profile, "time", values)
+        ends = [0.0 if getattr(profile, k) is None else constant_value(getattr(profile, k), values, profile.where(k))
+                for k in ENDS]
+        v0, v1, a0, a1 = ends[0] * T / length, ends[1] * T / length, ends[2] * T**2 / length, ends[3] * T**2 / length
+        law = general(v0, v1, a0, a1)
+        if law.min_speed < 0:
+            tau = law.min_speed_at
+            x = float(law.evaluate([tau])[0][0]) * length
+            fail(profile.where("time"), f"this polynomial reverses: its speed is {law.min_speed * length / T:.6g} at "
+                                        f"t = {tau * T:.6g} s ({x:.6g} along the stroke of {length:.6g}); a profile "
+                                        "moves one way: give end speeds and accelerations that keep it moving "
+                                        "forward, or a longer or shorter time" + suffix)
+        return Shape(GENERAL, length, law.peak_speed * length / T, time=T, motion_law=law)
+    law = standard(profile.kind)
+    times = []
+    if profile.time is not None:
+        times.append(_number(profile, "time", values))
+    if profile.speed is not None:
+        times.append(law.peak_speed * length / _number(profile, "speed", values))
+    if profile.acceleration is not None:
+        times.append(math.sqrt(law.peak_acceleration * length / _number(profile, "acceleration", values)))
+    T = max(times)
+    return Shape(profile.kind, length, law.peak_speed * length / T, time=T, motion_law=law)
 
 
 def _reachable(length, a, d, j):

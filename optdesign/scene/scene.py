@@ -15,6 +15,7 @@ from .cases import Duty
 from .drawing import Drawing
 from .elements import Drive, Gravity, Objective, Parameter, Simulation, Sweep
 from .expressions import constant_value
+from .quantities import expanded_items
 from .train import Cylinder, Gearbox
 from .validate import Validator
 from .values import set_field
@@ -31,6 +32,7 @@ class Scene:
     sweep: Sweep
     points: tuple
     bodies: tuple = ()
+    forces: tuple = ()   # [[forces]]: springs, gas springs, dampers, torsion springs (scene/forces.py)
     gravity: Gravity | None = None
     drive: Drive | None = None
     constraints: tuple = ()
@@ -47,10 +49,14 @@ class Scene:
     motors: tuple = ()
     cylinder: Cylinder | None = None
     drawing: Drawing | None = None   # the optional [drawing] table (drawings only)
+    quantities: tuple = ()           # [quantities]: named per-sample expressions (scene/quantities.py)
 
     def __post_init__(self):
-        for name in ("parameters", "points", "bodies", "constraints", "profiles", "cases", "motors"):
+        for name in ("parameters", "points", "bodies", "forces", "constraints", "profiles", "cases", "motors",
+                     "quantities"):
             set_field(self, name, tuple(getattr(self, name)))
+        for name, value in expanded_items(self).items():   # the quantities' names replaced by their expressions
+            set_field(self, name, value)
         self.validate()
 
     # --- lookups ---

@@ -17,6 +17,7 @@ from ..errors import ExpressionError, SceneError
 from .elements import (DRIVE_PINS, LAW_NAMES, Body, Constraint, Drive, Gravity, Objective, Parameter,
                        Simulation, Sweep)
 from .expressions import constant_value
+from .forces import check_forces
 from .points import CONSTRUCTIONS, Loop
 from .simulation import check_phases
 from .validate_cases import DriveSizingValidator, case_columns
@@ -43,7 +44,9 @@ class Validator:
         values = self._check_parameters()
         names = set(values) | {self.scene.sweep.name}
         built = self._check_points(names)
+        self._check_quantities(names, built)
         self._check_bodies(names, built)
+        check_forces(self.scene, values, self._check_expression, self._fail)
         if self.scene.gravity is not None:
             where = Where("gravity", key="g")
             self._check_expression(where, self.scene.gravity.g, set(values), [])
@@ -54,9 +57,9 @@ class Validator:
         if self.scene.drive is not None:
             self._check_drive(values, built)
         self._check_constraints(values, names, built)
+        DriveSizingValidator(self, values).run()      # the cases first: the phases name them
         if self.scene.simulation is not None:
             self._check_simulation(values)
-        DriveSizingValidator(self, values).run()
 
     def _fail(self, where, detail, cls=SceneError):
         fail(where, detail, cls, self.scene.path)
@@ -150,6 +153,21 @@ class Validator:
                 first[name] = c.name
             built.extend(c.defines)
         return built
+
+    def _check_quantities(self, names, built):
+        """[quantities]: unique names that are no parameter, point or case column; each an
+        expression per sample of the parameters, the sweep, the points and earlier quantities
+        (those are already put in: :func:`optdesign.scene.quantities.expanded_items`)."""
+        seen, order = set(), [q.name for q in self.scene.quantities]
+        for i, q in enumerate(self.scene.quantities):
+            where = Where("quantities", q.name)
+            self._check_unique(where, "quantity", q.name, seen)
+            clash = ("a parameter" if q.name in names - {self.scene.sweep.name} else "the sweep variable"
+                     if q.name == self.scene.sweep.name else "a point" if q.name in built else
+                     "a load case's column" if q.name in case_columns(self.scene) else None)
+            if clash:
+                self._fail(where, f"the quantity {q.name!r} has the name of {clash}; rename one of them")
+            self._check_expression(where.at("expr"), q.expr, names, built, later=order[i:])
 
     def _check_dyad_lengths(self, c, where):
         """A dyad's and a slider's lengths are > 0 where they are numbers of the parameters (a
@@ -365,8 +383,10 @@ class Validator:
             detail = (f"the sweep variable {name!r} cannot be used here: expected a value that is the "
                       "same over the whole stroke (numbers, parameters, pi, deg)")
         elif name in later:
-            detail = (f"{name!r} is defined further down; a parameter may use only the parameters "
-                      "above it: move its line")
+            what = "quantit" if where.table == "quantities" else "parameter"
+            detail = (f"{name!r} is defined further down" + (" (or is this quantity itself); a quantity may use "
+                      "only the quantities" if what == "quantit" else "; a parameter may use only the parameters")
+                      + " above it: move its line")
         elif name in ("s", "sec") and re.search(r"(deg|rad|m)\s*/\s*(s|sec)\b", src):
             # "90 deg/s", "180 deg/s^2": a rate written with its time unit
             m = re.match(r"\s*(.*?)\s*/\s*(s|sec)\b", src)

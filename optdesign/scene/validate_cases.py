@@ -10,7 +10,7 @@ case; a gear ratio <= 0 (also as a design variable's lower bound); a motor or cy
 """
 from __future__ import annotations
 
-from .cases import CASE_COLUMNS, Case, Duty, case_values, is_case_constraint
+from .cases import CASE_COLUMNS, MODEL_COLUMNS, Case, Duty, case_values, is_case_constraint
 from .expressions import constant_value
 from .profiles import Profile, profile_shape
 from .train import MOTOR_UNITS, Cylinder, Gearbox, Motor
@@ -185,6 +185,10 @@ class DriveSizingValidator:
         names = [c.name for c in self.scene.cases]
         if not names:
             self.fail(Where("duty"), "a duty cycle needs [[cases]]: its steps run the cases")
+        if duty.steps and all(step.kind == "dwell" for step in duty.steps):
+            self.fail(Where("duty", key="cycle"), "the cycle holds only dwells, in which the drive neither moves nor "
+                                                  f"carries a load (its RMS would be 0): add the cases it runs, e.g. "
+                                                  f"cycle = [{names[0]!r}, {{ dwell = 10 }}]".replace("'", '"'))
         for step in duty.steps:
             where = Where("duty", key=f"cycle[{step.index}]")
             if step.case is not None and step.case not in names:
@@ -239,6 +243,10 @@ class DriveSizingValidator:
         if drive is None or drive.kind != "linear":
             self.fail(where, "a cylinder needs a linear [drive] (type = \"linear\"); a rotary drive is sized by "
                              "[gearbox] and [[motors]]")
+        if not self.scene.cases:
+            self.fail(where, "a cylinder is sized from the peak forces and speeds of the load cases, and the scene has "
+                             "no [[cases]], so it would be ignored; add the cases (e.g. [[cases]] name = \"raise\" with "
+                             "a profile) or remove [cylinder]")
         numbers = {key: self.positive(where.at(key), getattr(c, key), key.replace("_", " "))
                    for key in ("pressure", "modulus", "buckling_safety", "length_factor")}
         # the scene is in SI: a modulus written in GPa (210) or MPa, a pressure in bar (160) or
@@ -260,5 +268,8 @@ class DriveSizingValidator:
 
 def case_columns(scene) -> set:
     """The case columns a [[constraints]] expr may use: with [[cases]], those of
-    :data:`.cases.CASE_COLUMNS`; none without."""
-    return set(CASE_COLUMNS) if scene.cases else set()
+    :data:`.cases.CASE_COLUMNS`; without, the model's :data:`.cases.MODEL_COLUMNS` (a scene with a
+    [drive]; model/quantities.py)."""
+    if scene.cases:
+        return set(CASE_COLUMNS)
+    return set(MODEL_COLUMNS) if scene.drive is not None else set()

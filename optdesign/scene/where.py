@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 from ..errors import SceneError
 
-ARRAY_TABLES = ("bodies", "constraints", "cases", "motors", "simulation.phases")
+ARRAY_TABLES = ("bodies", "forces", "constraints", "cases", "motors", "simulation.phases")
 
 
 @dataclass(frozen=True)

@@ -7,11 +7,8 @@ takes the warm start from the journal (JSON keeps floats exact), so a resumed st
 exactly what an uninterrupted one would have."""
 from __future__ import annotations
 
-import concurrent.futures as cf
 import dataclasses
 import json
-import multiprocessing
-import os
 import pickle
 import signal
 import sys
@@ -19,15 +16,15 @@ import threading
 import time
 from pathlib import Path
 
-from ..errors import OptdesignError, worker_process
+from ..errors import OptdesignError
 from ..report import study as study_figures
 from . import journal as study_journal
 from . import table as study_table
 from .results import ClusterLost, StudyInterrupted, StudyResult
 from ..report.folder import NoHardLinks, inspect, replace_folder
-from ..report.output import write_atomic
-from .tasks import run_batch, scene_digest
-from .worker import prestart, run_batch_in_helper
+from ..report.files import write_file
+from .executors import _executor, _Inline, record  # noqa: F401  (_Inline: the tests' stand-in executors)
+from .tasks import scene_digest
 
 
 # the files a study derives from its journal (replaced at the end; a restart drops them)
@@ -51,7 +48,7 @@ def execute(study, folder: Path, workers, scheduler, progress, restart, figures)
                 computed = _schedule(study, todo, journal, executor, progress, reused, len(cases), ctrl_c)
             except KeyboardInterrupt:
                 interrupted = True
-                computed = executor.stop(journal)
+                computed = executor.stop(journal, abandon=ctrl_c.abandoned)
             except ClusterLost as exc:   # the Dask scheduler is gone: keep what came back
                 lost, computed = exc, executor.finished
             finally:
@@ -85,7 +82,7 @@ def write_folder(study, cases, folder, rows, figures, computed, reused, t0, wher
     made = []
 
     def write(tmp) -> list:
-        paths = [write_atomic(tmp / "study.json", json.dumps(definition(study, cases), indent=1) + "\n"),
+        paths = [write_file(tmp / "study.json", json.dumps(definition(study, cases), indent=1) + "\n"),
                  study_table.write_csv(tmp, rows, study.input_columns)]
         pareto = bool(study.axes) and study.axes[-1].kind == "pareto"
         if complete and figures:
@@ -142,10 +139,14 @@ def write_summary(result, where) -> Path:
     bad = [r for r in rows if not r.get("success")]
     for r in bad[:20]:
         lines.append(f"  case {r['case']} failed: {r.get('status')}")
+    if result.study.mode == "analyse" and result.study.scene.cases:
+        lines.append("columns: peak:*, rms:* and constraint:* are the nominal state's (at the [drive] speed and "
+                     "acceleration); the load cases' are case_peak:* (with the governing case), cycle_rms:*, cycle:*, "
+                     "motor_fits:*, smallest_motor and cylinder:*")
     lines += [f"journal: {note}" for note in result.notes]
     lines.append(f"files: {', '.join(p.name for p in result.paths)}")
     path = result.folder / "summary.txt"
-    write_atomic(path, "\n".join(lines) + "\n")
+    write_file(path, "\n".join(lines) + "\n")
     return path
 
 
@@ -172,7 +173,7 @@ class _CtrlC:
     def _handler(self, signum, frame):
         self.presses += 1
         if self.presses == 1:
-            print("\nstopping once the running case(s) finish (they are kept); Ctrl-C again to abandon them",
+            print("\nstopping once the case(s) in flight finish (they are kept); Ctrl-C again to abandon them",
                   file=sys.stderr)
             return
         self.abandoned = True
@@ -208,7 +209,7 @@ def _schedule(study, chains, journal, executor, progress, done, total, ctrl_c) -
     for case, out in executor.results():
         if ctrl_c.abandoned:   # computed while the second Ctrl-C was raised: maybe not a result
             raise KeyboardInterrupt
-        journal.add({"id": case.id, "case": case.index, "row": out["row"], "x": out["x"], "time_s": out["time_s"]})
+        journal.add(record(case, out))
         computed += 1
         executor.finished += 1
         if progress is not None:
@@ -221,194 +222,6 @@ def _schedule(study, chains, journal, executor, progress, done, total, ctrl_c) -
         state.pop(case.chain)
         submit(chain, pos + 1)
     return computed
-
-
-# --- executors: submit(cases, tasks) (consecutive cases of one chain, batch_size(...) of them),
-# results() yields (case, output) as cases finish ----------------------------------------------
-class _Inline:
-    """In this process, one case after another."""
-
-    def __init__(self):
-        self.queue, self.finished = [], 0
-
-    def batch_size(self, remaining):
-        return 1
-
-    def submit(self, cases, tasks):
-        self.queue.append((cases, tasks))
-
-    def results(self):
-        while self.queue:
-            cases, tasks = self.queue.pop(0)
-            yield from zip(cases, run_batch(tasks))
-
-    def stop(self, journal):
-        return self.finished
-
-    def close(self):
-        pass
-
-    def describe(self):
-        return "1 worker, in process"
-
-
-class _Futures:
-    """Shared by the process pool and Dask: futures mapped to their cases."""
-
-    def __init__(self):
-        self.pending, self.finished = {}, 0
-
-    def batch_size(self, remaining):
-        return 1
-
-    def results(self):
-        while self.pending:
-            done = self._wait_first(list(self.pending))
-            for f in done:
-                cases = self.pending.pop(f)
-                yield from zip(cases, f.result())
-
-    def stop(self, journal):
-        """Ctrl-C: cancel what has not started, keep what finishes."""
-        for f in list(self.pending):
-            if f.cancel():
-                self.pending.pop(f)
-        try:
-            for case, out in self.results():
-                journal.add({"id": case.id, "case": case.index, "row": out["row"], "x": out["x"],
-                             "time_s": out["time_s"]})
-                self.finished += 1
-        except (KeyboardInterrupt, cf.CancelledError, cf.process.BrokenProcessPool):
-            pass   # abandoned, cancelled or lost with its worker: nothing to keep
-        return self.finished
-
-
-class _Pool(_Futures):
-    """A process pool on this machine; each worker builds the scene's model once."""
-
-    def __init__(self, workers):
-        super().__init__()
-        # fork where there is one: workers start at once with the modules already imported, and
-        # a script without an `if __name__ == "__main__":` guard is not run again in each worker
-        methods = multiprocessing.get_all_start_methods()
-        ctx = multiprocessing.get_context("fork" if "fork" in methods else "spawn")
-        self.workers = workers
-        # workers leave Ctrl-C to the parent, which stops the study cleanly, and die with it
-        self.pool = cf.ProcessPoolExecutor(workers, mp_context=ctx, initializer=worker_process,
-                                           initargs=(os.getpid(),))
-
-    def submit(self, cases, tasks):
-        self.pending[self.pool.submit(run_batch, tasks)] = cases
-
-    @staticmethod
-    def _wait_first(futures):
-        return cf.wait(futures, return_when=cf.FIRST_COMPLETED).done
-
-    def close(self):
-        self.pool.shutdown(wait=not self.pending, cancel_futures=True)
-
-    def describe(self):
-        return f"{self.workers} worker processes"
-
-
-class _Dask(_Futures):
-    """A Dask distributed cluster: ``scheduler`` is its address or a ``distributed.Client``.
-
-    Cases go in batches of consecutive cases of a chain, about ``BATCH_S`` seconds of work each
-    (from the cases finished so far): a task's round trip through the scheduler costs
-    milliseconds to tens of milliseconds, a case of an optimisation study a few tens.  Each
-    batch is computed in a helper process of its worker (:mod:`.worker`: the worker's own threads
-    slowed the cases down 1.3-1.9 times), which builds the scene's model once.  The journal
-    stays here, each case written when its batch comes back."""
-
-    BATCH_S = 0.5
-    FIRST_BATCH = 4      # cases per batch before any case has finished
-
-    def __init__(self, scheduler):
-        super().__init__()
-        self.work_s, self.work_n, self.lost = 0.0, 0, False
-        import distributed
-
-        self.distributed = distributed
-        if isinstance(scheduler, distributed.Client):
-            self.client, self.own = scheduler, False
-        else:
-            try:
-                # connect timeout: dask's config distributed.comm.timeouts.connect (30 s by default)
-                self.client, self.own = distributed.Client(scheduler), True
-            except (OSError, ValueError, TypeError) as exc:
-                raise OptdesignError(f"--scheduler {scheduler!r}: cannot reach the Dask scheduler ({exc}); expected "
-                                     "an address such as tcp://10.0.0.5:8786") from None
-        self.address = self.client.scheduler.address
-        import logging
-
-        # its own log lines ('Failed to reconnect to scheduler ...') would interleave with ours;
-        # a lost scheduler is reported once, as ClusterLost
-        self._logger = logging.getLogger("distributed.client")
-        self._log_level = self._logger.level
-        self._logger.setLevel(logging.CRITICAL)
-        try:   # helper processes started on every worker now, while the study is being prepared
-            threads = max(self.client.nthreads().values(), default=1)
-            self.client.run(prestart, threads)   # returns at once: they start aside
-        except Exception:   # noqa: BLE001 - only a head start: a batch starts its helper if need be
-            pass
-
-    def batch_size(self, remaining):
-        """The chain's ``remaining`` cases cut into batches of about BATCH_S seconds, evenly."""
-        per_batch = (self.FIRST_BATCH if not self.work_n else
-                     max(1, int(self.BATCH_S / max(self.work_s / self.work_n, 1e-4))))
-        batches = -(-remaining // per_batch)
-        return -(-remaining // batches)
-
-    def submit(self, cases, tasks):
-        self.pending[self.client.submit(run_batch_in_helper, tasks, pure=False)] = cases
-
-    def results(self):
-        try:
-            for case, out in super().results():
-                self.work_s += out["time_s"]
-                self.work_n += 1
-                yield case, out
-        except (cf.CancelledError, OSError, TimeoutError) as exc:   # FuturesCancelledError, CommClosedError
-            self.lost = True
-            raise ClusterLost(f"the Dask scheduler at {self.address} was lost ({type(exc).__name__})") from None
-
-    def _wait_first(self, futures):
-        return self.distributed.wait(futures, return_when="FIRST_COMPLETED").done
-
-    def stop(self, journal):
-        """Ctrl-C: cancel every case on the cluster (finished ones are already journalled)."""
-        self.client.cancel(list(self.pending))
-        self.pending.clear()
-        return self.finished
-
-    def close(self):
-        if not self.lost:   # a lost client still logs its reconnection failure after this: keep it quiet
-            self._logger.setLevel(self._log_level)
-        if self.own:
-            try:
-                self.client.close()
-            except (OSError, TimeoutError, cf.CancelledError):   # the scheduler is gone already
-                pass
-
-    def describe(self):
-        try:
-            n = len(self.client.scheduler_info().get("workers", {}))
-        except (OSError, TimeoutError, cf.CancelledError, AttributeError):   # the scheduler is gone
-            return f"Dask cluster at {self.address} (lost)"
-        return f"Dask cluster at {self.address}, {n} workers"
-
-
-def _executor(workers, scheduler, n_chains):
-    if scheduler is not None:
-        return _Dask(scheduler)
-    workers = (os.cpu_count() or 1) if workers is None else int(workers)
-    if workers < 1:
-        from ..errors import OptdesignError
-
-        raise OptdesignError(f"workers must be at least 1, found {workers}")
-    workers = min(workers, max(n_chains, 1))
-    return _Inline() if workers == 1 else _Pool(workers)
 
 
 __all__ = ["execute", "merged_rows"]

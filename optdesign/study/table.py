@@ -6,7 +6,7 @@ import io
 import math
 from pathlib import Path
 
-from ..report.output import write_atomic
+from ..report.files import write_file
 
 CSV = "cases.csv"
 LEADING = ("status", "success", "objective", "objective_sampled", "peak_certified", "starts_total",
@@ -53,7 +53,7 @@ def csv_text(rows, input_names) -> str:
 def write_csv(folder, rows, input_names) -> Path:
     """Write cases.csv atomically."""
     path = Path(folder) / CSV
-    write_atomic(path, csv_text(rows, input_names))
+    write_file(path, csv_text(rows, input_names))
     return path
 
 
@@ -104,5 +104,5 @@ def pareto_csv(study, rows, folder) -> Path:
         for g2, g1, r in pts:
             w.writerow([cell(v) for v in key] + [cell(r[axis.column]), cell(g2), cell(g1), r["case"]])
     path = Path(folder) / "pareto.csv"
-    write_atomic(path, buf.getvalue())
+    write_file(path, buf.getvalue())
     return path

@@ -185,18 +185,30 @@ def run_task(task: Task) -> dict:
     return {"row": row, "x": x, "time_s": time.perf_counter() - t0}
 
 
-def run_batch(tasks: list) -> list:
+def run_batch(tasks: list, each=None) -> list:
     """Consecutive cases of one chain, in order, in one call (one Dask task for several cases):
     each case after the first is warm-started from the optimum of the one before it, exactly as
     the client would start it from the journal (None after a failed case), so a batch gives the
-    numbers of the cases run one by one.  Returns their outputs in order."""
+    numbers of the cases run one by one.  Returns their outputs in order; ``each(output)`` is
+    called as each case finishes."""
     outs = []
-    for i, task in enumerate(tasks):
-        if i:
-            x = outs[-1]["x"]
-            task = dataclasses.replace(task, x_warm=None if x is None else tuple(x))
-        outs.append(run_task(task))
+    for task in tasks:
+        outs.append(run_task(warm_from(task, outs[-1]) if outs else task))
+        if each is not None:
+            each(outs[-1])
     return outs
+
+
+def warm_from(task: Task, before: dict) -> Task:
+    """``task`` warm-started from the output of the case before it in its chain."""
+    x = before["x"]
+    return dataclasses.replace(task, x_warm=None if x is None else tuple(x))
+
+
+def died_output(reason: str) -> dict:
+    """The output recorded for a case that was not computed because the process computing it
+    kept dying (see :mod:`.executors`): a failed case with the reason."""
+    return {"row": {"status": f"error: {reason}", "success": False}, "x": None, "time_s": 0.0}
 
 
 def _leaf_values(names, scene, default):
@@ -285,4 +297,28 @@ def _analyse(analysis, scene) -> dict:
             row[f"constraint:{name}:min"], row[f"constraint:{name}:max"] = e["min"], e["max"]
         else:
             row[f"constraint:{name}"] = float(v)
+    if res.cases is not None:
+        row.update(_cases_row(res.cases))
+    return row
+
+
+def _cases_row(cases) -> dict:
+    """A scene's load cases in an analyse study's row (the peaks above are the nominal state's, at
+    the [drive] speed and acceleration): each peak's governing case and value, the duty cycle's
+    RMS over time and energy, each motor's fit, the cylinder's sizes."""
+    row = {}
+    for key, g in cases.governing.items():
+        row[f"case_peak:{key}"], row[f"case_peak_case:{key}"] = g["value"], g["case"]
+    duty = cases.duty
+    row.update({f"cycle_rms:{k}": v for k, v in duty.get("rms_time", {}).items()})
+    if "energy" in duty:
+        row["cycle:time"], row["cycle:energy"] = duty["cycle_time"], duty["energy"]
+    train = cases.train
+    for name, m in train.get("motors", {}).items():
+        row[f"motor_fits:{name}"] = bool(m["fits"])
+    if "smallest_fitting" in train:
+        row["smallest_motor"] = train["smallest_fitting"] or "none"
+    for key in ("bore", "bore_needed", "rod", "rod_needed_buckling", "buckling_utilisation", "pump_flow"):
+        if key in train:
+            row[f"cylinder:{key}"] = train[key]
     return row

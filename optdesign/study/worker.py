@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import os
 import pickle
+import signal
 import struct
 import subprocess
 import sys
@@ -34,18 +35,49 @@ _HEADER = struct.Struct("<Q")
 
 def run_batch_in_helper(tasks: list) -> list:
     """:func:`.tasks.run_batch` in a helper process of this worker (one per batch running at the
-    same time; each kept for the worker's life)."""
-    helper = _take()
-    try:
-        _send(helper.stdin, tasks)
-        kind, value = _receive(helper.stdout)
-    except (OSError, EOFError, pickle.UnpicklingError) as exc:
-        helper.kill()
-        raise RuntimeError(f"the study's helper process on this Dask worker stopped ({exc!r})") from exc
-    _give(helper)
-    if kind == "error":
-        raise RuntimeError(f"a case failed in the study's helper process:\n{value}")
-    return value
+    same time; each kept for the worker's life).  The helper sends each case's output as it
+    finishes; a helper that dies (killed, out of memory, crashed) is replaced and the batch
+    goes on from the case it was computing, warm-started as before; a case whose helper died
+    ``MAX_DEATHS`` times is recorded as failed with the reason."""
+    from .tasks import died_output, warm_from
+
+    outs, deaths = [], 0
+    while len(outs) < len(tasks):
+        rest = list(tasks[len(outs):])
+        if outs:
+            rest[0] = warm_from(rest[0], outs[-1])
+        helper, done = _take(), len(outs)
+        try:
+            _send(helper.stdin, rest)
+            kind, value = _receive(helper.stdout)
+            while kind == "case":
+                outs.append(value)
+                kind, value = _receive(helper.stdout)
+        except (OSError, EOFError, pickle.UnpicklingError):
+            helper.kill()
+            code = helper.wait()
+            deaths = 1 if len(outs) > done else deaths + 1   # of the case it was computing
+            if deaths >= MAX_DEATHS:
+                outs.append(died_output(f"the study's helper process computing this case on a Dask worker died "
+                                        f"{deaths} times ({_how(code)}); it is not tried again"))
+                deaths = 0
+            continue
+        _give(helper)
+        if kind == "error":
+            raise RuntimeError(f"a case failed in the study's helper process:\n{value}")
+    return outs
+
+
+MAX_DEATHS = 3   # a case whose process died this many times is recorded as failed (also the pool's)
+
+
+def _how(code) -> str:
+    if code is not None and code < 0:
+        try:
+            return f"killed by {signal.Signals(-code).name}"
+        except ValueError:
+            return f"killed by signal {-code}"
+    return f"exit status {code}"
 
 
 def prestart(count: int) -> int:
@@ -102,8 +134,6 @@ def _receive(stream):
 
 def serve():
     """The helper: batches in, outputs out, until its input ends."""
-    import signal
-
     from .tasks import run_batch
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)   # Ctrl-C is the client's to handle (as in the pool)
@@ -118,8 +148,9 @@ def serve():
             tasks = _receive(inp)
         except EOFError:
             return
-        try:
-            answer = ("ok", run_batch(tasks))
+        try:   # each case's output as it finishes, then the end of the batch
+            run_batch(tasks, each=lambda output: _send(out, ("case", output)))
+            answer = ("end", None)
         except BaseException:   # noqa: BLE001 - a bug: its traceback goes back to the worker
             answer = ("error", traceback.format_exc())
         _send(out, answer)

@@ -99,7 +99,12 @@ class SceneChecks:
         assert np.max(np.abs(theirs - ours)) <= LOAD_REL * scale, (theirs, ours)
         q = np.real(np.broadcast_to(vals["q"], (1, len(s)))[0])
         assert np.max(np.abs(np.asarray(an.columns["q"]) - q)) <= 1e-12 * np.max(np.abs(q)) + 1e-14
+        ends = getattr(pb.m, "ends", {})  # constraints the scene states at the stroke's end: end(...)
         for name, row, _, _ in pb.per_sample:
+            if name in ends:
+                end = np.real(pb.evaluate(x[None, :], np.array([[pb.s1]]))[ends[name]]).ravel()[0]
+                assert an.constraints[name] == pytest.approx(end, rel=1e-12, abs=1e-12 * pb.row_scale[row])
+                continue
             mine = np.real(np.broadcast_to(vals[row], (1, len(s)))[0])
             np.testing.assert_allclose(an.constraints[name], mine, rtol=1e-12, atol=1e-12 * pb.row_scale[row])
         for name, row, _, _ in pb.ratios:
@@ -125,7 +130,12 @@ class SceneChecks:
         assert result.success, (result.status, result.message)
         pb = self.ref.problem()
         x = np.array([result.design[n] for n in pb.names])
+        ends = getattr(pb.m, "ends", {})  # constraints the scene states at the stroke's end: end(...)
         for name, row, _, _ in pb.per_sample:
+            if name in ends:
+                end = np.real(pb.evaluate(x[None, :], np.array([[pb.s1]]))[ends[name]]).ravel()[0]
+                assert result.constraints[name]["value"] == pytest.approx(end, abs=1e-9 * pb.row_scale[row])
+                continue
             hi, _ = pb.stroke_extreme(x, row, +1)
             lo, _ = pb.stroke_extreme(x, row, -1)
             reported = result.constraints[name]

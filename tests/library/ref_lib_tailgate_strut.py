@@ -7,8 +7,12 @@ pin B = R(phi) (b, c_pin), its body pin D fixed.  The struts' force on the gate 
 along u = (B - D) / |B - D| with the catalogue law F(L) = F1 (1 + (p_prog - 1)(L_ext - L) /
 (L_ext - L_comp)); its generalised force is F u . B'.  Then (refkit.drive_load) the hand
 torque is  T = m g x_G' ... = dV/dphi - F u . B' + I_A eps  (M_s = m |G'|^2 + I constant, so no
-velocity term).  Constraint rows: the strut length; the hold-open ramp (the static torque
-dV/dphi - F u . B' minus K_ramp (phi_open - phi)).
+velocity term).  Constraint rows: the strut length; the hold-open condition.  The scene states it as the static
+torque at full opening, end(static_load) <= -T_hold (its struts a [[forces]] gas spring); this
+reference keeps it per sample as a ramp, the static torque dV/dphi - F u . B' minus
+K_RAMP (phi_open - phi), whose maximum over the stroke is its value at full opening
+(tests/library/test_lib_tailgate_strut.py checks that), so that refkit's grid and polish see
+it as a row like any other.  ``ends`` names it with the row the scene's end value is.
 """
 from __future__ import annotations
 
@@ -20,6 +24,7 @@ except ImportError:  # run as a script
     import refkit
 
 SCENE = refkit.ROOT / "problems" / "lib_tailgate_strut.toml"
+K_RAMP = 1000.0  # [N m/rad]: steeper than the static torque can fall
 
 
 def _turned(p, th):
@@ -31,6 +36,7 @@ def _turned(p, th):
 class TailgateStrut:
     per_sample = [("strut within its stroke", "L"), ("holds itself open", "hold")]
     ratios = []
+    ends = {"holds itself open": "static"}  # the scene's end(static_load): this row at the stroke's end
 
     def __init__(self, scene):
         self.p = scene.params
@@ -49,7 +55,7 @@ class TailgateStrut:
         one = np.ones_like(phi)
         gate = (p["m_gate"], p["m_gate"] * p["L_gate"] ** 2 / 12, G, G1, G2, one, 0 * one)
         static = p["m_gate"] * self.g * G1[1] - (force[0] * B1[0] + force[1] * B1[1])
-        rows = {"L": L, "hold": static - p["K_ramp"] * (p["phi_open"] - phi), "static": static}
+        rows = {"L": L, "hold": static - K_RAMP * (p["phi_open"] - phi), "static": static}
         return refkit.State([gate], phi, one + 0 * L, 0 * L, rows, forces=[(force, B1)])
 
 

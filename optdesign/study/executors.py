@@ -1,0 +1,386 @@
+"""Where a study's cases run: in this process, in a process pool on this machine, or on a Dask
+cluster.  Every executor takes batches (consecutive cases of one chain) with
+``submit(cases, tasks)`` and yields ``(case, output)`` from ``results()`` as cases finish.
+
+The pool and Dask keep a bounded *window* of batches in flight (a small multiple of their
+workers: enough to keep every worker busy while the results of others travel back); the other
+batches wait here, in a queue.  What the pool or the cluster holds does not grow with the study.
+
+Process deaths.  A pool process that dies (SIGKILL, the kernel's out-of-memory killer, a crash
+in native code) breaks the whole ``ProcessPoolExecutor``: every batch in flight fails with
+``BrokenProcessPool``, and which of them ran in the dead process is not known.  The pool is
+replaced and the batches in flight go back to the front of the queue; each of them then runs
+*alone* (nothing else in flight), so that a batch that kills its process again is known to be
+the culprit.  A batch whose process died ``MAX_DEATHS`` times is recorded as failed, with the
+reason, and the study goes on.  A pool that cannot be replaced ends the study as a lost Dask
+scheduler does (:class:`~.results.ClusterLost`: the cases kept and how to resume).  On Dask the
+task retries its batch in a new helper process of its worker (:mod:`.worker`), case by case;
+a Dask worker that dies is Dask's to replace, and a batch that killed ``distributed.scheduler.
+allowed-failures`` workers (``KilledWorker``) is recorded as failed the same way.
+"""
+from __future__ import annotations
+
+import collections
+import concurrent.futures as cf
+import dataclasses
+import multiprocessing
+import os
+import sys
+import time
+from concurrent.futures.process import BrokenProcessPool
+
+from ..errors import OptdesignError, worker_process
+from .results import ClusterLost
+from .tasks import died_output, run_batch
+from .worker import MAX_DEATHS, prestart, run_batch_in_helper
+
+
+def record(case, out) -> dict:
+    """The journal's record of a finished case."""
+    return {"id": case.id, "case": case.index, "row": out["row"], "x": out["x"], "time_s": out["time_s"]}
+
+
+@dataclasses.dataclass
+class _Batch:
+    cases: list
+    tasks: list
+    deaths: int = 0          # times a process died with this batch in flight
+
+
+class _Inline:
+    """In this process, one case after another."""
+
+    def __init__(self):
+        self.queue, self.finished = [], 0
+
+    def batch_size(self, remaining):
+        return 1
+
+    def submit(self, cases, tasks):
+        self.queue.append((cases, tasks))
+
+    def results(self):
+        while self.queue:
+            cases, tasks = self.queue.pop(0)
+            yield from zip(cases, run_batch(tasks))
+
+    def stop(self, journal, abandon=False):
+        return self.finished
+
+    def close(self):
+        pass
+
+    def describe(self):
+        return "1 worker, in process"
+
+
+class _Futures:
+    """Shared by the process pool and Dask: a queue of batches, a window of futures in flight."""
+
+    BROKEN = ()          # the exceptions of a future whose process died (the pool's)
+
+    def __init__(self):
+        self.pending, self.queue, self.finished = {}, collections.deque(), 0
+        self.window, self.stopping = 1, False
+
+    def batch_size(self, remaining):
+        return 1
+
+    def submit(self, cases, tasks):
+        self.queue.append(_Batch(list(cases), list(tasks)))
+
+    def _fill(self):
+        """Submit queued batches up to the window; a batch that was in flight when a process
+        died runs alone (and nothing joins it)."""
+        while self.queue and len(self.pending) < self.window and not self.stopping:
+            alone = self.queue[0].deaths or any(b.deaths for b in self.pending.values())
+            if alone and self.pending:
+                return
+            batch = self.queue.popleft()
+            self.pending[self._submit(batch.tasks)] = batch
+
+    def results(self):
+        while True:
+            self._fill()
+            if not self.pending:
+                return
+            for f in self._wait_first(list(self.pending)):
+                if f not in self.pending:   # already dealt with by a replaced pool
+                    continue
+                batch = self.pending.pop(f)
+                try:
+                    outs = self._outputs(f, batch)
+                except self.BROKEN:
+                    if not self.stopping:
+                        yield from self._replace(batch)
+                    continue
+                yield from zip(batch.cases, outs)
+
+    def _outputs(self, f, batch):
+        return f.result()
+
+    def _keep_running(self, f) -> bool:
+        """Ctrl-C: False if ``f`` was cancelled before it started."""
+        return True
+
+    def stop(self, journal, abandon=False):
+        """Ctrl-C: nothing more is submitted; the batches in flight finish and are journalled
+        (a second Ctrl-C, or ``abandon``, drops them)."""
+        self.queue.clear()
+        self.stopping = True
+        if not abandon:
+            for f in list(self.pending):
+                if not self._keep_running(f):
+                    self.pending.pop(f)
+            try:
+                for case, out in self.results():
+                    journal.add(record(case, out))
+                    self.finished += 1
+            except (KeyboardInterrupt, cf.CancelledError, *self.BROKEN):
+                pass   # abandoned, cancelled or lost with its worker: nothing to keep
+        self._cancel(list(self.pending))
+        self.pending.clear()
+        return self.finished
+
+    def _cancel(self, futures):
+        for f in futures:
+            f.cancel()
+
+
+class _Pool(_Futures):
+    """A process pool on this machine; each worker builds the scene's model once."""
+
+    BROKEN = (BrokenProcessPool,)
+
+    def __init__(self, workers):
+        super().__init__()
+        self.workers, self.window = workers, 2 * workers
+        self.deaths, self.retried = 0, 0
+        self.pool = self._start()
+
+    def _start(self):
+        # fork where there is one: workers start at once with the modules already imported, and
+        # a script without an `if __name__ == "__main__":` guard is not run again in each worker
+        methods = multiprocessing.get_all_start_methods()
+        ctx = multiprocessing.get_context("fork" if "fork" in methods else "spawn")
+        # workers leave Ctrl-C to the parent, which stops the study cleanly, and die with it
+        return cf.ProcessPoolExecutor(self.workers, mp_context=ctx, initializer=worker_process,
+                                      initargs=(os.getpid(),))
+
+    def _submit(self, tasks):
+        try:
+            return self.pool.submit(run_batch, tasks)
+        except BrokenProcessPool as exc:   # broken since the last look: seen as its future's
+            f = cf.Future()
+            f.set_exception(exc)
+            return f
+        except OSError as exc:   # no process could be started (out of memory, process limit)
+            raise _not_started(exc) from None
+
+    @staticmethod
+    def _wait_first(futures):
+        return cf.wait(futures, return_when=cf.FIRST_COMPLETED).done
+
+    def _keep_running(self, f):
+        return not f.cancel()
+
+    def _replace(self, batch):
+        """A process of the pool died: keep what finished before, replace the pool, put the
+        batches in flight back (each to run alone), or record those that died too often."""
+        suspects = [batch]
+        for f, other in list(self.pending.items()):
+            self.pending.pop(f)
+            if f.done() and not f.cancelled() and f.exception() is None:
+                yield from zip(other.cases, f.result())   # finished before the death
+            else:
+                suspects.append(other)
+        self.pool.shutdown(wait=False, cancel_futures=True)
+        self.deaths += 1
+        try:
+            self.pool = self._start()
+        except OSError as exc:
+            raise _not_started(exc) from None
+        again = []
+        for b in suspects:
+            b.deaths += 1
+            if b.deaths < MAX_DEATHS:
+                again.append(b)
+                continue
+            reason = (f"the worker process computing this case died {b.deaths} times (killed, out of memory or "
+                      "crashed); it is not tried again")
+            yield from ((case, died_output(reason)) for case in b.cases)
+        self.retried += sum(len(b.cases) for b in again)
+        self.queue.extendleft(reversed(again))
+        n = sum(len(b.cases) for b in again)
+        print(f"\noptdesign study: a worker process died (killed, out of memory or crashed); the pool was "
+              f"replaced and the {n} case{'s' if n != 1 else ''} in flight {'are' if n != 1 else 'is'} "
+              "run again", file=sys.stderr)
+
+    def close(self):
+        self.pool.shutdown(wait=not self.pending, cancel_futures=True)
+
+    def describe(self):
+        where = f"{self.workers} worker processes"
+        if self.deaths:
+            where += (f"; {self.deaths} died and {'were' if self.deaths > 1 else 'was'} replaced, "
+                      f"{self.retried} case{'s' if self.retried != 1 else ''} run again")
+        return where
+
+
+def _not_started(exc) -> ClusterLost:
+    return ClusterLost(f"the study's worker processes could not be started ({exc.strerror or exc})")
+
+
+class _Dask(_Futures):
+    """A Dask distributed cluster: ``scheduler`` is its address or a ``distributed.Client``.
+
+    Cases go in batches of consecutive cases of a chain, about ``BATCH_S`` seconds of work each
+    (from the cases finished so far): a task's round trip through the scheduler costs
+    milliseconds to tens of milliseconds, a case of an optimisation study a few tens.  Each
+    batch is computed in a helper process of its worker (:mod:`.worker`: the worker's own threads
+    slowed the cases down 1.3-1.9 times), which builds the scene's model once.  At most
+    ``WINDOW`` batches per worker thread are in flight, consumed as they complete
+    (``distributed.as_completed``).  The journal stays here, each case written when its batch
+    comes back."""
+
+    BATCH_S = 0.5
+    FIRST_BATCH = 4      # cases per batch before any case has finished
+    WINDOW = 2           # batches in flight per worker thread
+    LOOK_S = 5.0         # how often the cluster's worker threads are counted again
+
+    def __init__(self, scheduler):
+        super().__init__()
+        self.work_s, self.work_n, self.lost, self.looked = 0.0, 0, False, 0.0
+        import distributed
+
+        self.distributed = distributed
+        if isinstance(scheduler, distributed.Client):
+            self.client, self.own = scheduler, False
+        else:
+            try:
+                # connect timeout: dask's config distributed.comm.timeouts.connect (30 s by default)
+                _probe(scheduler)
+                self.client, self.own = distributed.Client(scheduler), True
+            except (OSError, ValueError, TypeError) as exc:
+                raise OptdesignError(f"--scheduler {scheduler!r}: cannot reach the Dask scheduler ({exc}); expected "
+                                     "an address such as tcp://10.0.0.5:8786") from None
+        self.address = self.client.scheduler.address
+        self.completed = distributed.as_completed()
+        import logging
+
+        # its own log lines ('Failed to reconnect to scheduler ...') would interleave with ours;
+        # a lost scheduler is reported once, as ClusterLost
+        self._logger = logging.getLogger("distributed.client")
+        self._log_level = self._logger.level
+        self._logger.setLevel(logging.CRITICAL)
+        try:   # helper processes started on every worker now, while the study is being prepared
+            threads = max(self.client.nthreads().values(), default=1)
+            self.client.run(prestart, threads)   # returns at once: they start aside
+        except Exception:   # noqa: BLE001 - only a head start: a batch starts its helper if need be
+            pass
+        self._look()
+
+    def _look(self):
+        """The window from the cluster's worker threads now (workers come and go)."""
+        self.looked = time.monotonic()
+        try:
+            self.window = max(self.WINDOW, self.WINDOW * sum(self.client.nthreads().values()))
+        except (OSError, TimeoutError, cf.CancelledError):   # the scheduler is gone: results() says so
+            pass
+
+    def batch_size(self, remaining):
+        """The chain's ``remaining`` cases cut into batches of about BATCH_S seconds, evenly."""
+        per_batch = (self.FIRST_BATCH if not self.work_n else
+                     max(1, int(self.BATCH_S / max(self.work_s / self.work_n, 1e-4))))
+        batches = -(-remaining // per_batch)
+        return -(-remaining // batches)
+
+    def _submit(self, tasks):
+        f = self.client.submit(run_batch_in_helper, tasks, pure=False)
+        self.completed.add(f)
+        return f
+
+    def results(self):
+        try:
+            for case, out in super().results():
+                self.work_s += out["time_s"]
+                self.work_n += 1
+                if time.monotonic() - self.looked > self.LOOK_S:
+                    self._look()
+                yield case, out
+        except (cf.CancelledError, OSError, TimeoutError) as exc:   # FuturesCancelledError, CommClosedError
+            self.lost = True
+            raise ClusterLost(f"the Dask scheduler at {self.address} was lost ({type(exc).__name__})") from None
+
+    def _wait_first(self, futures):
+        return [next(self.completed)]
+
+    def _outputs(self, f, batch):
+        try:
+            return f.result()
+        except self.distributed.KilledWorker as exc:   # Dask retried it on other workers: each died
+            reason = f"every Dask worker that computed this case died ({exc})"
+            return [died_output(reason)] * len(batch.cases)
+
+    def _cancel(self, futures):
+        if futures:
+            self.client.cancel(futures)
+
+    def close(self):
+        self.completed.clear()
+        if not self.lost:   # a lost client still logs its reconnection failure after this: keep it quiet
+            self._logger.setLevel(self._log_level)
+        if self.own:
+            try:
+                self.client.close()
+            except (OSError, TimeoutError, cf.CancelledError):   # the scheduler is gone already
+                pass
+
+    def describe(self):
+        try:
+            n = len(self.client.scheduler_info().get("workers", {}))
+        except (OSError, TimeoutError, cf.CancelledError, AttributeError):   # the scheduler is gone
+            return f"Dask cluster at {self.address} (lost)"
+        return f"Dask cluster at {self.address}, {n} workers"
+
+
+def _probe(address: str):
+    """Check that a Dask scheduler answers at a ``tcp://`` address before a Client is made: Dask
+    waits for the handshake's answer without a timeout (a port where an HTTP server listens:
+    no answer after 150 s) and reads arbitrary bytes as a message's length (999 PiB asked of
+    numpy).  Here the connection and the handshake together get dask's connect timeout
+    (``distributed.comm.timeouts.connect``, 30 s by default); anything but a Dask answer is an
+    OSError saying so."""
+    import asyncio
+
+    import dask
+    from dask.utils import parse_timedelta
+    from distributed.comm import connect
+
+    if not isinstance(address, str) or not address.startswith("tcp://"):
+        return   # other protocols (tls://, inproc://) are Dask's to check
+    timeout = parse_timedelta(dask.config.get("distributed.comm.timeouts.connect"), default="seconds")
+
+    async def handshake():
+        comm = await connect(address, timeout=timeout)
+        await comm.close()
+
+    try:
+        asyncio.run(asyncio.wait_for(handshake(), timeout))
+    except asyncio.TimeoutError:
+        raise OSError(f"no answer from {address} in {timeout:g} s (distributed.comm.timeouts.connect): something "
+                      "listens there but it is not a Dask scheduler, or it is busy") from None
+    except OSError:
+        raise
+    except Exception as exc:   # noqa: BLE001 - bytes that are not Dask's (MemoryError, ValueError, TypeError, ...)
+        raise OSError(f"what answers at {address} is not a Dask scheduler ({type(exc).__name__})") from None
+
+
+def _executor(workers, scheduler, n_chains):
+    if scheduler is not None:
+        return _Dask(scheduler)
+    workers = (os.cpu_count() or 1) if workers is None else int(workers)
+    if workers < 1:
+        raise OptdesignError(f"workers must be at least 1, found {workers}")
+    workers = min(workers, max(n_chains, 1))
+    return _Inline() if workers == 1 else _Pool(workers)
