@@ -197,7 +197,7 @@ def cases_csv(result, path) -> list:
     import io
     import re
 
-    from .output import write_atomic
+    from .files import write_file
     from .units import sweep_scale
 
     cr = _cases(result)
@@ -227,7 +227,7 @@ def cases_csv(result, path) -> list:
         keys = [k for k in CASE_COLUMNS if k in c.columns]
         cols = [np.asarray(c.columns[k], float) * (sf if k == "s" else 1.0) for k in keys]
         slug = re.sub(r"[^A-Za-z0-9]+", "_", name).strip("_")
-        written.append(write_atomic(path.with_name(f"{path.stem}_case-{slug}.csv"),
+        written.append(write_file(path.with_name(f"{path.stem}_case-{slug}.csv"),
                                     text([head(k) for k in keys], [[repr(float(x)) for x in row] for row in zip(*cols)])))
     if "reason" not in cr.duty:
         keys = [k for k in ("s", "drive", "power", "motor_speed", "motor_torque") if k in first_columns(cr)]
@@ -246,7 +246,7 @@ def cases_csv(result, path) -> list:
                     level = step.get("load", 0.0) if step["kind"] == "hold" else 0.0
                     rows.append([repr(end), step["kind"]] + [repr(level) if k == "drive" else "" for k in keys])
                 t0 += step["time"]
-        written.append(write_atomic(path.with_name(f"{path.stem}_cycle.csv"),
+        written.append(write_file(path.with_name(f"{path.stem}_cycle.csv"),
                                     text(["t [s]", "step"] + [head(k) for k in keys], rows)))
     return written
 
