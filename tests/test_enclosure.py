@@ -110,3 +110,17 @@ def test_a_located_maximum_is_never_below_the_samples():
         assert sign * top.value >= (np.max(np.abs(V)) if sense == "abs" else np.max(sign * V))
     with pytest.raises(ResultError, match="below the largest sampled"):
         _check_invariant(Extremum(0.5, 0.9), V[0], Request(0, "max"))
+
+
+def test_a_maximum_at_a_jump_of_an_if_else_is_certified():
+    """v jumps down at s = 0.5337 (an if_else, as the model's efficiency switch and profile phases
+    write): its supremum is the left branch's limit there, 1.5337; the enclosure of the if_else
+    is the hull of its two branches, so the bound closes on it (the two if_else_zero terms taken
+    apart would each be hulled with 0, and never close)."""
+    f = function(lambda s, p: ca.if_else(s <= 0.5337, 1 + s, 0.2 + 0.1 * s))
+    ev = evaluator(f, [0.0, 0.0])
+    grid = np.linspace(0.0, 1.0, 6)
+    top = continuous_maxima_rows(ev, grid, ev(grid)[0], [Request(0, "max", ends=True)],
+                                 enclosure=Enclosures(f).at([0.0, 0.0]))[0][0]
+    assert top.note == "" and top.bound == pytest.approx(1.5337, abs=2e-9)
+    assert top.value == pytest.approx(1.5337, abs=2e-9) and top.value <= top.bound

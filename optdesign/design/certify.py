@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model.mapped import MappedFunction
+from ..kinematics.enclosure import Enclosures
 from ..kinematics.peaks import Request, continuous_maxima_rows
 from .problem import DesignProblem
 
@@ -26,6 +27,9 @@ _WORDS = {"abs": "peak |value|", "max": "largest value", "min": "smallest value"
 def _target(value, sense) -> float:
     """What a check maximises: |v|, v or -v."""
     return abs(value) if sense == "abs" else (value if sense == "max" else -value)
+
+
+CHECK_TOL = 1e-7   # the enclosure's tolerance (in units of a check's scale) where its own is 0
 
 
 @dataclass(frozen=True)
@@ -51,8 +55,9 @@ class Check:
         bound can hide a continuous one above it (the knuckle press's blanking bump: 13,223 N m
         on the samples, 15,065 between them, against an epigraph of 15,005; skipping the grid
         maxima more than 10 % of the scale below the bound left only the stroke ends' 25 N m
-        as the 'certified' peak, and that start won)."""
-        return Request(self.row, self.sense, ends=True)
+        as the 'certified' peak, and that start won).  ``tol``: the enclosure's, the check's own
+        (CHECK_TOL where that is 0), in the check's scale."""
+        return Request(self.row, self.sense, ends=True, tol=max(self.tol, CHECK_TOL) * self.scale)
 
     def amount(self, value) -> float:
         """By how much ``value`` exceeds the bound, in units of the scale (< 0: within it)."""
@@ -70,6 +75,9 @@ class ContinuousCheck:
         self.pb = problem
         # the per-sample quantities' s-derivatives at many sweep values
         self.derivatives = MappedFunction(problem.quantity_derivatives, compile=True)
+        # the same program in interval arithmetic: the proof between the samples
+        self.enclosures = Enclosures(problem.quantity_derivatives)
+        self.notes = {}   # of the last certified call: (name, sense) -> why it has no certificate
 
     def __call__(self, x, fixed, w, s_points):
         """Worst values of every block over the continuous stroke at design x.
@@ -78,34 +86,59 @@ class ContinuousCheck:
         amount > 0 where a bound (or the epigraph) is exceeded by more than its tolerance,
         sorted largest first, near-active extrema included with amount <= 0.  The extrema of
         all blocks are refined together (:func:`~optdesign.kinematics.peaks.continuous_maxima_rows`: one
-        evaluation of every row per Newton step of all brackets)."""
-        pb, st = self.pb, self.pb.settings
+        evaluation of every row per Newton step of all brackets).  Where the refined extrema
+        are within their bounds, the same rows are enclosed over the continuous stroke
+        (:func:`~optdesign.kinematics.peaks.certify`, with every extreme the report shows):
+        an extremum between the samples that the grid does not bracket (a force bump narrower
+        than the sample spacing) is then found, located and reported as a violation, where
+        the exchange moves a slot.  ``self.notes`` says which values have no such proof."""
+        pb = self.pb
         p = pb.full_parameters(x, fixed)
         grid = pb.s_grid
         V = pb.evaluate_grid(x, fixed)
         checks = self.checks(x, fixed, w, s_points)
         evaluate = lambda s: self.derivatives(s, p)  # noqa: E731
-        extrema = continuous_maxima_rows(evaluate, grid, V, [c.request for c in checks])
+        requests = [c.request for c in checks]
+        rms = self._rms(checks, x, fixed)
+        out, certified, sampled = self._compare(checks, continuous_maxima_rows(evaluate, grid, V, requests), V, rms)
+        self.notes = {}
+        if not any(v[0] > 0 for v in out):  # the proof, and what the report shows: every extreme located
+            keys, more, full_s = self._extreme_requests(V)
+            found = continuous_maxima_rows(evaluate, grid, V, requests + more, enclosure=self.enclosures.at(p))
+            out, certified, sampled = self._compare(checks, found[:len(checks)], V, rms)
+            self.notes = {(c.name, c.sense): ext[0].note for c, ext in zip(checks, found) if ext[0].note}
+            if not any(v[0] > 0 for v in out):
+                certified.update({key: ext[0].value for key, ext in zip(keys, found[len(checks):])})
+                sampled.update(full_s)
+                self.notes.update({key: ext[0].note for key, ext in zip(keys, found[len(checks):]) if ext[0].note})
+        for ag in pb.aggregates:  # a value at a stroke end is exact: the grid's first or last sample
+            if ag.func in ("start", "end"):
+                certified[(ag.name, ag.func)] = sampled[(ag.name, ag.func)] = float(V[ag.index, 0 if ag.func == "start" else -1])
+        return out, certified, sampled
+
+    def _rms(self, checks, x, fixed) -> dict:
+        """The rms block's check (its quadrature against one with twice the panels), once."""
+        pb = self.pb
+        if not any(c.kind == "rms" for c in checks):
+            return {}
+        rms, finer = pb.rms(x, fixed), pb.rms(x, fixed, 2 * pb.rms_panels)
+        return {"amount": abs(rms - finer) / max(finer, 1e-300) - pb.settings.rms_tol, "value": finer,
+                "sampled": pb.rms_sampled(x, fixed)}
+
+    def _compare(self, checks, extrema, V, rms) -> tuple:
+        """(violations, certified, sampled) of the checks from their located extrema."""
+        grid = self.pb.s_grid
         out, certified, sampled = [], {}, {}
         for c, ext in zip(checks, extrema):
             vals = V[c.row]
             certified[(c.name, c.sense)] = ext[0].value
             sampled[(c.name, c.sense)] = float(np.max(np.abs(vals)) if c.sense == "abs" else (np.max(vals) if c.sense == "max" else np.min(vals)))
             if c.kind == "rms":
-                # the quadrature of the NLP against one with twice the panels
-                rms, finer = pb.rms(x, fixed), pb.rms(x, fixed, 2 * pb.rms_panels)
-                certified[(c.name, "rms")], sampled[(c.name, "rms")] = finer, pb.rms_sampled(x, fixed)
-                out.append((abs(rms - finer) / max(finer, 1e-300) - st.rms_tol, 0.5 * (grid[0] + grid[-1]), None))
+                certified[(c.name, "rms")], sampled[(c.name, "rms")] = rms["value"], rms["sampled"]
+                out.append((rms["amount"], 0.5 * (grid[0] + grid[-1]), None))
             else:
                 out += [(c.amount(e.value) - c.tol, e.s, c.row) for e in ext]
         out.sort(key=lambda v: v[0], reverse=True)
-        for ag in pb.aggregates:  # a value at a stroke end is exact: the grid's first or last sample
-            if ag.func in ("start", "end"):
-                certified[(ag.name, ag.func)] = sampled[(ag.name, ag.func)] = float(V[ag.index, 0 if ag.func == "start" else -1])
-        if not any(v[0] > 0 for v in out):  # certified: what the report shows, every extreme located
-            full_c, full_s = self.extremes(evaluate, grid, V)
-            certified.update(full_c)
-            sampled.update(full_s)
         return out, certified, sampled
 
     def recheck(self, x, fixed, w, s_points, certified, sampled) -> str | None:
@@ -138,31 +171,30 @@ class ContinuousCheck:
                         f"{certified[key]:.10g}")
         return None
 
-    def extremes(self, evaluate, grid, V) -> tuple:
-        """The largest and smallest value over the continuous stroke of every constraint,
-        margin, dead-centre guard and max/min aggregate, each local extremum refined
-        (whatever its distance from a bound) and the stroke's end intervals too: ({(name,
-        'max'|'min'): value}, the same on the samples).  A row flat over the samples (a
-        constraint on the design alone) keeps its sampled value."""
+    def _extreme_requests(self, V) -> tuple:
+        """What :meth:`extremes` locates: (keys, requests, the sampled values)."""
         pb = self.pb
-        rows = [(b.name, b.index) for b in pb.blocks if b.kind in ("constraint", "design constraint", "margin")]
-        rows += [(ag.name, ag.index) for ag in pb.aggregates if ag.func in ("max", "min")]
-        rows.append(("dead centre", pb.k_row))
-        certified, sampled, requests = {}, {}, []
-        for name, row in rows:
+        tol = pb.settings.constraint_tol   # certified to the checks' own tolerance, in each one's scale
+        rows = [(b.name, b.index, b.scale) for b in pb.blocks if b.kind in ("constraint", "design constraint", "margin")]
+        rows += [(ag.name, ag.index, ag.scale) for ag in pb.aggregates if ag.func in ("max", "min")]
+        rows.append(("dead centre", pb.k_row, pb.k_ref))
+        keys, requests, sampled = [], [], {}
+        for name, row, scale in rows:
             v = V[row]
-            flat = np.ptp(v) <= 1e-14 * max(float(np.max(np.abs(v))), 1e-300)
             for sense in ("max", "min"):
                 sampled[(name, sense)] = float(np.max(v) if sense == "max" else np.min(v))
-                if flat:
-                    certified[(name, sense)] = sampled[(name, sense)]
-                else:
-                    requests.append(((name, sense), Request(row, sense, ends=True)))
-        if requests:
-            found = continuous_maxima_rows(evaluate, grid, V, [r for _, r in requests])
-            for (key, _), ext in zip(requests, found):
-                certified[key] = ext[0].value
-        return certified, sampled
+                keys.append((name, sense))
+                requests.append(Request(row, sense, ends=True, tol=tol * abs(float(scale))))
+        return keys, requests, sampled
+
+    def extremes(self, evaluate, grid, V, enclosure=None) -> tuple:
+        """The largest and smallest value over the continuous stroke of every constraint,
+        margin, dead-centre guard and max/min aggregate, each local extremum refined
+        (whatever its distance from a bound) and the stroke's end intervals too, certified by
+        ``enclosure`` when given: ({(name, 'max'|'min'): value}, the same on the samples)."""
+        keys, requests, sampled = self._extreme_requests(V)
+        found = continuous_maxima_rows(evaluate, grid, V, requests, enclosure=enclosure) if requests else []
+        return {key: ext[0].value for key, ext in zip(keys, found)}, sampled
 
     def checks(self, x, fixed, w, s_points) -> list:
         """What the continuous check compares, in the order it reports: the epigraph of the

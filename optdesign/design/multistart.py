@@ -263,6 +263,8 @@ def summarise(problem, solver, reports, solutions, timings, plan=None, fixed=Non
     message = ("local optimum: IPOPT converged and the continuous check agrees (1 start: "
                "a local optimum, run more starts to search for a better one)" if n == 1 else
                "optimal: the best of the starts' local optima; IPOPT converged and the continuous check agrees")
+    if sol.notes:   # what the enclosure could not prove (kinematics/enclosure.py): said, never pretended
+        message += "; " + "; ".join(f"{name} {sense}: {note}" for (name, sense), note in sorted(sol.notes.items()))
     return OptimisationResult(
         scene=pb.scene, design=dict(zip(pb.design_names, map(float, np.clip(sol.x, pb.lower, pb.upper)))),
         objective=best_value, objective_sampled=objective_value(pb, sol, certified=False),

@@ -50,6 +50,7 @@ class Solution:
     certified: dict        # (block name, sense) -> worst continuous value (physical units)
     sampled: dict          # (block name, sense) -> worst value on the scene's samples
     converged: bool
+    notes: dict = field(default_factory=dict)   # (block name, sense) -> why its value has no enclosure's proof
 
 
 @dataclass(frozen=True)

@@ -225,7 +225,7 @@ class Solver:
             lam_x=np.asarray(res["lam_x"]).ravel(), lam_p=np.asarray(res["lam_p"]).ravel(),
             g=np.asarray(res["g"]).ravel(), f=float(res["f"]), s_points=s_pts, status=status, success=success and converged,
             iterations=iterations, exchanges=exchanges, certified=certified, sampled=sampled,
-            converged=converged,
+            converged=converged, notes=dict(self.checker.notes) if success and converged else {},
         )
 
     def _initial_w(self, x0, fixed, s_pts):

@@ -34,12 +34,14 @@ import numpy as np
 
 from ..errors import AssemblyError
 from ..scene.written import sweep_unit
+from .enclosure import Enclosures, Selected
 from .peaks import Request, continuous_maxima_rows, narrow_minima
 
 # A dyad or slider whose relative margin is below this is at (or numerically at) its limit
 # position: velocities there grow like 1/sqrt(margin) and the derivatives lose about
 # eps/(relative margin) of their accuracy, so such a stroke is refused rather than evaluated.
 LOCKUP_MARGIN = 1e-10
+ASSEMBLY_TOL = 1e-6   # the enclosure's tolerance on a relative margin's minimum
 # The same limit for a loop, whose relative margin is a sine where a dyad's is a squared sine.
 LOOP_LOCKUP = math.sqrt(LOCKUP_MARGIN)
 
@@ -99,6 +101,7 @@ class AssemblyCheck:
         self._maps = {}
         self._derivatives = None
         self._derivative_maps = {}
+        self.notes = {}   # of the last call: construction -> why its margin has no enclosure's proof
 
     # --- functions ---
     def _sampled_function(self):
@@ -112,13 +115,17 @@ class AssemblyCheck:
             outs["size"] = ca.mmax(ca.fabs(ca.horzcat(*mech.points.values())))
         return mech.function("assembly", outs), closing
 
-    def _derivatives_many(self, s, p):
-        """(R, dR/ds, d2R/ds2) of every relative margin at the sweep values ``s``."""
+    def _build_derivatives(self):
         if self._derivatives is None:
             mech = self.mech
             r = ca.vertcat(*(rel for _, rel, _ in self.rows))
             dr = mech.ds(r)
             self._derivatives = mech.function("assembly_ds", {"r": r, "dr": dr, "d2r": mech.ds(dr)})
+            self._enclosures = Enclosures(self._derivatives)   # the same program, in intervals
+
+    def _derivatives_many(self, s, p):
+        """(R, dR/ds, d2R/ds2) of every relative margin at the sweep values ``s``."""
+        self._build_derivatives()
         n = len(s)
         if n not in self._derivative_maps:
             self._derivative_maps[n] = self._derivatives.map(n)
@@ -183,8 +190,12 @@ class AssemblyCheck:
                 out = self._derivatives_many(s, p)
                 return tuple(sign[rows, None] * a[rows] for a in out)
 
-            requests = [Request(j, "min", ends=True) for j in range(len(rows))]
-            extrema = continuous_maxima_rows(evaluate_many, s_grid, V, requests)
+            requests = [Request(j, "min", ends=True, tol=ASSEMBLY_TOL) for j in range(len(rows))]
+            self._build_derivatives()
+            enclosure = Selected(self._enclosures.at(p), rows, sign[rows])   # the proof between the samples
+            extrema = continuous_maxima_rows(evaluate_many, s_grid, V, requests, enclosure=enclosure)
+            self.notes = {self.rows[i][0].construction: extrema[j][0].note for j, i in enumerate(rows)
+                          if extrema[j][0].note}
             for j, i in enumerate(rows):
                 m, _, limit = self.rows[i]
                 low = [e for e in extrema[j] if e.value <= limit]

@@ -21,255 +21,10 @@ not available, never pretends one.
 """
 from __future__ import annotations
 
-import math
-
 import casadi as ca
 import numpy as np
 
-INF = np.inf
-TWO_PI = 2 * math.pi
-
-
-def _op(name):
-    return getattr(ca, name, None)
-
-
-# operations whose value jumps where their outcome changes
-JUMPS = {_op(n) for n in ("OP_LT", "OP_LE", "OP_EQ", "OP_NE", "OP_NOT", "OP_AND", "OP_OR", "OP_SIGN",
-                          "OP_IF_ELSE_ZERO", "OP_FLOOR", "OP_CEIL", "OP_ATAN2")} - {None}
-PERIODIC = {ca.OP_SIN, ca.OP_COS}
-
-
-# Outward rounding: a result rounded to nearest is within half an ulp of the exact value
-# (IEEE +, -, *, /, sqrt), numpy's elementary functions within an ulp or so; an ulp of x is at
-# most 2^-52 |x| (normal numbers).  Moving x out by |x| 2^-50 (2^-48 for the elementary
-# functions) plus 1e-300 (subnormals, zero) covers it, with room for the rounding of the move
-# itself; cheaper than np.nextafter over large arrays.
-ROUND = 2.0 ** -50
-ROUND_LIB = 2.0 ** -48
-TINY = 1e-300
-
-
-def _down(x, ulps=1):
-    return x - (np.abs(x) * (ROUND if ulps == 1 else ROUND_LIB) + TINY)
-
-
-def _up(x, ulps=1):
-    return x + (np.abs(x) * (ROUND if ulps == 1 else ROUND_LIB) + TINY)
-
-
-def _out(lo, hi, ulps=1):
-    """[lo, hi] widened outward by the rounding of one operation (``ulps`` > 1: an elementary function)."""
-    return _down(lo, ulps), _up(hi, ulps)
-
-
-def _hull(*xs):
-    return np.minimum.reduce(xs), np.maximum.reduce(xs)
-
-
-def _mul(a, b, c, d):
-    """[a, b] * [c, d], 0 * inf taken as 0."""
-    if np.ndim(c) == 0 and c == d:   # by a point (a constant or a parameter): two products
-        return _out(a * c, b * c) if c >= 0 else _out(b * c, a * c)
-    p1, p2, p3, p4 = a * c, a * d, b * c, b * d
-    return _out(np.fmin(np.fmin(p1, p2), np.fmin(p3, p4)), np.fmax(np.fmax(p1, p2), np.fmax(p3, p4)))
-
-
-def _div(a, b, c, d):
-    if np.ndim(c) == 0 and c == d and c != 0:
-        return _out(a / c, b / c) if c > 0 else _out(b / c, a / c)
-    lo, hi = _mul(a, b, *_out(1.0 / d, 1.0 / c))   # 1/[c, d] when 0 is outside it
-    zero = (c <= 0) & (d >= 0)
-    if np.any(zero):
-        lo, hi = np.where(zero, -INF, lo), np.where(zero, INF, hi)
-    return lo, hi
-
-
-def _monotone(f, a, b, increasing=True, ulps=2):
-    fa, fb = f(a), f(b)
-    return _out(fa, fb, ulps) if increasing else _out(fb, fa, ulps)
-
-
-def _contains(a, b, centre):
-    """Whether [a, b] (conservatively) holds a point centre + 2 k pi."""
-    slack = 1e-9 * (1.0 + np.abs(a) + np.abs(b))
-    return np.floor((b - centre) / TWO_PI + slack) >= np.ceil((a - centre) / TWO_PI - slack)
-
-
-def _sin(a, b, shift=0.0):
-    """sin over [a, b] (cos: shift pi/2, cos x = sin(x + pi/2), the extremes tested at shifted points)."""
-    f = np.cos if shift else np.sin
-    fa, fb = f(a), f(b)
-    lo, hi = _out(np.minimum(fa, fb), np.maximum(fa, fb), 2)
-    top = math.pi / 2 - shift
-    hi = np.where(_contains(a, b, top), 1.0, np.minimum(hi, 1.0))
-    lo = np.where(_contains(a, b, top + math.pi), -1.0, np.maximum(lo, -1.0))
-    wide = (b - a) >= TWO_PI
-    return np.where(wide, -1.0, lo), np.where(wide, 1.0, hi)
-
-
-def _sq(a, b):
-    a2, b2 = a * a, b * b
-    lo = np.where((a <= 0) & (b >= 0), 0.0, np.minimum(a2, b2))
-    return np.maximum(_down(lo), 0.0), _up(np.maximum(a2, b2))
-
-
-def _pow(a, b, c, d):
-    """[a, b] ** [c, d]: an integer exponent (a point) exactly, otherwise exp(y log x), x >= 0."""
-    if np.ndim(c) == 0 and c == d and float(c).is_integer() and abs(c) <= 64:
-        n = int(c)
-        if n == 0:
-            return np.ones_like(a * 1.0), np.ones_like(b * 1.0)
-        lo, hi = (a * 0 + 1.0, b * 0 + 1.0)
-        base = (a, b)
-        for _ in range(abs(n)):   # repeated products: exact enclosure of x^n up to dependency
-            lo, hi = _mul(lo, hi, *base)
-        if n % 2 == 0:
-            lo = np.maximum(lo, 0.0)
-            lo = np.where((a <= 0) & (b >= 0), 0.0, lo)
-            # x^n for even n over an interval holding 0 is [0, max]; as products it may be wider
-            hi = np.minimum(hi, _up(np.maximum(np.abs(a), np.abs(b)) ** n, 2))
-        return _div(1.0, 1.0, lo, hi) if n < 0 else (lo, hi)
-    la, lb = _monotone(np.log, np.maximum(a, 0.0), np.maximum(b, 0.0))
-    lo, hi = _monotone(np.exp, *_mul(la, lb, c, d))
-    negative = a < 0   # a negative base to a power not known to be an integer: no enclosure here
-    return np.where(negative, np.nan, lo), np.where(negative, np.nan, hi)
-
-
-def _atan2(ya, yb, xa, xb, periodic):
-    """atan2 over the box [ya, yb] x [xa, xb]: at its corners unless the box holds the origin or
-    crosses the branch cut (x < 0, y = 0); then [-pi, pi], or, when only sin/cos use the angle
-    (``periodic``), the corners' angles on one branch (y < 0 ones + 2 pi).  Returns (lo, hi, cut)."""
-    corners = [np.arctan2(y, x) for y in (ya, yb) for x in (xa, xb)]
-    lo, hi = _out(np.minimum.reduce(corners), np.maximum.reduce(corners), 2)
-    cut = (xa < 0) & (ya < 0) & (yb > 0)
-    origin = (xa <= 0) & (xb >= 0) & (ya <= 0) & (yb >= 0)
-    if periodic:
-        wrapped = [np.where(c < 0, c + TWO_PI, c) for c in corners]
-        wlo, whi = _out(np.minimum.reduce(wrapped), np.maximum.reduce(wrapped), 3)
-        lo, hi = np.where(cut, wlo, lo), np.where(cut, whi, hi)
-        cut = origin
-    lo = np.where(origin | cut, -math.pi - 1e-15, lo)
-    hi = np.where(origin | cut, math.pi + 1e-15, hi)
-    return lo, hi, cut | origin
-
-
-def _truth(a, b):
-    """(certainly true, certainly false) of a value in [a, b] as a condition (nonzero)."""
-    return (a > 0) | (b < 0), (a == 0) & (b == 0)
-
-
-def _bool(true, false):
-    """The interval of a 0/1 outcome: [1, 1], [0, 0] or [0, 1]; and where it is undecided."""
-    lo = np.where(true, 1.0, 0.0)
-    hi = np.where(false, 0.0, 1.0)
-    return lo, hi, ~(true | false)
-
-
-def _binary(op, a, b, c, d, periodic=False):
-    """Operation ``op`` of [a, b] and [c, d]: (lo, hi, undecided or None)."""
-    if op == ca.OP_ADD:
-        return (*_out(a + c, b + d), None)
-    if op == ca.OP_SUB:
-        return (*_out(a - d, b - c), None)
-    if op == ca.OP_MUL:
-        return (*_mul(a, b, c, d), None)
-    if op == ca.OP_DIV:
-        return (*_div(a, b, c, d), None)
-    if op in (ca.OP_POW, ca.OP_CONSTPOW):
-        return (*_pow(a, b, c, d), None)
-    if op == ca.OP_ATAN2:
-        return _atan2(a, b, c, d, periodic)
-    if op == ca.OP_FMIN:
-        return np.minimum(a, c), np.minimum(b, d), None
-    if op == ca.OP_FMAX:
-        return np.maximum(a, c), np.maximum(b, d), None
-    if op == ca.OP_HYPOT:
-        lo, hi = _sq(a, b)
-        lo2, hi2 = _sq(c, d)
-        return (*_monotone(np.sqrt, *_out(lo + lo2, hi + hi2)), None)
-    if op == ca.OP_LT:
-        return _bool(b < c, a >= d)
-    if op == ca.OP_LE:
-        return _bool(b <= c, a > d)
-    if op == ca.OP_EQ:
-        return _bool((a == b) & (b == c) & (c == d), (b < c) | (d < a))
-    if op == ca.OP_NE:
-        return _bool((b < c) | (d < a), (a == b) & (b == c) & (c == d))
-    t1, f1 = _truth(a, b)
-    t2, f2 = _truth(c, d)
-    if op == ca.OP_AND:
-        return _bool(t1 & t2, f1 | f2)
-    if op == ca.OP_OR:
-        return _bool(t1 | t2, f1 & f2)
-    if op == ca.OP_IF_ELSE_ZERO:
-        lo, hi = np.minimum(c, 0.0), np.maximum(d, 0.0)
-        lo, hi = np.where(t1, c, np.where(f1, 0.0, lo)), np.where(t1, d, np.where(f1, 0.0, hi))
-        return lo, hi, ~(t1 | f1)
-    raise NotImplementedError(op)
-
-
-def _unary(op, a, b):
-    """Operation ``op`` of [a, b]: (lo, hi, undecided or None)."""
-    if op == ca.OP_NEG:
-        return -b, -a, None
-    if op == ca.OP_ASSIGN:
-        return a, b, None
-    if op == ca.OP_TWICE:
-        return 2.0 * a, 2.0 * b, None
-    if op == ca.OP_SQ:
-        return (*_sq(a, b), None)
-    if op == ca.OP_SQRT:   # a function defined on the interval: its argument's enclosure cut at 0
-        lo, hi = _monotone(np.sqrt, np.maximum(a, 0.0), b, ulps=1)
-        return np.maximum(lo, 0.0), np.where(b < 0, np.nan, hi), None
-    if op == ca.OP_INV:
-        return (*_div(1.0, 1.0, a, b), None)
-    if op == ca.OP_FABS:
-        lo = np.where((a <= 0) & (b >= 0), 0.0, np.minimum(np.abs(a), np.abs(b)))
-        return lo, np.maximum(np.abs(a), np.abs(b)), None
-    if op == ca.OP_SIGN:
-        return np.sign(a), np.sign(b), np.sign(a) != np.sign(b)
-    if op == ca.OP_NOT:
-        t, f = _truth(a, b)
-        return _bool(f, t)
-    if op == ca.OP_SIN:
-        return (*_sin(a, b), None)
-    if op == ca.OP_COS:
-        return (*_sin(a, b, math.pi / 2), None)
-    if op == ca.OP_EXP:
-        return (*_monotone(np.exp, a, b), None)
-    if op == ca.OP_LOG:
-        return (*_monotone(np.log, np.maximum(a, 0.0), b), None)
-    if op in (ca.OP_ASIN, ca.OP_ACOS):   # defined on [-1, 1]: the argument's enclosure cut there
-        f = np.arcsin if op == ca.OP_ASIN else np.arccos
-        lo, hi = _monotone(f, np.clip(a, -1.0, 1.0), np.clip(b, -1.0, 1.0), op == ca.OP_ASIN)
-        return lo, np.where((a > 1) | (b < -1), np.nan, hi), None
-    if op == ca.OP_ATAN:
-        return (*_monotone(np.arctan, a, b), None)
-    if op == ca.OP_TAN:
-        lo, hi = _monotone(np.tan, a, b)
-        pole = _contains(a, b, math.pi / 2) | _contains(a, b, -math.pi / 2) | (b - a >= math.pi)
-        return np.where(pole, -INF, lo), np.where(pole, INF, hi), None
-    if op == ca.OP_TANH:
-        return (*_monotone(np.tanh, a, b), None)
-    if op == ca.OP_SINH:
-        return (*_monotone(np.sinh, a, b), None)
-    if op == ca.OP_COSH:
-        lo, hi = _monotone(np.cosh, *_hull(np.abs(a), np.abs(b)))
-        return np.where((a <= 0) & (b >= 0), 1.0, lo), hi, None
-    if op == ca.OP_LOG1P:
-        return (*_monotone(np.log1p, np.maximum(a, -1.0), b), None)
-    if op == ca.OP_EXPM1:
-        return (*_monotone(np.expm1, a, b), None)
-    if op in (ca.OP_FLOOR, ca.OP_CEIL):
-        f = np.floor if op == ca.OP_FLOOR else np.ceil
-        return f(a), f(b), f(a) != f(b)
-    if op == _op("OP_ERF"):
-        from scipy.special import erf
-
-        return (*_monotone(erf, a, b), None)
-    raise NotImplementedError(op)
-
+from .intervals import INF, JUMPS, PERIODIC, _binary, _down, _op, _out, _unary, _up  # noqa: F401
 
 _BINARY_OPS = {_op(n) for n in ("OP_ADD", "OP_SUB", "OP_MUL", "OP_DIV", "OP_POW", "OP_CONSTPOW", "OP_ATAN2",
                                 "OP_FMIN", "OP_FMAX", "OP_HYPOT", "OP_LT", "OP_LE", "OP_EQ", "OP_NE",
@@ -300,6 +55,7 @@ class IntervalProgram:
         made_by = [None] * self.n_work     # instruction that wrote the slot
         self.fixed, self.varying = [], []
         jumps, consumers, prog = 0, {}, []
+        condition, negation = {}, {}   # if_else_zero -> its condition's instruction; not -> its operand's
         for k in range(func.n_instructions()):
             op, i, o = func.instruction_id(k), func.instruction_input(k), func.instruction_output(k)
             if op == ca.OP_OUTPUT:
@@ -322,11 +78,17 @@ class IntervalProgram:
                 bit, jumps = jumps, jumps + 1
                 d |= 1 << bit
             const = float(func.instruction_constant(k)) if op == ca.OP_CONST else None
+            if v and op == ca.OP_ADD:   # if_else(c, x, y) = if_else_zero(c, x) + if_else_zero(!c, y)
+                const = _select(made_by[slots[0]], made_by[slots[1]], condition, negation)
             prog.append((k, op, i, o[0] if v else self.n_work + k, ins, v, bit, const))
+            if op == ca.OP_IF_ELSE_ZERO:
+                condition[k] = made_by[slots[0]]   # (the producers of its condition, for _select)
+            elif op == ca.OP_NOT:
+                negation[k] = made_by[slots[0]]
             varies[o[0]], deps[o[0]], made_by[o[0]] = v, d, k
         for k, op, i, out, ins, v, bit, const in prog:
             periodic = op == ca.OP_ATAN2 and consumers.get(k, {None}) <= PERIODIC
-            (self.varying if v else self.fixed).append((op, i, out, ins, bit, const, periodic))
+            (self.varying if v else self.fixed).append((op, i, out, ins, bit, const, (periodic, k)))
         self.n_store = self.n_work + func.n_instructions()
         self.n_jumps = jumps
         self._p_key, self._p_work = None, None
@@ -337,13 +99,14 @@ class IntervalProgram:
         key = p.tobytes()
         if key != self._p_key:
             work = [None] * self.n_store
+            self._branches = {}
             self._run(self.fixed, work, None, p, None)
             self._p_key, self._p_work = key, work
         return self._p_work
 
     def _run(self, program, work, s, p, undecided):
         with np.errstate(all="ignore"):
-            for op, i, out, ins, bit, const, periodic in program:
+            for op, i, out, ins, bit, const, (periodic, k) in program:
                 if op == ca.OP_OUTPUT:
                     self._store.append((i, work[ins[0]]))
                     continue
@@ -353,9 +116,19 @@ class IntervalProgram:
                 if op == ca.OP_CONST:
                     work[out] = (const, const)
                     continue
+                if op == ca.OP_ADD and const is not None and const[0] in self._branches and const[1] in self._branches:
+                    # an if_else: where undecided, the hull of its two branches (not of each with 0)
+                    (x_lo, x_hi, und), (y_lo, y_hi, _) = self._branches[const[0]], self._branches[const[1]]
+                    (a, b), (c, d) = work[ins[0]], work[ins[1]]
+                    lo, hi = _out(a + c, b + d)
+                    lo, hi = np.where(und, np.minimum(x_lo, y_lo), lo), np.where(und, np.maximum(x_hi, y_hi), hi)
+                    work[out] = (lo, hi)
+                    continue
                 if len(ins) == 2:
                     (a, b), (c, d) = work[ins[0]], work[ins[1]]
                     lo, hi, und = _binary(op, a, b, c, d, periodic)
+                    if op == ca.OP_IF_ELSE_ZERO:
+                        self._branches[k] = (c, d, und)
                 else:
                     lo, hi, und = _unary(op, *work[ins[0]])
                 work[out] = (lo, hi)
@@ -367,7 +140,7 @@ class IntervalProgram:
         n = len(lo)
         work = list(self._fixed_work(p))
         undecided = [None] * self.n_jumps
-        self._store = []
+        self._store, self._branches = [], {}
         self._run(self.varying, work, (lo, hi), p, undecided)
         out = [(np.zeros((m, n)), np.zeros((m, n)), np.zeros((m, n), bool)) for m in self.shapes]
         for (j, nz, deps), (a, b) in self._store:
@@ -380,6 +153,17 @@ class IntervalProgram:
                 deps >>= 1
                 bit += 1
         return out
+
+
+def _select(k1, k2, condition, negation):
+    """(k1, k2) when instructions k1 and k2 are if_else_zero(c, x) and if_else_zero(!c, y) of
+    one condition c (in either order): their sum is an if_else; else None."""
+    if k1 not in condition or k2 not in condition:
+        return None
+    c1, c2 = condition[k1], condition[k2]
+    if c1 is None or c2 is None or not (negation.get(c2) == c1 or negation.get(c1) == c2):
+        return None
+    return (k1, k2)
 
 
 def _name(op):
@@ -474,3 +258,19 @@ class Enclosures:
 
     def at(self, p):
         return Unavailable(self.reason) if self.program is None else Enclosure(self.program, p)
+
+
+class Selected:
+    """An enclosure of some rows of another, each times a sign (+1/-1): what a caller that
+    certifies sign * v of a subset of a Function's rows passes on (an :class:`Unavailable`
+    stays one)."""
+
+    def __init__(self, enclosure, rows, sign):
+        self.enclosure, self.rows = enclosure, np.asarray(rows, int)
+        self.sign = np.asarray(sign, float)[:, None]
+        self.reason = getattr(enclosure, "reason", None)
+
+    def bounds(self, lo, hi):
+        L, U, m_lo, m_hi = (a[self.rows] for a in self.enclosure.bounds(lo, hi))
+        up = self.sign > 0
+        return (np.where(up, L, -U), np.where(up, U, -L), np.where(up, m_lo, -m_hi), np.where(up, m_hi, -m_lo))

@@ -155,6 +155,11 @@ class Mechanism:
         sdd = 0.0 if sw.acceleration is None else self.value(sw.acceleration, "[sweep] acceleration")
         return sd, sdd
 
+    @property
+    def assembly_notes(self) -> dict:
+        """Of the last assembly check: construction -> why its margin has no enclosure's proof."""
+        return dict(self._assembly.notes) if self._assembly is not None else {}
+
     def check_assembly(self, s_values, p_values=None) -> list:
         """Raise :class:`AssemblyError` naming the construction and the located sweep value
         where it cannot assemble or reaches its limit position, at the samples or between them

@@ -24,7 +24,7 @@ SENSES = ("abs", "max", "min")
 MAX_STEPS = 200  # Newton/bisection steps per bracket (bisection alone gets to 1e-13 of it in ~45)
 CERTIFY_TOL = 1e-9   # the certificate's tolerance, relative to the row's scale (its largest |v|)
 MAX_PASSES = 60      # subdivision passes of the branch and bound before it gives up
-MAX_INTERVALS = 4096   # intervals alive at once, idem
+MAX_INTERVALS = 16384  # intervals alive at once, idem
 
 
 @dataclass(frozen=True)
@@ -52,6 +52,8 @@ class Request:
     sense: str = "abs"
     only_above: float | None = None
     ends: bool = False
+    tol: float | None = None   # the certificate's tolerance (absolute, on the target); default
+    #                            CERTIFY_TOL of the row's largest sampled |v|
 
 
 def target_sign(values, sense):
@@ -195,6 +197,7 @@ def certify(enclosure, evaluate_many, s_grid, V, requests, found, s_tol=1e-13, t
     with np.errstate(invalid="ignore"):
         scale = np.array([np.nanmax(np.abs(V[r.row]), initial=0.0) for r in requests])
     tol_abs = tol * np.maximum(np.abs(best), scale) + 1e-300
+    tol_abs = np.array([t if r.tol is None else r.tol + 1e-300 for t, r in zip(tol_abs, requests)])
     floor = np.array([-np.inf if r.only_above is None else r.only_above for r in requests])
     bound = np.full(n_req, -np.inf)
     span = abs(float(s_grid[-1] - s_grid[0])) if len(s_grid) > 1 else 0.0
@@ -214,7 +217,10 @@ def certify(enclosure, evaluate_many, s_grid, V, requests, found, s_tol=1e-13, t
         vm_lo, vm_hi = vm_lo[r_of, where], vm_hi[r_of, where]
         at_mid = _target_bound(vm_lo, vm_hi, code, upper=False)
         _locate_better(evaluate_many, requests, found, best, req, lo, hi, at_mid, vm_lo + vm_hi, s_tol, limits)
-        threshold = np.maximum(best + tol_abs, floor)[req]
+        # the tolerance, or where rounding is larger, four times the width of the midpoint's own
+        # enclosure (a row that cancels to ~0: its floating-point evaluation cannot say more)
+        noise = 4.0 * np.where(np.isfinite(vm_hi - vm_lo), vm_hi - vm_lo, 0.0)
+        threshold = np.maximum(best[req] + np.maximum(tol_abs[req], noise), floor[req])
         keep = ~(ub <= threshold)   # NaN: not bounded, split again
         if np.any(~keep):
             np.maximum.at(bound, req[~keep], ub[~keep])
@@ -232,7 +238,7 @@ def certify(enclosure, evaluate_many, s_grid, V, requests, found, s_tol=1e-13, t
         left = req == k
         bound[k] = max(bound[k], float(np.max(left_ub[left])))
         where_s = float(0.5 * (lo[left][0] + hi[left][0]))
-        notes[k] = (f"not certified: the enclosure did not close within {tol:g} of the located value near "
+        notes[k] = (f"not certified: the enclosure did not close within {tol_abs[k]:.3g} of the located value near "
                     f"s = {where_s:.9g} (bound {bound[k]:.9g} against {best[k]:.9g})")
     bound = np.maximum(bound, best)
     return [float(b) for b in bound], notes

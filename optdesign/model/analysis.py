@@ -175,6 +175,10 @@ class Analysis:
                 stroke = self._per_stroke(p_values, np.r_[s[:-1], extra, s[-1:]])
             extremes = {k: dict(e, min_sampled=extremes[k]["min"], max_sampled=extremes[k]["max"])
                         for k, e in found["constraint_extremes"].items()}
+            certificates.update({f"assembly of {name}": {"bound": None, "note": note}
+                                 for name, note in mech.assembly_notes.items()})
+            if model.dead_centre_note:
+                certificates["dead centre"] = {"bound": None, "note": model.dead_centre_note}
             timings["certify_s"] = time.perf_counter() - t1
         else:
             extremes = {k: dict(e, min_sampled=e["min"], max_sampled=e["max"]) for k, e in extremes.items()}

@@ -50,7 +50,9 @@ class CaseModel:
         out = {}
         if self.profile is not None:
             sd, sdd, _, t = self.profile.graphs(mech.s, lambda e: mech.value(e, "[profiles] speed"))
-            out["sd"] = sd
+            out["sd"], out["sdd"] = sd, sdd + 0 * mech.s
+            if self.profile.shape.motion_law is not None:   # a law in time: its jerk in closed form
+                out["jerk"] = self.profile.jerk(mech.s)
             if t is not None:
                 out["t"] = t
         out["drive_speed"] = m.qd + 0 * mech.s
@@ -69,9 +71,11 @@ class CaseModel:
         expressions of (s, p): each expr with the case's columns ``outputs`` as names."""
         from ..scene.cases import is_case_constraint
 
-        env = dict(self.mech.env)
-        env.update({k: v for k, v in outputs.items() if k in CASE_COLUMNS})
-        return {c.name: evaluate(c.expr, env, self.mech.points, f"[[constraints]] {c.name}")
+        from .quantities import environment   # the joint forces in this case (model/joints.py)
+
+        columns = {k: v for k, v in outputs.items() if k in CASE_COLUMNS}
+        return {c.name: evaluate(c.expr, {**environment(self.model, c.expr), **columns}, self.mech.points,
+                                 f"[[constraints]] {c.name}")
                 for c in self.mech.scene.constraints
                 if is_case_constraint(self.mech.scene, c) and c.case in (None, self.name)}
 

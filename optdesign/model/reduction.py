@@ -34,9 +34,12 @@ import numpy as np
 
 from ..errors import DeadCentreError, SceneError
 from ..kinematics.mechanism import Mechanism, _fmt_s
+from ..kinematics.enclosure import Enclosures, Selected
 from ..kinematics.peaks import Request, continuous_maxima_rows, narrow_minima
 from .forces import ForceLoads
 from .mapped import MappedFunction
+
+DEAD_CENTRE_TOL = 1e-9   # the enclosure's tolerance on min |dq/ds|, relative to max |dq/ds| sampled
 from ..scene.expressions import Expression
 
 
@@ -73,6 +76,8 @@ class ReducedModel:
         self.eta = m.value(drive.efficiency, "[drive] efficiency") if self.uses_efficiency else 1.0
         self.efficiency_smoothing = efficiency_smoothing
         self._k_function = None
+        self._k_enclosures = None
+        self.dead_centre_note = ""   # of the last check: why k's minimum has no enclosure's proof
         self._bodies()
         self._generalised()
 
@@ -341,7 +346,12 @@ class ReducedModel:
         def evaluate_many(s):
             return tuple(sign * a for a in self._k_derivatives(s, p_values))
 
-        extrema = continuous_maxima_rows(evaluate_many, grid, sign * row[None, :], [Request(0, "min", ends=True)])[0]
+        if self._k_enclosures is None:
+            self._k_enclosures = Enclosures(self._k_derivatives.func)   # the same program, in intervals
+        enclosure = Selected(self._k_enclosures.at(p_values), [0], [sign])
+        extrema = continuous_maxima_rows(evaluate_many, grid, sign * row[None, :],
+                                         [Request(0, "min", ends=True, tol=DEAD_CENTRE_TOL * scale)], enclosure=enclosure)[0]
+        self.dead_centre_note = extrema[0].note
         low = [e for e in extrema if e.value <= 1e-12 * scale]
         if not low:
             spacing = abs(float(s_values[-1] - s_values[0])) / (len(s_values) - 1)

@@ -12,8 +12,8 @@ import numpy as np
 
 from .output import new_figure, save_figure, table
 
-FIGURES = ("cases.png", "duty.png", "torque_speed.png", "cylinder.png")
-CASE_COLUMNS = ("s", "t", "q", "sd", "drive_speed", "drive_acceleration", "static_load", "inertia_term",
+FIGURES = ("cases.png", "duty.png", "motion.png", "torque_speed.png", "cylinder.png")
+CASE_COLUMNS = ("s", "t", "q", "sd", "sdd", "jerk", "drive_speed", "drive_acceleration", "static_load", "inertia_term",
                 "velocity_term", "drive", "power", "efficiency_factor", "motor_speed", "motor_acceleration",
                 "motor_load_torque", "motor_torque", "rod_buckling")
 UNITS = {
@@ -270,6 +270,10 @@ def cases_figures(result, folder) -> list:
     if "reason" not in cr.duty:
         written.append(folder / "duty.png")
         save_figure(_duty_figure(cr, UNITS[result.scene.drive.kind]), written[-1])
+        from .output_motion import motion_figure   # the sweep's motion in time beside the motor's
+
+        if motion_figure(result, cr, folder / "motion.png") is not None:
+            written.append(folder / "motion.png")
     return written + sized_figures(cr, folder)
 
 

@@ -1,0 +1,129 @@
+"""What the interval-enclosure certificate (issue 27: kinematics/enclosure.py, peaks.certify)
+costs, against the code before it.
+
+    python benchmarks/bench_certification_cost.py [--baseline REV] [--repeats N] [--starts N]
+
+writes results/certification_cost.md.  The baseline is the code at REV (default a267455, the
+last commit before the enclosure), exported with ``git archive`` into a temporary folder; every
+measurement runs in a fresh Python process with one tree as its working directory and on its
+path, baseline and current interleaved, so that the shared machine's load falls on both alike.
+Times are medians of ``--repeats`` runs.
+
+Measured per scene: the whole command ``optdesign analyse SCENE`` (start-up included); inside
+one process, ``Analysis.run()`` with the peaks certified against the same run with
+``certify=False`` (assembly and dead centres still checked), after a warm-up run, on each
+tree; and ``optdesign optimise SCENE --starts N --workers 1 --no-animation`` (one process, so
+that the time is the work, not the pool's scheduling).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from datetime import datetime, timezone
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+ANALYSE = ["problems/seed1_slider_crank.toml", "problems/lib_excavator_boom.toml", "problems/crank_press_peak.toml",
+           "problems/lib_toggle_press.toml"]
+OPTIMISE = ["problems/crank_press_peak.toml", "problems/lib_excavator_boom.toml"]
+RUN = """
+import json, sys, time, statistics
+import optdesign
+from optdesign.model.analysis import Analysis
+scene = optdesign.load(sys.argv[1])
+out = {}
+for certify in (True, False):
+    a = Analysis(scene, certify=certify)
+    a.run()
+    times = []
+    for _ in range(int(sys.argv[2])):
+        t0 = time.perf_counter(); r = a.run(); times.append(time.perf_counter() - t0)
+    out[str(certify)] = statistics.median(times)
+    out["peak_" + str(certify)] = r.peaks["drive"]
+print(json.dumps(out))
+"""
+
+
+def timed(cmd, cwd) -> float:
+    t0 = time.perf_counter()
+    subprocess.run(cmd, cwd=cwd, env={"PYTHONPATH": str(cwd), "MPLBACKEND": "Agg", "PATH": "/usr/bin:/bin"},
+                   check=True, capture_output=True)
+    return time.perf_counter() - t0
+
+
+def inside(tree, scene, repeats) -> dict:
+    out = subprocess.run([sys.executable, "-c", RUN, str(ROOT / scene), str(repeats)], cwd=tree, check=True,
+                         capture_output=True, text=True, env={"PYTHONPATH": str(tree), "MPLBACKEND": "Agg"})
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--baseline", default="a267455")
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--starts", type=int, default=4)
+    args = ap.parse_args(argv)
+    with tempfile.TemporaryDirectory() as tmp:
+        base = Path(tmp) / "baseline"
+        base.mkdir()
+        archive = subprocess.run(["git", "archive", args.baseline, "optdesign"], cwd=ROOT, check=True, capture_output=True)
+        subprocess.run(["tar", "-x", "-C", str(base)], input=archive.stdout, check=True)
+        trees = {"before": base, "after": ROOT}
+        rows_a, rows_i, rows_o = [], [], []
+        for scene in ANALYSE:
+            cmd = [sys.executable, "-m", "optdesign", "analyse", str(ROOT / scene)]
+            for tree in trees.values():   # warm the compile cache
+                timed(cmd, tree)
+            t = {k: [] for k in trees}
+            for _ in range(args.repeats):
+                for k, tree in trees.items():
+                    t[k].append(timed(cmd, tree))
+            med = {k: statistics.median(v) for k, v in t.items()}
+            rows_a.append((scene, med["before"], med["after"]))
+            ins = {k: inside(tree, scene, max(args.repeats, 3)) for k, tree in trees.items()}
+            rows_i.append((scene, ins))
+        for scene in OPTIMISE:
+            t = {k: [] for k in trees}
+            for r in range(args.repeats + 1):
+                for k, tree in trees.items():
+                    out = Path(tmp) / f"out_{k}_{r}"
+                    dt = timed([sys.executable, "-m", "optdesign", "optimise", str(ROOT / scene), "--starts",
+                                str(args.starts), "--workers", "1", "--no-animation", "--out", str(out)], tree)
+                    if r:   # the first round warms the compile cache
+                        t[k].append(dt)
+            med = {k: statistics.median(v) for k, v in t.items()}
+            rows_o.append((scene, med["before"], med["after"]))
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
+    lines = ["# The cost of the enclosure certificate (issue 27)", "",
+             f"`python benchmarks/bench_certification_cost.py --repeats {args.repeats} --starts {args.starts}` at "
+             f"{commit} against {args.baseline} (before the enclosure), "
+             f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC, on a shared 2-core machine (other jobs running: "
+             "the ratios, measured interleaved, mean more than the times).  Medians.", "",
+             "## `optdesign analyse SCENE` (whole command)", "",
+             "| scene | before [s] | after [s] | after / before |", "|---|---|---|---|"]
+    lines += [f"| {s} | {b:.2f} | {a:.2f} | {a / b:.2f} |" for s, b, a in rows_a]
+    lines += ["", "## `Analysis.run()` inside one process (after a warm-up run)", "",
+              "| scene | before: certify=False [s] | before: certified (Newton) [s] | after: certify=False [s] | "
+              "after: certified (enclosure) [s] | after certified / after certify=False | peak |drive| before -> after |",
+              "|---|---|---|---|---|---|---|"]
+    for s, ins in rows_i:
+        b, a = ins["before"], ins["after"]
+        lines.append(f"| {s} | {b['False']:.3f} | {b['True']:.3f} | {a['False']:.3f} | {a['True']:.3f} | "
+                     f"{a['True'] / a['False']:.1f} | {b['peak_True']:.10g} -> {a['peak_True']:.10g} |")
+    lines += ["", f"## `optdesign optimise SCENE --starts {args.starts} --workers 1 --no-animation`", "",
+              "| scene | before [s] | after [s] | after / before |", "|---|---|---|---|"]
+    lines += [f"| {s} | {b:.2f} | {a:.2f} | {a / b:.2f} |" for s, b, a in rows_o]
+    from optdesign.report.files import write_file   # atomic: never half-written
+
+    path = write_file(ROOT / "results" / "certification_cost.md", "\n".join(lines) + "\n")
+    print("\n".join(lines))
+    return path
+
+
+if __name__ == "__main__":
+    main()
