@@ -97,7 +97,7 @@ def _design_rows(result, analyses):
         if not p.is_design:
             continue
         kind = "angle" if "deg" in p.value.source else "length"
-        f, unit = parameter_unit(p, kind)
+        f, unit = parameter_unit(p, kind, scene)
         bound = result.constraints.get(f"bounds of {p.name}", {})
         at = bound.get("active")
         rows.append([p.name, number(values[p.name] * f), number(result.design[p.name] * f, 6),

@@ -87,7 +87,7 @@ def design_title(label, scene, names=None) -> str:
     parts = []
     for name in names:
         factor, unit = parameter_unit(scene.parameter(name), "angle" if "deg" in scene.parameter(name).value.source
-                                      else "length")
+                                      else "length", scene)
         parts.append(f"{name} = {values[name] * factor:.4g} {unit}".rstrip())
     return textwrap.fill(f"{label}: " + ", ".join(parts), 70) if parts else label
 
