@@ -250,6 +250,9 @@ def case_nodes(s, profile):
     if not breaks.size and (profile is None or profile.shape.motion_law is None):   # (a law in time: its time nodes)
         return s.copy(), np.ones(len(s), bool)
     delta = 0.5e-9 * abs(s[-1] - s[0])
+    gaps = np.diff(np.sort(breaks))
+    if np.any(gaps > 0):   # phases shorter than that (a slow s-curve's jerk phases): each side inside its phase
+        delta = min(delta, 0.25 * float(np.min(gaps[gaps > 0])))
     extra = np.r_[breaks - delta, breaks + delta]
     for lo, hi, inner in profile.jerk_segments():  # an s-curve's jerk segments, evenly in time
         extra = np.r_[extra, inner]
