@@ -199,3 +199,32 @@ def test_shipped_results_reach_the_reference_optimum(reference):
     assert doc["success"] and doc["starts_total"] == 20 and doc["starts_at_best"] == 20
     assert all(abs(s["objective"] / doc["objective"] - 1) < 1e-9 for s in doc["starts"])
     check_optimum(doc["objective"], doc["design"], reference)
+
+
+def test_jerk_column_and_the_motion_figure(tmp_path):
+    """The squeeze's jerk is the cycloid's, L/T^3 (2 pi)^2 cos(2 pi tau); motion.png is drawn."""
+    from optdesign.report.cases import cases_figures
+
+    result = optdesign.analyse(optdesign.load(SCENE))
+    cols = result.cases.cases["squeeze"].columns
+    tau = cols["t"] / 1.0
+    L = PSI_HI - PSI_LO
+    assert np.max(np.abs(cols["jerk"] - L * (2 * PI) ** 2 * np.cos(2 * PI * tau))) < 1e-9 * L * (2 * PI) ** 2
+    assert np.max(np.abs(cols["sdd"] - L * 2 * PI * np.sin(2 * PI * tau))) < 1e-9 * L * 2 * PI
+    written = cases_figures(result, tmp_path)
+    assert tmp_path / "motion.png" in written and (tmp_path / "motion.png").stat().st_size > 20_000
+
+
+def test_simulate_tracks_the_laws_in_time():
+    """simulate's phases (a speed controller with a position loop tracking each case's law, then
+    the motor holding the rest) follow the numpy model's rocker angle to the controller's
+    tracking error, and its RMS motor torque over the breath agrees with the model's."""
+    result = optdesign.simulate(optdesign.load(SCENE))
+    t, psi = result.t, result.columns["s"]
+    squeeze, back = t <= 1.0, (t >= 1.0) & (t <= 1.8)
+    want = np.where(squeeze, PSI_LO + (PSI_HI - PSI_LO) * cycloidal(np.clip(t, 0, 1))[0],
+                    np.where(back, PSI_HI - (PSI_HI - PSI_LO) * modified_sine(np.clip((t - 1) / 0.8, 0, 1))[0], PSI_LO))
+    assert np.max(np.abs(psi - want)) < 1e-3   # rad: the tracking error, 6.1e-4 (the stroke is 0.52 rad)
+    energy = sum(p["integrals"]["motor_squared"] for p in result.phases)
+    assert [p["name"] for p in result.phases] == ["squeeze", "return", "rest"]
+    assert np.sqrt(energy / 3.0) == pytest.approx(reference_rms(0.025, 0.10, 0.08), rel=1e-3)

@@ -50,7 +50,9 @@ class CaseModel:
         out = {}
         if self.profile is not None:
             sd, sdd, _, t = self.profile.graphs(mech.s, lambda e: mech.value(e, "[profiles] speed"))
-            out["sd"] = sd
+            out["sd"], out["sdd"] = sd, sdd + 0 * mech.s
+            if self.profile.shape.motion_law is not None:   # a law in time: its jerk in closed form
+                out["jerk"] = self.profile.jerk(mech.s)
             if t is not None:
                 out["t"] = t
         out["drive_speed"] = m.qd + 0 * mech.s
@@ -69,9 +71,11 @@ class CaseModel:
         expressions of (s, p): each expr with the case's columns ``outputs`` as names."""
         from ..scene.cases import is_case_constraint
 
-        env = dict(self.mech.env)
-        env.update({k: v for k, v in outputs.items() if k in CASE_COLUMNS})
-        return {c.name: evaluate(c.expr, env, self.mech.points, f"[[constraints]] {c.name}")
+        from .quantities import environment   # the joint forces in this case (model/joints.py)
+
+        columns = {k: v for k, v in outputs.items() if k in CASE_COLUMNS}
+        return {c.name: evaluate(c.expr, {**environment(self.model, c.expr), **columns}, self.mech.points,
+                                 f"[[constraints]] {c.name}")
                 for c in self.mech.scene.constraints
                 if is_case_constraint(self.mech.scene, c) and c.case in (None, self.name)}
 
@@ -246,6 +250,9 @@ def case_nodes(s, profile):
     if not breaks.size and (profile is None or profile.shape.motion_law is None):   # (a law in time: its time nodes)
         return s.copy(), np.ones(len(s), bool)
     delta = 0.5e-9 * abs(s[-1] - s[0])
+    gaps = np.diff(np.sort(breaks))
+    if np.any(gaps > 0):   # phases shorter than that (a slow s-curve's jerk phases): each side inside its phase
+        delta = min(delta, 0.25 * float(np.min(gaps[gaps > 0])))
     extra = np.r_[breaks - delta, breaks + delta]
     for lo, hi, inner in profile.jerk_segments():  # an s-curve's jerk segments, evenly in time
         extra = np.r_[extra, inner]
