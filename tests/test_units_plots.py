@@ -96,3 +96,19 @@ def test_stroke_figure_shows_bounds_and_the_violation(tmp_path):
     red = np.all(np.abs(rgb - [0xD6, 0x27, 0x28]) < 40, axis=2).sum()
     shade = np.all(np.abs(rgb - [233, 243, 233]) < 6, axis=2).mean()    # the feasible band, light green
     assert red > 150 and shade > 0.05
+
+
+def test_study_figure_draws_round_off_flat():
+    """A quantity a study's axis does not change, equal to 1e-11 relative, is drawn flat (was
+    plotted as a trend on an offset axis); a real change is drawn as it is."""
+    import numpy as np
+
+    from optdesign.report.study import flat
+
+    noise = 171492.2 * (1 + 1e-11 * np.array([0.0, 3.0, -2.0, 5.0]))
+    assert np.ptp(flat(noise)) == 0 and flat(noise)[0] == pytest.approx(171492.2, rel=1e-10)
+    real = np.array([1.0, 1.0 + 1e-6, 1.0 + 2e-6])
+    assert np.array_equal(flat(real), real)
+    with_nan = np.array([2.0, np.nan, 2.0 * (1 + 1e-12)])
+    out = flat(with_nan)
+    assert np.isnan(out[1]) and out[0] == out[2]
