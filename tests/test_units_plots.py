@@ -112,3 +112,19 @@ def test_study_figure_draws_round_off_flat():
     with_nan = np.array([2.0, np.nan, 2.0 * (1 + 1e-12)])
     out = flat(with_nan)
     assert np.isnan(out[1]) and out[0] == out[2]
+
+
+def test_study_summary_has_a_compact_table_of_its_cases():
+    """summary.txt of a study lists its cases (was counts alone): the axes' columns and the
+    objective with the design, one line per case, the rest left to cases.csv."""
+    from types import SimpleNamespace
+
+    from optdesign.study.execute import case_table
+
+    study = SimpleNamespace(mode="optimise", axes=[SimpleNamespace(columns=("mP",))])
+    rows = [{"case": k, "mP": 1000.0 * k, "objective": 171492.2 + k, "design:xD": 0.5, "success": True}
+            for k in range(40)]
+    lines = case_table(study, rows, shown=30)
+    assert lines[0] == "cases:" and lines[1].split() == ["case", "mP", "objective", "design:xD"]
+    assert lines[2].split() == ["0", "0", "171492", "0.5"] and lines[3].split()[:3] == ["1", "1000", "171493"]
+    assert len(lines) == 2 + 30 + 1 and lines[-1] == "  ... 10 more in cases.csv"
