@@ -369,6 +369,9 @@ def test_analyse_reports_the_joint_forces():
     for p in "ADB":
         assert f"pin_force({p})" in an.columns and f"pin_force_x({p})" in an.columns
         assert an.peaks[f"pin_force({p})"] >= an.peaks_sampled[f"pin_force({p})"]
+        # the interval enclosures' bound over the continuous stroke holds the located peak
+        bound = an.certificates[f"peak |pin_force({p})|"]["bound"]
+        assert an.peaks[f"pin_force({p})"] <= bound <= an.peaks[f"pin_force({p})"] * (1 + 1e-8)
     np.testing.assert_allclose(an.columns["pin_force(D)"], np.abs(an.columns["drive"]), rtol=1e-12)
     assert an.peaks["pin_force(B)"] == pytest.approx(an.peaks["drive"], rel=1e-12)
     assert an.joints_note is None

@@ -40,7 +40,7 @@ def big_analysis():
 def test_analyse_streams_many_rows_in_small_writes_with_the_same_bytes(monkeypatch, big_analysis, json_flag):
     from optdesign.model import analysis as model_analysis
 
-    monkeypatch.setattr(model_analysis, "analyse", lambda scene, samples: big_analysis)
+    monkeypatch.setattr(model_analysis, "analyse", lambda scene, samples, **options: big_analysis)
     out = Recorder()
     monkeypatch.setattr(sys, "stdout", out)
     assert main(["analyse", str(JIB), "--samples", "20000", "--table"] + (["--json"] if json_flag else [])) == 0
