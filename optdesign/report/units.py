@@ -50,14 +50,25 @@ def constraint_scale(constraint) -> tuple:
     return 1.0, ""
 
 
+# a force element's number given by a design variable alone: its unit (scene/forces.py)
+ELEMENT_UNITS = {("spring", "rate"): "N/m", ("damper", "rate"): "N s/m", ("torsion", "rate"): "N m/rad",
+                 ("torsion", "preload"): "N m", ("spring", "preload"): "N", ("gas_spring", "extended_force"): "N",
+                 ("constant", "tension"): "N", ("gas_spring", "progression"): ""}
+
+
 def parameter_unit(parameter, kind="length", scene=None) -> tuple:
     """(factor, unit) of a design variable: deg when its value was written in deg (an angle),
     none for a ratio (a parameter of ``scene``'s [gearbox] ratio: motor speed / drive speed),
+    the unit of the force element's number it is (a spring's rate in N/m, a preload in N, ...),
     else rad for an angle and m for a length."""
     if written_in_deg(parameter.value):
         return 1 / DEG, "deg"
     if scene is not None and is_ratio(scene, parameter.name):
         return 1.0, ""
+    for f in getattr(scene, "forces", ()):
+        for key, expr in f.numbers.items():
+            if expr.source.strip() == parameter.name and (f.kind, key) in ELEMENT_UNITS:
+                return 1.0, ELEMENT_UNITS[(f.kind, key)]
     return (1.0, "rad") if kind == "angle" else (1.0, "m")
 
 
