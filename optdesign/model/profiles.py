@@ -152,6 +152,13 @@ class MotionProfile:
             V2 = V**2
         return sigma * V, sigma * A, V2, t
 
+    def jerk(self, s):
+        """The sweep's jerk at ``s`` along a law in time: sigma L/T^3 f^(3)(tau)."""
+        sh = self.shape
+        x = ca.fmin(ca.fmax(self.sigma * (s - self.s_begin), 0.0), self.length)
+        tau = sh.motion_law.inverse(x / self.length)
+        return self.sigma * self.length / sh.time**3 * sh.motion_law.derivatives(tau)[3]
+
     def motion(self, mech, law_value=None) -> Motion:
         """The drive's motion (:class:`Motion`) along this profile in ``mech``'s graphs."""
         s = mech.s

@@ -7,6 +7,7 @@ takes the warm start from the journal (JSON keeps floats exact), so a resumed st
 exactly what an uninterrupted one would have."""
 from __future__ import annotations
 
+import collections
 import dataclasses
 import json
 import pickle
@@ -29,6 +30,7 @@ from .tasks import scene_digest
 
 # the files a study derives from its journal (replaced at the end; a restart drops them)
 DERIVED = (study_table.CSV, "pareto.csv", "study.png", "pareto.png", "study.json", "summary.txt")
+COMMIT_S = 0.1   # the journal is made durable (fsync) at least this often while cases come back
 
 
 def execute(study, folder: Path, workers, scheduler, progress, restart, figures):
@@ -52,6 +54,7 @@ def execute(study, folder: Path, workers, scheduler, progress, restart, figures)
             except ClusterLost as exc:   # the Dask scheduler is gone: keep what came back
                 lost, computed = exc, executor.finished
             finally:
+                journal.sync()
                 where = executor.describe()
                 executor.close()
         rows = merged_rows(cases, journal.records)
@@ -144,10 +147,32 @@ def write_summary(result, where) -> Path:
                      "acceleration); the load cases' are case_peak:* (with the governing case), cycle_rms:*, cycle:*, "
                      "motor_fits:*, smallest_motor and cylinder:*")
     lines += [f"journal: {note}" for note in result.notes]
+    lines += case_table(result.study, rows)
     lines.append(f"files: {', '.join(p.name for p in result.paths)}")
     path = result.folder / "summary.txt"
     write_file(path, "\n".join(lines) + "\n")
     return path
+
+
+def case_table(study, rows, shown=30) -> list:
+    """A compact table of the cases (cases.csv's axes, and the objective or the peak drive load
+    with the design for an optimisation), the first ``shown`` of them."""
+    if not rows:
+        return []
+    keys = [c for a in study.axes for c in a.columns] + (
+        ["objective"] + [k for k in rows[0] if k.startswith("design:")] if study.mode == "optimise"
+        else [k for k in ("peak:drive", "case_peak:drive", "cycle_rms:drive") if k in rows[0]])
+    keys = list(dict.fromkeys(k for k in keys if any(k in r for r in rows)))
+
+    def cell(v):
+        return "-" if v is None else f"{v:.6g}" if isinstance(v, float) else str(v)
+
+    table = [["case"] + keys] + [[str(r.get("case"))] + [cell(r.get(k)) for k in keys] for r in rows[:shown]]
+    widths = [max(len(row[j]) for row in table) for j in range(len(table[0]))]
+    out = ["cases:"] + ["  " + "  ".join(c.rjust(w) for c, w in zip(row, widths)) for row in table]
+    if len(rows) > shown:
+        out.append(f"  ... {len(rows) - shown} more in cases.csv")
+    return out
 
 
 # --- the scheduling loop -------------------------------------------------------------------
@@ -181,46 +206,76 @@ class _CtrlC:
 
 
 def _schedule(study, chains, journal, executor, progress, done, total, ctrl_c) -> int:
+    """Feed the executor the chains' cases while it has room (a bounded window: the cases wait
+    here, not in the pool or on the cluster), journal each case as it comes back and report it
+    once it is durable (group commit: one fsync for the cases that came back together, at least
+    every COMMIT_S), and continue each chain from its last finished case.  An analyse study's
+    cases are independent (chains of one case, nothing to warm-start): they go in batches of
+    several cases where the executor takes batches (Dask)."""
     blob, digest = pickle.dumps(study.scene), scene_digest(study.scene)
-    state = {}   # chain number -> position of its case in flight
-    computed = 0
+    grouped = study.mode == "analyse" and all(len(ch) == 1 for ch in chains)
+    waiting = collections.deque(chains)   # chains not submitted yet
+    open_ = {}   # case id -> [cases of its batch still to come, its chain, position of the batch's last case]
+    computed = reported = 0
     if progress is not None:
         progress(done, total)
 
     def submit(chain, pos):
         """Submit the chain's first unfinished case at or after ``pos``, with the unfinished cases
         right after it when the executor takes batches (each warm-started on the worker from the
-        one before it: tasks.run_batch); False if none."""
+        one before it: tasks.run_batch)."""
         while pos < len(chain) and chain[pos].id in journal.records:
             pos += 1
         if pos == len(chain):
-            return False
+            return
         batch = chain[pos:pos + executor.batch_size(len(chain) - pos)]
         batch = batch[:next((i for i, c in enumerate(batch) if c.id in journal.records), len(batch))]
         prev = journal.records.get(chain[pos - 1].id) if pos > 0 else None
         x_warm = prev.get("x") if prev is not None else None
-        executor.submit(batch, [study.task(case, x_warm if i == 0 else None, blob, digest)
-                                for i, case in enumerate(batch)])
-        state[batch[0].chain] = (chain, pos + len(batch) - 1)   # the batch's last case
-        return True
+        send(batch, [study.task(case, x_warm if i == 0 else None, blob, digest) for i, case in enumerate(batch)],
+             chain, pos + len(batch) - 1)
 
-    for chain in chains:
-        submit(chain, 0)
+    def send(batch, tasks, chain, last):
+        entry = [len(batch), chain, last]
+        for case in batch:
+            open_[case.id] = entry
+        executor.submit(batch, tasks)
+
+    def feed():
+        while waiting and executor.room():
+            if grouped:
+                batch = [waiting.popleft()[0] for _ in range(min(executor.batch_size(len(waiting)), len(waiting)))]
+                send(batch, [study.task(case, None, blob, digest) for case in batch], None, None)
+            else:
+                submit(waiting.popleft(), 0)
+
+    def commit():
+        nonlocal reported
+        journal.sync()
+        if progress is not None and reported < computed:
+            progress(done + computed, total)
+        reported = computed
+
+    feed()
     for case, out in executor.results():
         if ctrl_c.abandoned:   # computed while the second Ctrl-C was raised: maybe not a result
             raise KeyboardInterrupt
-        journal.add(record(case, out))
+        journal.add(record(case, out), durable=False)
         computed += 1
         executor.finished += 1
-        if progress is not None:
-            progress(done + computed, total)
-        chain, pos = state[case.chain]
-        if chain[pos].id != case.id:
+        if not executor.ready() or time.monotonic() - journal.synced >= COMMIT_S:
+            commit()
+        entry = open_.pop(case.id)
+        entry[0] -= 1
+        if entry[0]:
             continue   # more of its batch to come
         if ctrl_c.presses:
+            commit()
             raise KeyboardInterrupt
-        state.pop(case.chain)
-        submit(chain, pos + 1)
+        if entry[1] is not None:
+            submit(entry[1], entry[2] + 1)
+        feed()
+    commit()
     return computed
 
 

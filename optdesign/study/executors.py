@@ -64,6 +64,12 @@ class _Inline:
             cases, tasks = self.queue.pop(0)
             yield from zip(cases, run_batch(tasks))
 
+    def room(self):
+        return not self.queue
+
+    def ready(self):
+        return False
+
     def stop(self, journal, abandon=False):
         return self.finished
 
@@ -88,6 +94,14 @@ class _Futures:
 
     def submit(self, cases, tasks):
         self.queue.append(_Batch(list(cases), list(tasks)))
+
+    def room(self):
+        """True while fewer batches than the window are in flight or queued."""
+        return len(self.pending) + len(self.queue) < self.window
+
+    def ready(self):
+        """True if a result is there to be taken without waiting."""
+        return any(f.done() for f in self.pending)
 
     def _fill(self):
         """Submit queued batches up to the window; a batch that was in flight when a process
@@ -314,6 +328,9 @@ class _Dask(_Futures):
 
     def _wait_first(self, futures):
         return [next(self.completed)]
+
+    def ready(self):
+        return self.completed.has_ready()
 
     def _outputs(self, f, batch):
         try:

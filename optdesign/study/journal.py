@@ -6,9 +6,10 @@ Loss-free by construction:
   ``flock`` on it before anything in the folder is read, cut, moved or written (``--restart``
   included), then checks that the path still names the file it locked (a run that just
   finished may have replaced the folder: it tries again).  Two runs never write one folder.
-* ``journal.jsonl`` gets one line per finished case, written with a single ``write`` and made
-  durable with ``fsync`` before the next case is recorded.  A process killed at any instant
-  leaves at most one torn last line (no newline); it is cut off before appending.  Lines are
+* ``journal.jsonl`` gets one line per finished case, made durable with ``fsync`` before the
+  case is reported finished (the progress, the summary): the cases that come back together share
+  one fsync (group commit, at least every 0.1 s while cases come back).  A process killed at any
+  instant leaves at most a torn last line (no newline); it is cut off before appending.  Lines are
   keyed by the case's id, a digest of everything its result depends on, so a resumed study (or
   a changed one in the same folder) takes a finished case only when it is the very same
   computation.
@@ -50,6 +51,7 @@ class Journal:
         self.notes: list = []
         self.quarantined: list = []        # (line number, quarantine file)
         self._fh = None
+        self._unsynced, self.synced = False, time.monotonic()
 
     def __enter__(self):
         self._fh = _open_locked(self.path)
@@ -65,6 +67,7 @@ class Journal:
 
     def __exit__(self, *exc):
         if self._fh is not None:
+            self.sync()
             self._fh.close()
             self._fh = None
 
@@ -154,13 +157,24 @@ class Journal:
         self.notes.append(f"{self.path}: {len(bad)} damaged line{'s' if len(bad) > 1 else ''} ({lines}: "
                           f"{bad[0][2]}) moved to {target.name}; the {len(good)} valid records are kept")
 
-    def add(self, record: dict):
-        """Append one finished case, durably (one write, then fsync)."""
+    def add(self, record: dict, durable: bool = True):
+        """Append one finished case: one line, written and made durable (fsync) at once, or with
+        ``durable=False`` at the next :meth:`sync` (group commit: a case is reported finished only
+        once it is durable)."""
         line = json.dumps(record, separators=(",", ":")).encode() + b"\n"
         self._fh.write(line)
-        self._fh.flush()
-        os.fsync(self._fh.fileno())
         self.records[record["id"]] = record
+        self._unsynced = True
+        if durable:
+            self.sync()
+
+    def sync(self):
+        """Make every line added so far durable (one flush and one fsync for all of them)."""
+        if self._unsynced and self._fh is not None:
+            self._fh.flush()
+            os.fsync(self._fh.fileno())
+            self._unsynced = False
+        self.synced = time.monotonic()
 
 
 def parse_record(raw: bytes):

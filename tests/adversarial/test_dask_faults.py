@@ -119,15 +119,16 @@ def test_the_first_ctrl_c_of_a_dask_study_lets_the_batches_in_flight_finish_and_
 
     def progress(done, total):
         seen.append(done)
-        if done == 1:
-            os.kill(os.getpid(), signal.SIGINT)   # Ctrl-C, once the first case is journalled
+        if done and len([d for d in seen if d]) == 1:
+            os.kill(os.getpid(), signal.SIGINT)   # Ctrl-C, once the first cases are journalled
 
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                                   dashboard_address=None) as cluster:
         with pytest.raises(StudyInterrupted) as caught:
             study.run(out=tmp_path, scheduler=cluster.scheduler_address, progress=progress, figures=False)
     journalled = len((tmp_path / "journal.jsonl").read_text().splitlines())
-    window = _Dask.WINDOW * 2   # batches in flight: 2 per worker thread, each one case (each case its own chain)
-    assert journalled == window, (journalled, seen)   # the one that finished, and every other one in flight
+    # batches in flight: 2 per worker thread, each of FIRST_BATCH analyse cases before a case's time is known
+    in_flight = _Dask.WINDOW * 2 * _Dask.FIRST_BATCH
+    assert journalled == in_flight, (journalled, seen)   # the batch that finished, and every other one in flight
     assert f"{journalled} of {n} cases are finished and kept" in str(caught.value)
     assert len((tmp_path / "cases.csv").read_text().splitlines()) == 1 + journalled

@@ -199,6 +199,12 @@ class _LostAfter:
     def submit(self, cases, tasks):
         self.inner.submit(cases, tasks)
 
+    def room(self):
+        return self.inner.room()
+
+    def ready(self):
+        return False
+
     def results(self):
         from optdesign.study.results import ClusterLost
 
