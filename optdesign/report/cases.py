@@ -11,18 +11,20 @@ from pathlib import Path
 import numpy as np
 
 from .output import new_figure, save_figure, table
+from .units import ColumnUnits
 
 FIGURES = ("cases.png", "duty.png", "motion.png", "torque_speed.png", "cylinder.png")
 CASE_COLUMNS = ("s", "t", "q", "sd", "sdd", "jerk", "drive_speed", "drive_acceleration", "static_load", "inertia_term",
                 "velocity_term", "drive", "power", "efficiency_factor", "motor_speed", "motor_acceleration",
                 "motor_load_torque", "motor_torque", "rod_buckling")
-UNITS = {
-    "rotary": {"t": "s", "drive_speed": "rad/s", "drive_acceleration": "rad/s^2", "drive": "N m",
-               "static_load": "N m", "reduced_inertia": "kg m^2", "power": "W", "motor_speed": "rad/s",
-               "motor_acceleration": "rad/s^2", "motor_load_torque": "N m", "motor_torque": "N m",
-               "energy": "J", "cycle_time": "s"},
-    "linear": {"t": "s", "drive_speed": "m/s", "drive_acceleration": "m/s^2", "drive": "N", "static_load": "N",
-               "reduced_inertia": "kg", "power": "W", "rod_buckling": "1", "energy": "J", "cycle_time": "s"},
+UNITS = {   # the joint forces (pin_force(P), ...) by their prefix: report/units.ColumnUnits
+    "rotary": ColumnUnits({"t": "s", "drive_speed": "rad/s", "drive_acceleration": "rad/s^2", "drive": "N m",
+                           "static_load": "N m", "reduced_inertia": "kg m^2", "power": "W", "motor_speed": "rad/s",
+                           "motor_acceleration": "rad/s^2", "motor_load_torque": "N m", "motor_torque": "N m",
+                           "energy": "J", "cycle_time": "s"}),
+    "linear": ColumnUnits({"t": "s", "drive_speed": "m/s", "drive_acceleration": "m/s^2", "drive": "N",
+                           "static_load": "N", "reduced_inertia": "kg", "power": "W", "rod_buckling": "1", "energy": "J",
+                           "cycle_time": "s"}),
 }
 
 
@@ -212,7 +214,7 @@ def cases_csv(result, path) -> list:
             "velocity_term": units["drive"], "sd": f"{'rad' if su in ('deg', 'rad') else 'm'}/s"}
 
     def head(key):
-        unit = {**units, **more}.get(key, "")
+        unit = ColumnUnits({**units, **more}).get(key, "")
         return f"{sweep} [{su or '-'}]" if key == "s" else f"{key} [{unit if unit not in ('', '1') else '-'}]"
 
     def text(heads, rows):
