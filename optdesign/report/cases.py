@@ -11,18 +11,20 @@ from pathlib import Path
 import numpy as np
 
 from .output import new_figure, save_figure, table
+from .units import ColumnUnits
 
 FIGURES = ("cases.png", "duty.png", "motion.png", "torque_speed.png", "cylinder.png")
 CASE_COLUMNS = ("s", "t", "q", "sd", "sdd", "jerk", "drive_speed", "drive_acceleration", "static_load", "inertia_term",
                 "velocity_term", "drive", "power", "efficiency_factor", "motor_speed", "motor_acceleration",
                 "motor_load_torque", "motor_torque", "rod_buckling")
-UNITS = {
-    "rotary": {"t": "s", "drive_speed": "rad/s", "drive_acceleration": "rad/s^2", "drive": "N m",
-               "static_load": "N m", "reduced_inertia": "kg m^2", "power": "W", "motor_speed": "rad/s",
-               "motor_acceleration": "rad/s^2", "motor_load_torque": "N m", "motor_torque": "N m",
-               "energy": "J", "cycle_time": "s"},
-    "linear": {"t": "s", "drive_speed": "m/s", "drive_acceleration": "m/s^2", "drive": "N", "static_load": "N",
-               "reduced_inertia": "kg", "power": "W", "rod_buckling": "1", "energy": "J", "cycle_time": "s"},
+UNITS = {   # the joint forces (pin_force(P), ...) by their prefix: report/units.ColumnUnits
+    "rotary": ColumnUnits({"t": "s", "drive_speed": "rad/s", "drive_acceleration": "rad/s^2", "drive": "N m",
+                           "static_load": "N m", "reduced_inertia": "kg m^2", "power": "W", "motor_speed": "rad/s",
+                           "motor_acceleration": "rad/s^2", "motor_load_torque": "N m", "motor_torque": "N m",
+                           "energy": "J", "cycle_time": "s"}),
+    "linear": ColumnUnits({"t": "s", "drive_speed": "m/s", "drive_acceleration": "m/s^2", "drive": "N",
+                           "static_load": "N", "reduced_inertia": "kg", "power": "W", "rod_buckling": "1", "energy": "J",
+                           "cycle_time": "s"}),
 }
 
 
@@ -112,17 +114,16 @@ def cases_table(result, samples: bool = True) -> str:
 
 
 def unresolved_lines(unresolved, units) -> list:
-    """What the case's samples do not resolve (model/cases.py ``_unresolved``): its integrals
-    from half the samples, a warning and what to do."""
+    """The integrals over time that the adaptive quadrature could not bring within its tolerance
+    (model/cases.py ``_certified``): a warning with the value, its error estimate and what to do."""
     if not unresolved:
         return []
     shown = {"energy": ("energy", "J"), "rms_time": ("RMS over its time", units["drive"])}
-    parts = [f"{shown[key][0]} {u['value']:.6g} {shown[key][1]} on {u['samples']} samples, "
-             f"{u['half_value']:.6g} {shown[key][1]} on {u['half_samples']}" for key, u in unresolved.items()]
-    return [f"  WARNING: not resolved by the samples ({'; '.join(parts)}): the drive's load changes faster than "
-            "the samples follow, as next to a lock-up, where the drive turns ever faster for the same motion of "
-            "the output; these integrals (and the duty cycle's) are not the stroke's: use more samples "
-            "(--samples, [sweep] samples) or keep the design away from the lock-up"]
+    parts = [f"{shown[key][0]} {u['value']:.6g} {shown[key][1]} +- {u['error']:.2g} (the rule on the "
+             f"{u['samples']} samples: {u['sampled_value']:.6g})" for key, u in unresolved.items()]
+    return [f"  WARNING: not resolved by the quadrature ({'; '.join(parts)}): the drive's load changes faster than "
+            "the quadrature follows, as at a lock-up, where the drive turns ever faster for the same motion of "
+            "the output; these integrals (and the duty cycle's) are not certified: keep the design away from the lock-up"]
 
 
 def _duty_lines(duty, units):
@@ -212,7 +213,7 @@ def cases_csv(result, path) -> list:
             "velocity_term": units["drive"], "sd": f"{'rad' if su in ('deg', 'rad') else 'm'}/s"}
 
     def head(key):
-        unit = {**units, **more}.get(key, "")
+        unit = ColumnUnits({**units, **more}).get(key, "")
         return f"{sweep} [{su or '-'}]" if key == "s" else f"{key} [{unit if unit not in ('', '1') else '-'}]"
 
     def text(heads, rows):

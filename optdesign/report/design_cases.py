@@ -94,12 +94,16 @@ def cases_summary(result, catalogue=None) -> str:
                      "rule: not certified over the continuous stroke; a peak term is)")
     if "peak" in g:
         p = g["peak"]
-        lines.append(f"  peak |{p['quantity']}| = {p['value']:.9g}: case {p['case']!r} at {sweep} = {p['s'] * sf:.6g}{su_}")
+        unit = UNITS[result.scene.drive.kind].get(p["quantity"], "")
+        unit = f" {unit}" if unit not in ("", "1") else ""
+        lines.append(f"  peak |{p['quantity']}| = {p['value']:.9g}{unit}: case {p['case']!r} at {sweep} = "
+                     f"{p['s'] * sf:.6g}{su_}")
     for name, c in g["constraints"].items():
         lines.append(f"  active {name}: case {c['case']!r} at {sweep} = {c['s'] * sf:.6g}{su_} (value {c['value']:.6g})")
     duty = cases.duty
     if "reason" not in duty:
-        rms = ", ".join(f"{k} {v:.6g}" for k, v in duty["rms_time"].items())
+        units = UNITS[result.scene.drive.kind]
+        rms = ", ".join(f"{k} {v:.6g} {units.get(k, '')}".rstrip() for k, v in duty["rms_time"].items())
         lines.append(f"  duty cycle {duty['cycle_time']:.6g} s: RMS over time {rms}; energy {duty['energy']:.6g} J, "
                      f"mean power {duty['mean_power']:.6g} W")
     for name, u in unresolved(cases).items():
