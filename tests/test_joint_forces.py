@@ -369,6 +369,9 @@ def test_analyse_reports_the_joint_forces():
     for p in "ADB":
         assert f"pin_force({p})" in an.columns and f"pin_force_x({p})" in an.columns
         assert an.peaks[f"pin_force({p})"] >= an.peaks_sampled[f"pin_force({p})"]
+        # the interval enclosures' bound over the continuous stroke holds the located peak
+        bound = an.certificates[f"peak |pin_force({p})|"]["bound"]
+        assert an.peaks[f"pin_force({p})"] <= bound <= an.peaks[f"pin_force({p})"] * (1 + 1e-8)
     np.testing.assert_allclose(an.columns["pin_force(D)"], np.abs(an.columns["drive"]), rtol=1e-12)
     assert an.peaks["pin_force(B)"] == pytest.approx(an.peaks["drive"], rel=1e-12)
     assert an.joints_note is None
@@ -376,3 +379,96 @@ def test_analyse_reports_the_joint_forces():
     assert "'bucket' does not turn and hangs on one pin" in loader.joints_note
     plain = optdesign.analyse(optdesign.load(ROOT / "problems" / "seed1_jib.toml"), samples=21)
     assert not any(k.startswith("pin_force") for k in plain.columns)
+
+
+def test_drawing_shows_the_pin_forces(tmp_path):
+    """The mechanism figure draws an arrow at each pin of the jib at the drawn position (the
+    stroke's start), labelled with the force there and its peak over the stroke; the arrows'
+    directions are the pin forces' (the force on the ground at A and D, on the jib at B)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from optdesign.report import mechanism as mech_figure
+    from optdesign.report.joint_arrows import PIN
+
+    scene = optdesign.load(ROOT / "problems" / "seed1_jib.toml")
+    v = mech_figure.view(scene)
+    fig, ax = __import__("matplotlib.pyplot", fromlist=["subplots"]).subplots()
+    mech_figure.draw_design(ax, v)
+    an = optdesign.analyse(scene, samples=len(v.frames.s), joints=True)
+    labels = {t.get_text().split(" ")[0]: t.get_text() for t in ax.texts if t.get_color() == PIN}
+    assert set(labels) == {"A", "D", "B"}
+    arrows = [a for a in ax.texts if getattr(a, "arrow_patch", None) is not None
+              and matplotlib.colors.same_color(a.arrow_patch.get_edgecolor(), PIN)]
+    assert len(arrows) == 3
+    for a in arrows:
+        tail, tip = np.array(a.xyann), np.array(a.xy)
+        pin = min("ADB", key=lambda p: np.hypot(*(np.array(v.frames.at(0).points[p][0]) - tail)))
+        f = np.array([an.columns[f"pin_force_x({pin})"][0], an.columns[f"pin_force_y({pin})"][0]])
+        d = tip - tail
+        assert abs(d[0] * f[1] - d[1] * f[0]) <= 1e-9 * np.hypot(*d) * np.hypot(*f) and d @ f > 0, pin
+        assert f"peak {optdesign.report.units.quantity(an.peaks[f'pin_force({pin})'], 'N', 3)}" in labels[pin]
+
+
+CASES = (ROOT / "problems" / "seed1_jib.toml").read_text().replace("[objective]", """[[constraints]]
+name = "pivot bearing"
+expr = "pin_force(A)"
+max = 30000
+
+[[cases]]
+name = "rated"
+direction = "forward"
+[[cases]]
+name = "test load"
+direction = "forward"
+set = { mC = 625.0 }
+
+[objective]""")
+
+
+def test_pin_force_constraints_hold_in_every_load_case():
+    """With [[cases]] a pin force constraint is evaluated per case, at the case's parameters:
+    each case's values are those of the scene with the case's payload (analyse(joints=True))."""
+    scene = optdesign.loads(CASES)
+    an = optdesign.analyse(scene, samples=31)
+    for name, mass in (("rated", 500.0), ("test load", 625.0)):
+        alone = optdesign.analyse(optdesign.load(ROOT / "problems" / "seed1_jib.toml").with_parameters(mC=mass),
+                                  samples=31, joints=True)
+        case = an.cases.cases[name]
+        np.testing.assert_allclose(case.constraints["pivot bearing"], alone.columns["pin_force(A)"], rtol=1e-12)
+    assert np.max(an.cases.cases["test load"].constraints["pivot bearing"]) > \
+        np.max(an.cases.cases["rated"].constraints["pivot bearing"])
+
+
+def test_pin_force_errors_name_the_pin(tmp_path):
+    """pin_force(P) of a point that is no pin, and of a scene whose joint structure cannot be
+    derived: a SceneError naming it (exit status 2 on the command line, no traceback)."""
+    import subprocess
+
+    jib = (ROOT / "problems" / "seed1_jib.toml").read_text()
+    text = jib.replace("[objective]", '[[constraints]]\nname = "tip"\nexpr = "pin_force(C)"\nmax = 1\n\n[objective]')
+    with pytest.raises(optdesign.errors.SceneError, match=r"'C' is no pin of the mechanism's joint structure; its pins: A, B, D"):
+        optdesign.analyse(optdesign.loads(text), samples=11)
+    path = tmp_path / "loader.toml"
+    path.write_text((ROOT / "problems" / "lib_wheel_loader_arm.toml").read_text().replace(
+        "[objective]", '[[constraints]]\nname = "pivot"\nexpr = "pin_force(A)"\nmax = 1e6\n\n[objective]'))
+    out = subprocess.run([sys.executable, "-m", "optdesign", "optimise", str(path), "--starts", "2"],
+                         capture_output=True, text=True)
+    assert out.returncode == 2, out.stderr
+    assert "'bucket' does not turn and hangs on one pin" in out.stderr and "Traceback" not in out.stderr
+
+
+def test_pin_forces_in_every_load_case_and_the_governing_one():
+    """analyse(joints=True) of a scene with [[cases]]: each case's pin forces (its parameters,
+    its motion) with their peaks, and the governing case of each pin's peak."""
+    scene = optdesign.loads(CASES)
+    an = optdesign.analyse(scene, samples=31, joints=True)
+    for name, mass in (("rated", 500.0), ("test load", 625.0)):
+        alone = optdesign.analyse(optdesign.load(ROOT / "problems" / "seed1_jib.toml").with_parameters(mC=mass),
+                                  samples=31, joints=True)
+        case = an.cases.cases[name]
+        for p in "ADB":
+            np.testing.assert_allclose(case.columns[f"pin_force({p})"], alone.columns[f"pin_force({p})"], rtol=1e-12)
+            assert case.peaks[f"pin_force({p})"] == pytest.approx(np.max(alone.columns[f"pin_force({p})"]), rel=1e-12)
+    for p in "ADB":
+        assert an.cases.governing[f"pin_force({p})"]["case"] == "test load"

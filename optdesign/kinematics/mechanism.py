@@ -209,8 +209,34 @@ def kinematics(scene: Scene | ResolvedScene, samples: int | None = None) -> Kine
     for name in mech.body_angle:
         m = res[f"B:{name}"]
         bodies[name] = {"angle": np.unwrap(m[0]), "omega": m[1], "epsilon": m[2]}
+    _check_finite(scene, s_values, points, bodies)
     q = res["q"].ravel()
     if scene.drive is not None and scene.drive.kind == "rotary":
         q = np.unwrap(q)
     return KinematicsResult(scene, s_values, q, np.broadcast_to(res["sd"].ravel(), (n,)).copy(),
                             np.broadcast_to(res["sdd"].ravel(), (n,)).copy(), points, bodies)
+
+
+def _check_finite(scene, s_values, points, bodies):
+    """Every point's position, velocity and acceleration and every body's angle finite at every
+    sample; else a ResultError naming the first point (in the order of construction) or body, the
+    quantity and the first sample where it is not (it exited 0, printing NaN)."""
+    from ..errors import ResultError
+
+    n = len(s_values)
+    items = [(f"[points] {name}", {"position": (v["x"], v["y"]), "velocity": (v["vx"], v["vy"]),
+                                    "acceleration": (v["ax"], v["ay"])}) for name, v in points.items()]
+    items += [(f"[[bodies]] {name}", {"angle": (v["angle"],), "angular velocity": (v["omega"],),
+                                       "angular acceleration": (v["epsilon"],)}) for name, v in bodies.items()]
+    for order in ("position", "angle", "velocity", "angular velocity", "acceleration", "angular acceleration"):
+        for label, quantities in items:
+            if order not in quantities:
+                continue
+            bad = np.flatnonzero(~np.all([np.isfinite(c) for c in quantities[order]], axis=0))
+            if bad.size:
+                i = bad[0]
+                raise ResultError(
+                    f"{label}: its {order} is not finite at {scene.sweep.name} = {s_values[i]:.9g} (sample {i + 1} "
+                    f"of {n}; {bad.size} of the {n} samples): its construction is not defined there (e.g. the square "
+                    "root of a negative number, or an angle's derivative where it jumps); check its expressions or "
+                    "the stroke ([sweep] from/to)")

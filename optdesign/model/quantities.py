@@ -11,12 +11,9 @@
 from __future__ import annotations
 
 from ..errors import SceneError
-from ..scene.cases import MODEL_COLUMNS
+from ..scene.cases import JOINT_FUNCTIONS, MODEL_COLUMNS
 from ..scene.expressions import Call, evaluate
 from .joints import JointForces
-
-JOINT_FUNCTIONS = ("pin_force", "pin_force_x", "pin_force_y", "slider_normal", "slider_moment")
-
 
 def joint_forces(model) -> JointForces:
     """The model's joint forces, built once per model."""

@@ -12,6 +12,7 @@ import numpy as np
 from .dimensions import dimensions, draw_dimensions
 from .drawing import Context, context, draw_ghost, draw_mechanism, draw_paths, frame_view, limits, panel_size
 from .geometry import Frames, Geometry
+from .joint_arrows import draw_force_elements, draw_pin_forces
 from .layout import fixed_layout
 from .output import new_figure, save_figures
 from .topology import Topology, topology
@@ -36,8 +37,9 @@ def view(scene, samples=61, extent=None) -> View:
     return View(geometry.scene, geometry, top, frames, context(top, frames, extent))
 
 
-def draw_design(ax, v: View, index=0, ghosts=4, dims=True, labels="joints", title=None, loads=True):
-    """Draw design ``v`` at sample ``index`` over ``ghosts`` outlines spread over the stroke."""
+def draw_design(ax, v: View, index=0, ghosts=4, dims=True, labels="joints", title=None, loads=True, joints=True):
+    """Draw design ``v`` at sample ``index`` over ``ghosts`` outlines spread over the stroke;
+    ``joints``: the forces at its pins too (report/joint_arrows.py)."""
     n = len(v.frames.s)
     draw_paths(ax, v.top, v.ctx)
     for i in np.linspace(0, n - 1, ghosts + 1).round().astype(int)[1:] if ghosts else ():
@@ -48,6 +50,9 @@ def draw_design(ax, v: View, index=0, ghosts=4, dims=True, labels="joints", titl
         ax.text(0.01, 0.01, assembly_note(v), transform=ax.transAxes, fontsize=7, color="#b00020", va="bottom",
                 wrap=True)
     draw_mechanism(ax, v.top, frame, v.ctx, labels=labels, loads=loads, scene=v.scene)
+    draw_force_elements(ax, v.scene, frame, v.ctx.w)
+    if joints:
+        draw_pin_forces(ax, v.scene, v.frames, index, v.ctx)
     if dims:
         xy = np.concatenate([p for p in frame.points.values()])
         centre = np.nanmean(xy[np.all(np.isfinite(xy), axis=1)], axis=0) if np.isfinite(xy).any() else np.zeros(2)
@@ -82,7 +87,7 @@ def design_title(label, scene, names=None) -> str:
     parts = []
     for name in names:
         factor, unit = parameter_unit(scene.parameter(name), "angle" if "deg" in scene.parameter(name).value.source
-                                      else "length")
+                                      else "length", scene)
         parts.append(f"{name} = {values[name] * factor:.4g} {unit}".rstrip())
     return textwrap.fill(f"{label}: " + ", ".join(parts), 70) if parts else label
 

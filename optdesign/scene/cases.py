@@ -31,12 +31,29 @@ MODEL_COLUMNS = ("drive", "power", "static_load", "damping_load", "inertia_term"
                  "reduced_inertia")
 
 
+# the joint forces (model/joints.py) a constraint may use: in a scene with [[cases]], per case
+JOINT_FUNCTIONS = ("pin_force", "pin_force_x", "pin_force_y", "slider_normal", "slider_moment")
+
+
+def uses_joint_forces(expr) -> bool:
+    """True when ``expr`` calls pin_force(P), slider_normal(P), ..."""
+    def walk(node):
+        if getattr(node, "func", None) in JOINT_FUNCTIONS:
+            return True
+        children = list(getattr(node, "args", ())) + [getattr(node, k) for k in ("left", "right", "operand")
+                                                      if hasattr(node, k)]
+        return any(walk(c) for c in children)
+
+    return walk(expr.tree)
+
+
 def is_case_constraint(scene, constraint) -> bool:
     """True when ``constraint`` is evaluated per load case: it names a case, or uses a case's
-    columns (a scene with [[cases]])."""
+    columns or the joint forces (a scene with [[cases]])."""
     if not scene.cases:
         return False
-    return constraint.case is not None or bool(constraint.expr.names() & set(CASE_COLUMNS))
+    return (constraint.case is not None or bool(constraint.expr.names() & set(CASE_COLUMNS))
+            or uses_joint_forces(constraint.expr))
 FLOWS = ("auto", "driving", "braking")
 CASE_KEYS = ("name", "set", "direction", "efficiency", "profile", "weight")
 

@@ -8,6 +8,7 @@ lists); the scene objects check values and cross references, and this module add
 from __future__ import annotations
 
 import os
+import numbers
 import re
 import tomllib
 from pathlib import Path
@@ -56,6 +57,10 @@ def load(path, overrides: dict | None = None) -> Scene:
     if overrides is not None and not isinstance(overrides, dict):
         raise TypeError(f"load: overrides: expected a dict {{name: value}}, found {type(overrides).__name__} "
                         f"{overrides!r:.60}")
+    for name, value in (overrides or {}).items():
+        if not isinstance(name, str) or isinstance(value, bool) or not isinstance(value, (numbers.Real, str)):
+            raise TypeError(f"load: overrides: {name!r}: expected a number or an expression string (as "
+                            f"--set {name}=VALUE), found {type(value).__name__} {value!r:.60}")
     path = Path(path)
     if path.exists() and not (path.is_file() or path.is_dir()):
         raise SceneError(f"{path}: not a regular file (a pipe or a device); give the path of a scene file")

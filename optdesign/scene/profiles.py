@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 
 from .expressions import Expression, constant_value
 from .motion_laws import GENERAL, LAWS, MotionLaw, general, standard
-from .values import check_name, parse_optional, set_field
+from .values import check_name, outside_meaningful, parse_optional, set_field
 from .where import Where, fail, near_miss, show
 
 KINDS = {
@@ -134,6 +134,8 @@ def _number(profile, key, values):
     value = constant_value(getattr(profile, key), values, profile.where(key))
     if not value > 0:
         fail(profile.where(key), f"expected a {key} > 0, found {value:g}")
+    if outside_meaningful(value):
+        fail(profile.where(key), f"expected a {key} > 0, {outside_meaningful(value)}")
     return value
 
 

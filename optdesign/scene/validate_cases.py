@@ -14,6 +14,7 @@ from .cases import CASE_COLUMNS, MODEL_COLUMNS, Case, Duty, case_values, is_case
 from .expressions import constant_value
 from .profiles import Profile, profile_shape
 from .train import MOTOR_UNITS, Cylinder, Gearbox, Motor
+from .values import outside_meaningful
 from .where import Where, near_miss, show
 
 
@@ -83,6 +84,8 @@ class DriveSizingValidator:
         value = self.number(where, expr, design=design)
         if not (value > 0 if strict else value >= 0):
             self.fail(where, f"expected {what} {'>' if strict else '>='} 0, found {value:g}")
+        if outside_meaningful(value):
+            self.fail(where, f"expected {what} {'>' if strict else '>='} 0, {outside_meaningful(value)}")
         return value
 
     # --- profiles and cases ---
@@ -204,10 +207,12 @@ class DriveSizingValidator:
         where = Where("gearbox")
         if drive is None or drive.kind != "rotary":
             self.fail(where, "a gearbox needs a rotary [drive] (type = \"rotary\"); a linear drive is sized by [cylinder]")
-        ratio = self.number(where.at("ratio"), g.ratio, design=True)
-        if not ratio > 0:
-            self.fail(where.at("ratio"), f"expected a gear ratio i = motor speed / drive speed > 0, found {ratio:g}")
+        ratio = self.positive(where.at("ratio"), g.ratio, "a gear ratio i = motor speed / drive speed", design=True)
         name = g.ratio.source.strip()
+        if name in self.design:
+            for key, bound in (("min", self.params[name].lower), ("max", self.params[name].upper)):
+                if bound is not None and outside_meaningful(bound):
+                    self.fail(Where("parameters", name, key), f"the gear ratio's bound: {outside_meaningful(bound)}")
         if name in self.design and (self.params[name].lower is None or not self.params[name].lower > 0):
             lo = self.params[name].lower
             self.fail(Where("parameters", name, "min"), f"the gear ratio's lower bound must be > 0, found "

@@ -24,8 +24,25 @@ def set_field(obj, name, value):
 def parse_required(value, where, expectation="a number or an expression"):
     """A required expression (parsed)."""
     if value is None:
-        fail(where, f"missing key {where.key.split()[0]!r}: expected {expectation}")
+        fail(where, f"missing key {where.key.split()[0]!r}: expected {expectation}" if where.key
+             else f"no value: expected {expectation}")
     return parse(value, where)
+
+
+# the magnitudes a physical input may have (besides 0 where 0 is allowed): within them, the
+# products and fourth powers the computation takes (a rod's d^4, a gear ratio squared times an
+# inertia, a jerk's square root times a speed) stay far inside a float's range (1e-308 .. 1e308);
+# outside them, 1e300 overflowed and 1e-300 divided by zero (tracebacks)
+MEANINGFUL = (1e-50, 1e50)
+
+
+def outside_meaningful(value) -> str | None:
+    """Why a finite number != 0 lies outside :data:`MEANINGFUL`, or None when it lies inside."""
+    lo, hi = MEANINGFUL
+    if value != 0 and not lo <= abs(value) <= hi:
+        return (f"found {value:g}, outside {lo:g} .. {hi:g} in magnitude, where the computation's products and "
+                "powers stay within a float's range; check its unit (the scene is in SI)")
+    return None
 
 
 def parse_optional(value, where):
