@@ -93,8 +93,8 @@ def cases_summary(result, catalogue=None) -> str:
     g = governing(result, cases)
     lines = ["load cases at the optimum:"]
     if result.objective_kind in ("rms_time", "mix"):
-        lines.append("  (the RMS over time is the time integral on each case's sample grid, optdesign.model.duty's "
-                     "rule: not certified over the continuous stroke; a peak term is)")
+        lines.append("  (the RMS over time, energy and mean power below: adaptive quadrature to 1e-10 of each case's "
+                     "stroke, model/time_integrals.py; the optimiser's own is the rule on the samples)")
     if "peak" in g:
         p = g["peak"]
         unit = UNITS[result.scene.drive.kind].get(p["quantity"], "")
