@@ -308,11 +308,11 @@ class DutyCycle:
                 eta = cm.model.eta if cm.model.uses_efficiency else 1.0
                 c = 1 / eta if st.efficiency == "driving" else eta
                 load = c * float(evaluated[st.case]["hold"][st.at])
-                drive_sq += load**2 * duration
+                drive_sq += load * load * duration   # (a product: inf, named by finite.check_cases; ** raised)
                 step.update(case=st.case, at=st.at, load=load)
                 if ratio is not None:
                     motor_load = gear_factor_at_rest(mech, st.efficiency) * load / ratio
-                    motor[0] += motor_load**2 * duration
+                    motor[0] += motor_load * motor_load * duration
                     step["motor_load_torque"] = motor_load
             steps.append(step)
         out = {"cycle_time": T, "steps": steps, "rms_time": {"drive": math.sqrt(drive_sq / T)},
