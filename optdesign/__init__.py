@@ -43,7 +43,24 @@ def __getattr__(name):
 
     value = getattr(importlib.import_module(module, __name__), name)
     globals()[name] = value
+    _rich_display()
     return value
+
+
+def _rich_display():
+    """Jupyter's rich display of the results (report/notebook.py): ``_repr_html_`` set on the
+    classes of the layers below the report, here where every layer may be imported."""
+    from .design.results import OptimisationResult
+    from .dynamics.result import SimulationResult
+    from .model.analysis import AnalysisResult
+    from .report import notebook
+    from .scene.scene import Scene
+    from .study.results import StudyResult
+
+    for cls, show in ((Scene, notebook.scene_html), (AnalysisResult, notebook.analysis_html),
+                      (OptimisationResult, notebook.optimisation_html),
+                      (SimulationResult, notebook.simulation_html), (StudyResult, notebook.study_html)):
+        cls._repr_html_ = show
 
 
 def __dir__():

@@ -70,6 +70,8 @@ def test_analyse_prints_the_summary_first_and_the_table_on_request(capsys):
     lines = capsys.readouterr().out.splitlines()
     assert lines[0].split()[:2] == ["s", "q"] and len(lines) > 201
     assert any(line.startswith("violated: transmission angle") for line in lines)
+    # --table keeps the summary, after the table
+    assert "transmission angle: 28.96 .. 40.42 deg (min 30 deg and max 150 deg): VIOLATED" in lines
 
 
 def test_analyse_json_and_csv_flag_the_violation(tmp_path, capsys):
@@ -89,7 +91,9 @@ def test_kinematics_and_simulate_summaries(capsys):
     out = capsys.readouterr().out
     assert "161 samples of theta = -10 .. 70 deg; 4 points, 2 bodies" in out and len(out.splitlines()) < 10
     assert cli.main(["kinematics", str(PROBLEMS / "truck_crane.toml"), "--table", "--samples", "5"]) == 0
-    assert len(capsys.readouterr().out.splitlines()) == 6
+    lines = capsys.readouterr().out.splitlines()   # the table's header and 5 samples, then the summary kept
+    assert lines[0].split()[0] == "s" and len(lines[1].split()) == len(lines[0].split())
+    assert lines[6] == "" and "5 samples of theta = -10 .. 70 deg; 4 points, 2 bodies" in lines[8]
     assert cli.main(["simulate", str(PROBLEMS / "sim_bar.toml")]) == 0
     out = capsys.readouterr().out
     assert "stopped at t = 5 s: t_end" in out and len(out.splitlines()) < 12

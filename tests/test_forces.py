@@ -200,3 +200,25 @@ def test_cli_error_exit_status_2(tmp_path):
     out = subprocess.run([sys.executable, "-m", "optdesign", "analyse", str(path)], capture_output=True, text=True)
     assert out.returncode == 2, out.stderr
     assert "a damper has no key 'free_length'" in out.stderr and "Traceback" not in out.stderr
+
+
+def test_drawing_shows_the_force_elements():
+    """The mechanism figure draws each element between its two points, named at its middle:
+    the tailgate's gas struts as a bar from D to B."""
+    import matplotlib
+    import matplotlib.pyplot as plt
+
+    matplotlib.use("Agg")
+    from optdesign.report import mechanism as figure
+    from optdesign.report.joint_arrows import ELEMENT
+
+    v = figure.view(optdesign.load(TAILGATE))
+    fig, ax = plt.subplots()
+    figure.draw_design(ax, v, joints=False)
+    lines = [ln for ln in ax.lines if matplotlib.colors.same_color(ln.get_color(), ELEMENT)]
+    assert len(lines) == 1
+    ends = np.array(lines[0].get_xydata())
+    frame = v.frames.at(0)
+    np.testing.assert_allclose(ends, [frame.points["D"][0], frame.points["B"][0]], atol=1e-12)
+    assert [t.get_text() for t in ax.texts if matplotlib.colors.same_color(t.get_color(), ELEMENT)] == ["gas struts"]
+    plt.close(fig)

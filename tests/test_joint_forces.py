@@ -369,6 +369,9 @@ def test_analyse_reports_the_joint_forces():
     for p in "ADB":
         assert f"pin_force({p})" in an.columns and f"pin_force_x({p})" in an.columns
         assert an.peaks[f"pin_force({p})"] >= an.peaks_sampled[f"pin_force({p})"]
+        # the interval enclosures' bound over the continuous stroke holds the located peak
+        bound = an.certificates[f"peak |pin_force({p})|"]["bound"]
+        assert an.peaks[f"pin_force({p})"] <= bound <= an.peaks[f"pin_force({p})"] * (1 + 1e-8)
     np.testing.assert_allclose(an.columns["pin_force(D)"], np.abs(an.columns["drive"]), rtol=1e-12)
     assert an.peaks["pin_force(B)"] == pytest.approx(an.peaks["drive"], rel=1e-12)
     assert an.joints_note is None
@@ -453,3 +456,19 @@ def test_pin_force_errors_name_the_pin(tmp_path):
                          capture_output=True, text=True)
     assert out.returncode == 2, out.stderr
     assert "'bucket' does not turn and hangs on one pin" in out.stderr and "Traceback" not in out.stderr
+
+
+def test_pin_forces_in_every_load_case_and_the_governing_one():
+    """analyse(joints=True) of a scene with [[cases]]: each case's pin forces (its parameters,
+    its motion) with their peaks, and the governing case of each pin's peak."""
+    scene = optdesign.loads(CASES)
+    an = optdesign.analyse(scene, samples=31, joints=True)
+    for name, mass in (("rated", 500.0), ("test load", 625.0)):
+        alone = optdesign.analyse(optdesign.load(ROOT / "problems" / "seed1_jib.toml").with_parameters(mC=mass),
+                                  samples=31, joints=True)
+        case = an.cases.cases[name]
+        for p in "ADB":
+            np.testing.assert_allclose(case.columns[f"pin_force({p})"], alone.columns[f"pin_force({p})"], rtol=1e-12)
+            assert case.peaks[f"pin_force({p})"] == pytest.approx(np.max(alone.columns[f"pin_force({p})"]), rel=1e-12)
+    for p in "ADB":
+        assert an.cases.governing[f"pin_force({p})"]["case"] == "test load"

@@ -147,3 +147,69 @@ def test_inverse_and_its_derivative(name):
         # d tau/du = 1/f': near the far end f's round-off (5e-16) over f' ~ 0.06 limits it to ~1e-12
         assert dt * v[0] == pytest.approx(1.0, rel=1e-11)
     assert float(fn(0.0)[0]) == 0.0 and float(fn(1.0)[0]) == 1.0
+
+
+BAR = """
+title = "a bar turned by its crank"
+[parameters]
+m = 2.0
+[sweep]
+name = "phi"
+from = "0 deg"
+to = "90 deg"
+samples = 41
+[points]
+A = {{ fixed = [0, 0] }}
+B = {{ polar = ["A", 0.5, "phi"] }}
+[[bodies]]
+name = "bar"
+frame = ["A", "B"]
+mass = "m"
+com = [0.25, 0]
+inertia = 0.1
+[gravity]
+g = 9.81
+[drive]
+type = "rotary"
+crank = ["A", "B"]
+speed = 1.0
+acceleration = 0.0
+[profiles.move]
+{profile}
+[[cases]]
+name = "move"
+direction = "forward"
+profile = "move"
+"""
+
+
+def bar_case(profile):
+    import optdesign
+
+    return optdesign.analyse(optdesign.loads(BAR.format(profile=profile))).cases.cases["move"]
+
+
+@pytest.mark.parametrize("name", ["cycloidal", "modified-trapezoid"])
+def test_the_time_follows_from_the_peak_limits(name):
+    """speed = v: T = C_v L / v and the peak sweep speed is v; acceleration = a: T = sqrt(C_a L / a)."""
+    law, L = standard(name), math.pi / 2
+    by_speed = bar_case(f'kind = "{name}"\nspeed = 2.0')
+    assert by_speed.duration == pytest.approx(law.peak_speed * L / 2.0, rel=1e-14)
+    assert np.max(np.abs(by_speed.columns["sd"])) <= 2.0 * (1 + 1e-12)
+    by_acc = bar_case(f'kind = "{name}"\nacceleration = 5.0')
+    assert by_acc.duration == pytest.approx(math.sqrt(law.peak_acceleration * L / 5.0), rel=1e-14)
+    both = bar_case(f'kind = "{name}"\nspeed = 2.0\nacceleration = 5.0')
+    assert both.duration == pytest.approx(max(by_speed.duration, by_acc.duration), rel=1e-14)
+
+
+def test_polynomial_profile_ends_and_reversal():
+    case = bar_case('kind = "polynomial"\ntime = 1.0\nstart_speed = 0.5\nend_speed = 1.0')
+    sd = case.columns["sd"]
+    assert sd[0] == pytest.approx(0.5, rel=1e-12) and sd[-1] == pytest.approx(1.0, rel=1e-12)
+    assert case.duration == 1.0
+    from optdesign.errors import SceneError
+
+    with pytest.raises(SceneError) as info:   # too fast at the ends for the stroke: it runs back in between
+        bar_case('kind = "polynomial"\ntime = 1.0\nstart_speed = 6.0\nend_speed = 6.0')
+    assert "[profiles] move, time: this polynomial reverses: its speed is" in str(info.value)
+    assert "along the stroke of 1.5708" in str(info.value)

@@ -76,8 +76,13 @@ def case_model(name, tau, a, b, c):
     return psi, q, torque, torque / I_RATIO + J_ROTOR * I_RATIO * q_dd
 
 
-def test_analyse_against_the_numpy_model():
-    result = optdesign.analyse(optdesign.load(SCENE))
+@pytest.fixture(scope="module")
+def analysed():
+    return optdesign.analyse(optdesign.load(SCENE))
+
+
+def test_analyse_against_the_numpy_model(analysed):
+    result = analysed
     for name, (law, T, sigma, _, _) in CASES.items():
         cols = result.cases.cases[name].columns
         L = PSI_HI - PSI_LO
@@ -201,11 +206,11 @@ def test_shipped_results_reach_the_reference_optimum(reference):
     check_optimum(doc["objective"], doc["design"], reference)
 
 
-def test_jerk_column_and_the_motion_figure(tmp_path):
+def test_jerk_column_and_the_motion_figure(analysed, tmp_path):
     """The squeeze's jerk is the cycloid's, L/T^3 (2 pi)^2 cos(2 pi tau); motion.png is drawn."""
     from optdesign.report.cases import cases_figures
 
-    result = optdesign.analyse(optdesign.load(SCENE))
+    result = analysed
     cols = result.cases.cases["squeeze"].columns
     tau = cols["t"] / 1.0
     L = PSI_HI - PSI_LO
@@ -228,3 +233,18 @@ def test_simulate_tracks_the_laws_in_time():
     energy = sum(p["integrals"]["motor_squared"] for p in result.phases)
     assert [p["name"] for p in result.phases] == ["squeeze", "return", "rest"]
     assert np.sqrt(energy / 3.0) == pytest.approx(reference_rms(0.025, 0.10, 0.08), rel=1e-3)
+
+
+def test_a_swing_past_the_crank_toggle_is_located():
+    """Stated on the output, a swing the crank cannot drive (past its toggle, where dq/dpsi grows
+    without bound) is refused with the located rocker angle: the numpy four-bar's, where the
+    crank folds onto the coupler, |AC| = b - a (law of cosines: 132.333 deg)."""
+    from optdesign.errors import OptdesignError
+
+    text = SCENE.read_text().replace('to = "130 deg"', 'to = "136 deg"')
+    with pytest.raises(OptdesignError) as info:
+        optdesign.analyse(optdesign.loads(text, "far.toml"))
+    cos_psi = ((0.10 - 0.025) ** 2 - D**2 - 0.08**2) / (2 * D * 0.08)
+    where = np.degrees(np.arccos(cos_psi))
+    assert "[points] B (dyad) cannot assemble past psi" in str(info.value)
+    assert f"({where:.3f} deg)" in str(info.value)

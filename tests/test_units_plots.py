@@ -96,3 +96,35 @@ def test_stroke_figure_shows_bounds_and_the_violation(tmp_path):
     red = np.all(np.abs(rgb - [0xD6, 0x27, 0x28]) < 40, axis=2).sum()
     shade = np.all(np.abs(rgb - [233, 243, 233]) < 6, axis=2).mean()    # the feasible band, light green
     assert red > 150 and shade > 0.05
+
+
+def test_study_figure_draws_round_off_flat():
+    """A quantity a study's axis does not change, equal to 1e-11 relative, is drawn flat (was
+    plotted as a trend on an offset axis); a real change is drawn as it is."""
+    import numpy as np
+
+    from optdesign.report.study import flat
+
+    noise = 171492.2 * (1 + 1e-11 * np.array([0.0, 3.0, -2.0, 5.0]))
+    assert np.ptp(flat(noise)) == 0 and flat(noise)[0] == pytest.approx(171492.2, rel=1e-10)
+    real = np.array([1.0, 1.0 + 1e-6, 1.0 + 2e-6])
+    assert np.array_equal(flat(real), real)
+    with_nan = np.array([2.0, np.nan, 2.0 * (1 + 1e-12)])
+    out = flat(with_nan)
+    assert np.isnan(out[1]) and out[0] == out[2]
+
+
+def test_study_summary_has_a_compact_table_of_its_cases():
+    """summary.txt of a study lists its cases (was counts alone): the axes' columns and the
+    objective with the design, one line per case, the rest left to cases.csv."""
+    from types import SimpleNamespace
+
+    from optdesign.study.execute import case_table
+
+    study = SimpleNamespace(mode="optimise", axes=[SimpleNamespace(columns=("mP",))])
+    rows = [{"case": k, "mP": 1000.0 * k, "objective": 171492.2 + k, "design:xD": 0.5, "success": True}
+            for k in range(40)]
+    lines = case_table(study, rows, shown=30)
+    assert lines[0] == "cases:" and lines[1].split() == ["case", "mP", "objective", "design:xD"]
+    assert lines[2].split() == ["0", "0", "171492", "0.5"] and lines[3].split()[:3] == ["1", "1000", "171493"]
+    assert len(lines) == 2 + 30 + 1 and lines[-1] == "  ... 10 more in cases.csv"

@@ -27,9 +27,10 @@ def add_arguments(p):
     add_design_argument(p, "analyse")
     p.add_argument("--plot", metavar="DIR", help="write figures (PNG) into DIR")
     p.add_argument("--table", action="store_true", help="print the table over every sample (after which the "
-                   "peaks and constraints in SI); without it, the summary in the scene's units")
+                   "peaks and constraints in SI, then the summary in the scene's units); without it, the summary")
     p.add_argument("--csv", metavar="FILE", help="write every sample as CSV, each header 'name [unit]' (- : to "
-                   "standard output, the summary then to standard error)")
+                   "standard output, the summary then to standard error; with [[cases]], also FILE-STEM_case-NAME.csv "
+                   "per case and FILE-STEM_cycle.csv for the duty cycle)")
     p.add_argument("--joints", action="store_true", help="the force at every pin and slider too (pin_force(P), "
                    "its components, slider_normal(P), slider_moment(P)), their peaks certified")
 
@@ -51,8 +52,22 @@ def run(args):
         from ..report.files import write_file
 
         print(f"wrote {write_file(args.csv, csv_text(result), '--csv')}", file=sys.stderr)
+        if args.csv != "-":
+            from ..report.cases import cases_csv
+
+            for path in cases_csv(result, args.csv):   # with [[cases]]: one per case and the duty cycle's
+                print(f"wrote {path}", file=sys.stderr)
     emit(args, lambda: report.analysis_json(result),
-         lambda: report.analysis_table_chunks(result) if args.table else summary_chunks(report, result))
+         lambda: table_chunks(report, result) if args.table else summary_chunks(report, result))
+
+
+def table_chunks(report, result):
+    """--table: the table over every sample, then the summary (it keeps the summary)."""
+    yield from report.analysis_table_chunks(result)
+    yield "\n\n"
+    from ..report.checks import summary_lines
+
+    yield "\n".join(summary_lines(result))
 
 
 def summary_chunks(report, result):

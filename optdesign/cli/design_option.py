@@ -54,6 +54,7 @@ def _with_design(scene, design, data, path, args):
     from .common import overrides
 
     variables = [q.name for q in scene.parameters if q.is_design]
+    scene = with_chosen_motor(scene, data.get("chosen_motor"))   # a catalogue's result: its motor
     made = f" (made from {data['file']})" if isinstance(data.get("file"), str) else ""
     give = f"give the result.json of an optimisation of {args.scene}"
     if any(name not in variables for name in design):
@@ -92,3 +93,18 @@ def default_file(args, suffix) -> Path:
     """optdesign-results/<scene name><suffix>, e.g. optdesign-results/truck_crane-draw.png."""
     stem = Path(args.scene).stem + ("-optimum" if getattr(args, "design", None) else "")
     return DEFAULT_ROOT / f"{stem}{suffix}"
+
+
+def with_chosen_motor(scene, chosen):
+    """With a motor catalogue's result (``chosen``: its chosen_motor), the scene's duty cycle in
+    time ([simulation] motor) runs the motor the result chose, not the one the file names."""
+    import dataclasses
+
+    sim = scene.simulation
+    if not isinstance(chosen, str) or sim is None or sim.motor in (None, chosen):
+        return scene
+    if chosen not in {m.name for m in scene.motors}:
+        raise OptdesignError(f"--design: its chosen motor {chosen!r} is not in this scene's [[motors]] "
+                             f"({', '.join(m.name for m in scene.motors)}): give the result of an optimisation of "
+                             "this scene")
+    return dataclasses.replace(scene, simulation=dataclasses.replace(sim, motor=chosen))

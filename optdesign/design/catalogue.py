@@ -40,6 +40,7 @@ class CatalogueResult:
     not_tried: tuple = ()
     interrupted: str | None = None
     interrupted_starts: tuple = ()
+    motors: tuple = ()   # every motor of the catalogue, in the order tried (smallest rated torque first)
 
 
 def optimise_catalogue(scene, progress=None, **options) -> CatalogueResult:
@@ -58,7 +59,7 @@ def optimise_catalogue(scene, progress=None, **options) -> CatalogueResult:
     results, chosen = {}, None
     with interruptible():   # a Ctrl-C between two motors' starts (a motor's build) is kept too
         for k, motor in enumerate(motors):
-            one = dataclasses.replace(scene, motors=(motor,))
+            one = with_motor(scene, motor)
             label = f"{motor.name}, motor {k + 1} of {len(motors)}"
             step = None if progress is None else (lambda done, total, label=label: progress(label, done, total))
             try:
@@ -73,7 +74,18 @@ def optimise_catalogue(scene, progress=None, **options) -> CatalogueResult:
                 chosen = motor.name
                 break
     best = results[chosen] if chosen else results[motors[-1].name]
-    return CatalogueResult(results, chosen, best, tuple(m.name for m in motors[len(results):]))
+    return CatalogueResult(results, chosen, best, tuple(m.name for m in motors[len(results):]), motors=tuple(motors))
+
+
+def with_motor(scene, motor):
+    """``scene`` with ``motor`` alone for its catalogue; a duty cycle in time
+    ([simulation] motor naming another motor of the catalogue) then runs that motor too: the
+    catalogue is optimised with each motor in turn, the phases with the one being optimised
+    (``simulate --design`` runs the motor the result chose)."""
+    sim = scene.simulation
+    if sim is not None and sim.motor is not None and sim.motor != motor.name:
+        sim = dataclasses.replace(sim, motor=motor.name)
+    return dataclasses.replace(scene, motors=(motor,), simulation=sim)
 
 
 def interrupted_catalogue(motors, results, stop) -> OptimisationInterrupted:
@@ -91,5 +103,5 @@ def interrupted_catalogue(motors, results, stop) -> OptimisationInterrupted:
     decided = [r for name, r in results.items() if name != motor]
     best = results[chosen] if chosen else (decided[-1] if decided else None)
     stop.catalogue = CatalogueResult(results, chosen, best, tuple(m.name for m in motors[len(decided) + 1:]),
-                                     motor, (stop.finished, stop.total))
+                                     motor, (stop.finished, stop.total), tuple(motors))
     return stop

@@ -56,12 +56,15 @@ class IntervalProgram:
         self.fixed, self.varying = [], []
         jumps, consumers, prog = 0, {}, []
         condition, negation = {}, {}   # if_else_zero -> its condition's instruction; not -> its operand's
+        producers, outputs = {}, []      # instruction -> the varying instructions it reads; (output, row)
         for k in range(func.n_instructions()):
             op, i, o = func.instruction_id(k), func.instruction_input(k), func.instruction_output(k)
             if op == ca.OP_OUTPUT:
                 slot = i[0]   # read in program order: a later instruction may reuse the slot
                 where = slot if varies[slot] else self.n_work + made_by[slot]
                 prog.append((k, op, (o[0], o[1], deps[slot] if varies[slot] else 0), None, [where], True, None, None))
+                producers[k] = [made_by[slot]] if varies[slot] else []
+                outputs.append((k, self.rows[o[0]][o[1]]))
                 continue
             if op not in (ca.OP_INPUT, ca.OP_CONST) and op not in _BINARY_OPS and op not in _UNARY_OPS:
                 raise NotImplementedError(f"operation {_name(op)} has no interval enclosure here")
@@ -70,6 +73,7 @@ class IntervalProgram:
                 consumers.setdefault(made_by[slot], set()).add(op)
             v = (op == ca.OP_INPUT and i[0] == 0) or any(varies[x] for x in slots)
             ins = [x if varies[x] else self.n_work + made_by[x] for x in slots]
+            producers[k] = [made_by[x] for x in slots if varies[x]]
             d = 0
             for x in slots:
                 d |= deps[x] if varies[x] else 0
@@ -92,6 +96,22 @@ class IntervalProgram:
         self.n_store = self.n_work + func.n_instructions()
         self.n_jumps = jumps
         self._p_key, self._p_work = None, None
+        self._producers, self._outputs, self._subsets = producers, outputs, {}
+
+    def _subset(self, rows):
+        """The varying program cut to what the outputs of ``rows`` need (in the same order: an
+        instruction left out wrote nothing that a kept one reads), cached per set of rows."""
+        key = frozenset(int(r) for r in rows)
+        if key not in self._subsets:
+            needed = set()
+            stack = [k for k, row in self._outputs if row in key]
+            while stack:
+                k = stack.pop()
+                if k not in needed:
+                    needed.add(k)
+                    stack += self._producers.get(k, [])
+            self._subsets[key] = [entry for entry in self.varying if entry[-1][1] in needed]
+        return self._subsets[key]
 
     def _fixed_work(self, p):
         """The values that do not depend on s, at parameters p (point intervals), cached."""
@@ -135,14 +155,16 @@ class IntervalProgram:
                 if bit is not None and undecided is not None:
                     undecided[bit] = und
 
-    def __call__(self, lo, hi, p):
+    def __call__(self, lo, hi, p, rows=None):
+        """Every output over the intervals [lo, hi]; ``rows``: only those rows of the outputs
+        (the others NaN), with only the instructions they need."""
         lo, hi = np.asarray(lo, float).ravel(), np.asarray(hi, float).ravel()
         n = len(lo)
         work = list(self._fixed_work(p))
         undecided = [None] * self.n_jumps
         self._store, self._branches = [], {}
-        self._run(self.varying, work, (lo, hi), p, undecided)
-        out = [(np.zeros((m, n)), np.zeros((m, n)), np.zeros((m, n), bool)) for m in self.shapes]
+        self._run(self.varying if rows is None else self._subset(rows), work, (lo, hi), p, undecided)
+        out = [(np.full((m, n), np.nan), np.full((m, n), np.nan), np.zeros((m, n), bool)) for m in self.shapes]
         for (j, nz, deps), (a, b) in self._store:
             row = self.rows[j][nz]
             out[j][0][row], out[j][1][row] = a, b
@@ -213,12 +235,12 @@ class Enclosure:
     def __init__(self, program: IntervalProgram, p):
         self.program, self.p = program, np.asarray(p, float).ravel()
 
-    def bounds(self, lo, hi):
+    def bounds(self, lo, hi, rows=None):
         lo, hi = np.asarray(lo, float), np.asarray(hi, float)
         n = len(lo)
         m = 0.5 * (lo + hi)
         r = _up(np.maximum(hi - m, m - lo))
-        (v_lo, v_hi, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(np.r_[lo, m], np.r_[hi, m], self.p)
+        (v_lo, v_hi, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(np.r_[lo, m], np.r_[hi, m], self.p, rows)
         whole, mid = slice(0, n), slice(n, 2 * n)
         L, U = v_lo[:, whole], v_hi[:, whole]
         vm_lo, vm_hi = v_lo[:, mid], v_hi[:, mid]
@@ -270,7 +292,8 @@ class Selected:
         self.sign = np.asarray(sign, float)[:, None]
         self.reason = getattr(enclosure, "reason", None)
 
-    def bounds(self, lo, hi):
-        L, U, m_lo, m_hi = (a[self.rows] for a in self.enclosure.bounds(lo, hi))
+    def bounds(self, lo, hi, rows=None):
+        inner = None if rows is None else self.rows[np.asarray(rows, int)]
+        L, U, m_lo, m_hi = (a[self.rows] for a in self.enclosure.bounds(lo, hi, inner))
         up = self.sign > 0
         return (np.where(up, L, -U), np.where(up, U, -L), np.where(up, m_lo, -m_hi), np.where(up, m_hi, -m_lo))

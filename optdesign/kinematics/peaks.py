@@ -211,7 +211,7 @@ def certify(enclosure, evaluate_many, s_grid, V, requests, found, s_tol=1e-13, t
             break
         pairs, where = np.unique(np.c_[lo, hi], axis=0, return_inverse=True)
         where = where.ravel()
-        L, U, vm_lo, vm_hi = enclosure.bounds(pairs[:, 0], pairs[:, 1])
+        L, U, vm_lo, vm_hi = enclosure.bounds(pairs[:, 0], pairs[:, 1], np.unique(rows[req]))
         r_of, code = rows[req], sense[req]
         ub = _target_bound(L[r_of, where], U[r_of, where], code, upper=True)
         vm_lo, vm_hi = vm_lo[r_of, where], vm_hi[r_of, where]
@@ -228,7 +228,7 @@ def certify(enclosure, evaluate_many, s_grid, V, requests, found, s_tol=1e-13, t
         width = hi - lo
         if not len(req) or len(req) > MAX_INTERVALS or np.any(width <= max(span, 1e-300) * 1e-13):
             break
-        pieces = int(max(2, min(16, 1024 // len(req))))
+        pieces = int(max(2, min(64, 4096 // len(req))))   # an evaluation costs about the same up to thousands
         t = np.arange(pieces + 1) / pieces
         edges = lo[:, None] + width[:, None] * t[None, :]
         edges[:, -1] = hi

@@ -139,7 +139,8 @@ class CaseResult:
 class CaseAnalysis:
     """Every case of a scene over the stroke, compiled once (under :class:`optdesign.model.analysis.Analysis`)."""
 
-    def __init__(self, mech, s_values):
+    def __init__(self, mech, s_values, joints=False):
+        """``joints``: each case's joint forces too (columns pin_force(P), ...: model/joints.py)."""
         self.mech = mech
         self.s_values = np.asarray(s_values, float)
         self.cases = [CaseModel(mech, c) for c in mech.scene.cases]
@@ -151,6 +152,8 @@ class CaseAnalysis:
                 outs["motor_torque"] = outs["motor_load_torque"] + motor["inertia"] * outs["motor_acceleration"]
             for name, expr in cm.constraints(outs).items():
                 outs[f"constraint:{name}"] = expr + 0 * mech.s
+            if joints:
+                outs.update(_joint_outputs(cm, mech))
             outs["q"], outs["k"] = mech.q, mech.ds(mech.q)
             outs["hold_load"] = cm.static_load() + 0 * mech.s
             self.functions.append((list(outs), MappedFunction(mech.function(f"case_{len(self.functions)}", outs))))
@@ -171,7 +174,7 @@ class CaseAnalysis:
             columns = {"s": nodes}
             columns.update({k: v for k, v in values.items()})
             peaks, peak_at = {}, {}
-            for key in PEAK_KEYS:
+            for key in PEAK_KEYS + tuple(k for k in columns if k.startswith("pin_force(")):
                 if key in columns:
                     i = int(np.argmax(np.abs(columns[key])))
                     peaks[key] = float(abs(columns[key][i]))
@@ -314,9 +317,22 @@ def add_motor_torque(results, duty, motor):
 def governing_cases(results: dict) -> dict:
     """For each peak, the case with the largest one: {case, value, s} (brute force over cases)."""
     out = {}
-    for key in PEAK_KEYS:
+    pins = dict.fromkeys(k for r in results.values() for k in r.peaks if k.startswith("pin_force("))
+    for key in PEAK_KEYS + tuple(pins):
         have = [(r.peaks[key], name) for name, r in results.items() if key in r.peaks]
         if have:
             value, name = max(have, key=lambda v: v[0])
             out[key] = {"case": name, "value": value, "s": results[name].peak_at[key]["s"]}
     return out
+
+
+def _joint_outputs(cm, mech) -> dict:
+    """A case's joint forces (model/joints.py) as columns, or none where the structure cannot be
+    derived (analyse's joints_note says why)."""
+    from .joint_structure import JointStructureError
+    from .quantities import joint_forces
+
+    try:
+        return {k: v + 0 * mech.s for k, v in joint_forces(cm.model).outputs().items()}
+    except JointStructureError:
+        return {}

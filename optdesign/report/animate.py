@@ -34,6 +34,24 @@ def caption_value(value: float, peak: float) -> float:
     a dead centre read -1.942e-13 N m against a 104.6 N m peak) is shown as 0."""
     return 0.0 if abs(value) <= 1e-9 * peak else float(value)
 
+def drive_curve(scene, analysis) -> tuple:
+    """(label, s ascending, values, SI unit) of the side panel's load: with load cases the
+    governing case's motor torque (with a motor) or drive load, named so; else the nominal
+    [drive] state's drive load."""
+    name, base = DRIVE_UNIT[scene.drive.kind]
+    cases = getattr(analysis, "cases", None)
+    if cases is not None:
+        key = "motor_torque" if any("motor_torque" in c.columns for c in cases.cases.values()) else "drive"
+        g = cases.governing.get(key)
+        if g is not None:
+            c = cases.cases[g["case"]]
+            order = np.argsort(c.columns["s"], kind="stable")
+            label = "motor torque" if key == "motor_torque" else name
+            return (f"{label}, case '{g['case']}' (governing)", np.asarray(c.columns["s"], float)[order],
+                    np.asarray(c.columns[key], float)[order], "N m" if key == "motor_torque" else base)
+    return name, np.asarray(analysis.columns["s"], float), np.asarray(analysis.columns["drive"], float), base
+
+
 def transmission(scene, geometry, analysis, s):
     """(label, values at ``s``, unit, (lower, upper) or None) of the transmission angle, or
     None where there is none to show."""
@@ -98,18 +116,17 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None, 
     markers = []
     if analysis is not None:
         ax = fig.add_axes([0, 0, 1, 1])
-        name, base = DRIVE_UNIT[scene.drive.kind]
-        drive = analysis.columns["drive"]
+        name, drive_s, drive, base = drive_curve(scene, analysis)
         k, shown = scaled(drive, base)
-        x = analysis.columns["s"] * factor
+        x = drive_s * factor
         ax.plot(x, drive * k, color="#1f77b4", lw=1.6)
         i = int(np.argmax(np.abs(drive)))
         mark_peak(ax, x[i], drive[i] * k, f"peak {abs(drive[i]) * k:.4g} {shown}")
         headroom(ax)
-        ax.set_ylabel(f"{name} [{shown}]", fontsize=8)
+        ax.set_ylabel(textwrap.fill(f"{name} [{shown}]", 40), fontsize=8)
         ax.grid(alpha=0.3)
         ax.tick_params(labelsize=7)
-        values = np.interp(s, analysis.columns["s"], drive) * k
+        values = np.interp(s, drive_s, drive) * k
         peak = abs(drive[i]) * k   # over the stroke, not the frames drawn (a still has one)
         (dot,) = ax.plot([], [], "o", color="black", ms=6)
         line = ax.axvline(x[0], color="black", lw=0.8, alpha=0.6)
@@ -163,7 +180,7 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None, 
             dot.axes.draw_artist(line)
             dot.axes.draw_artist(dot)
         if analysis is not None:
-            text += f"   {name} {caption_value(markers[0][2][i], peak):.4g} {shown}"
+            text += f"   {name.split(',')[0]} {caption_value(markers[0][2][i], peak):.4g} {shown}"
         if trans is not None:
             text += f"   transmission {trans[1][i]:.3g} {trans[2]}"
         if not shots.assembled[i]:

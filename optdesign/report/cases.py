@@ -11,18 +11,20 @@ from pathlib import Path
 import numpy as np
 
 from .output import new_figure, save_figure, table
+from .units import ColumnUnits
 
-FIGURES = ("cases.png", "duty.png", "motion.png")
+FIGURES = ("cases.png", "duty.png", "motion.png", "torque_speed.png", "cylinder.png")
 CASE_COLUMNS = ("s", "t", "q", "sd", "sdd", "jerk", "drive_speed", "drive_acceleration", "static_load", "inertia_term",
                 "velocity_term", "drive", "power", "efficiency_factor", "motor_speed", "motor_acceleration",
                 "motor_load_torque", "motor_torque", "rod_buckling")
-UNITS = {
-    "rotary": {"t": "s", "drive_speed": "rad/s", "drive_acceleration": "rad/s^2", "drive": "N m",
-               "static_load": "N m", "reduced_inertia": "kg m^2", "power": "W", "motor_speed": "rad/s",
-               "motor_acceleration": "rad/s^2", "motor_load_torque": "N m", "motor_torque": "N m",
-               "energy": "J", "cycle_time": "s"},
-    "linear": {"t": "s", "drive_speed": "m/s", "drive_acceleration": "m/s^2", "drive": "N", "static_load": "N",
-               "reduced_inertia": "kg", "power": "W", "rod_buckling": "1", "energy": "J", "cycle_time": "s"},
+UNITS = {   # the joint forces (pin_force(P), ...) by their prefix: report/units.ColumnUnits
+    "rotary": ColumnUnits({"t": "s", "drive_speed": "rad/s", "drive_acceleration": "rad/s^2", "drive": "N m",
+                           "static_load": "N m", "reduced_inertia": "kg m^2", "power": "W", "motor_speed": "rad/s",
+                           "motor_acceleration": "rad/s^2", "motor_load_torque": "N m", "motor_torque": "N m",
+                           "energy": "J", "cycle_time": "s"}),
+    "linear": ColumnUnits({"t": "s", "drive_speed": "m/s", "drive_acceleration": "m/s^2", "drive": "N",
+                           "static_load": "N", "reduced_inertia": "kg", "power": "W", "rod_buckling": "1", "energy": "J",
+                           "cycle_time": "s"}),
 }
 
 
@@ -70,8 +72,12 @@ def cases_table(result, samples: bool = True) -> str:
     cr = _cases(result)
     if cr is None:
         return ""
+    from .units import sweep_scale
+
     kind = result.scene.drive.kind
     units, sweep = UNITS[kind], result.scene.sweep.name
+    sf, su = sweep_scale(result.scene)   # the sweep in the unit the scene wrote (deg)
+    at = lambda s: f"{sweep} = {s * sf:.8g}{' ' + su if su else ''}"  # noqa: E731
     first = next(iter(cr.cases.values()))
     cols = {sweep: first.columns["s"][first.on_samples]}
     for name, c in cr.cases.items():
@@ -92,17 +98,17 @@ def cases_table(result, samples: bool = True) -> str:
                      + (f"stroke time {c.duration:.6g} s" if math.isfinite(c.duration) else
                         "no stroke time (the constant [drive] speed with an acceleration is no motion in time)"))
         for key, value in c.peaks.items():
-            lines.append(f"  peak |{key}| = {value:.8g}{_unit(units, key)} at {sweep} = {c.peak_at[key]['s']:.8g}")
+            lines.append(f"  peak |{key}| = {value:.8g}{_unit(units, key)} at {at(c.peak_at[key]['s'])}")
         for key, v in c.constraints.items():
-            lines.append(f"  constraint {key!r}: min {np.min(v):.8g} at {sweep} = {c.columns['s'][np.argmin(v)]:.8g}, "
-                         f"max {np.max(v):.8g} at {sweep} = {c.columns['s'][np.argmax(v)]:.8g}")
+            lines.append(f"  constraint {key!r}: min {np.min(v):.8g} at {at(c.columns['s'][np.argmin(v)])}, "
+                         f"max {np.max(v):.8g} at {at(c.columns['s'][np.argmax(v)])}")
         if c.integrals:
             lines.append(f"  RMS over its time {c.integrals['rms_time']:.8g} {units['drive']}, energy "
                          f"{c.integrals['energy']:.8g} J (driving {c.integrals['energy_driving']:.8g} J)")
             lines += unresolved_lines(c.integrals.get("unresolved"), units)
     lines.append("governing cases:")
     for key, g in cr.governing.items():
-        lines.append(f"  peak |{key}| = {g['value']:.8g}{_unit(units, key)}: case {g['case']!r} at {sweep} = {g['s']:.8g}")
+        lines.append(f"  peak |{key}| = {g['value']:.8g}{_unit(units, key)}: case {g['case']!r} at {at(g['s'])}")
     lines += _duty_lines(cr.duty, units) + _train_lines(cr.train, kind)
     return "\n".join(lines)
 
@@ -153,23 +159,26 @@ def _train_lines(train, kind):
     if kind == "linear":
         t = train
         if "bore_undetermined" in t:
-            return [f"cylinder at {t['pressure']:.6g} Pa: peak push {t['peak_push']:.8g} N, pull {t['peak_pull']:.8g} N, "
-                    f"full extension {t['full_extension']:.6g} m",
-                    f"  bore needed: {t['bore_undetermined']}; rod needed for buckling {t['rod_needed_buckling']:.6g} "
-                    f"m; with rod {t['rod']:.6g} m: Euler load {t['euler_force']:.8g} N, buckling utilisation "
-                    f"{t['buckling_utilisation']:.4g}"]
-        return [f"cylinder at {t['pressure']:.6g} Pa: peak push {t['peak_push']:.8g} N, pull {t['peak_pull']:.8g} N, "
-                f"full extension {t['full_extension']:.6g} m",
-                f"  bore needed {t['bore_needed']:.6g} m, rod needed for buckling {t['rod_needed_buckling']:.6g} m; with "
-                f"bore {t['bore']:.6g} m, rod {t['rod']:.6g} m: Euler load {t['euler_force']:.8g} N, buckling "
-                f"utilisation {t['buckling_utilisation']:.4g}, pressures {t['pressure_push']:.6g} / "
-                f"{t['pressure_pull']:.6g} Pa, pump flow {t['pump_flow'] * 6e4:.6g} l/min"]
-    lines = [f"drive train: gear ratio i = {train['ratio']:.6g}"]
+            return [f"cylinder at {t['pressure'] * 1e-5:.6g} bar: peak push {t['peak_push']:.8g} N, pull "
+                    f"{t['peak_pull']:.8g} N, full extension {t['full_extension'] * 1e3:.6g} mm",
+                    f"  bore needed: {t['bore_undetermined']}; rod needed for buckling "
+                    f"{t['rod_needed_buckling'] * 1e3:.6g} mm; with rod {t['rod'] * 1e3:.6g} mm: Euler load "
+                    f"{t['euler_force']:.8g} N, buckling utilisation {t['buckling_utilisation']:.4g}"]
+        return [f"cylinder at {t['pressure'] * 1e-5:.6g} bar: peak push {t['peak_push']:.8g} N, pull "
+                f"{t['peak_pull']:.8g} N, full extension {t['full_extension'] * 1e3:.6g} mm",
+                f"  bore needed {t['bore_needed'] * 1e3:.6g} mm, rod needed for buckling "
+                f"{t['rod_needed_buckling'] * 1e3:.6g} mm; with bore {t['bore'] * 1e3:.6g} mm, rod {t['rod'] * 1e3:.6g} "
+                f"mm: Euler load {t['euler_force']:.8g} N, buckling utilisation {t['buckling_utilisation']:.4g}, "
+                f"pressures {t['pressure_push'] * 1e-5:.6g} / {t['pressure_pull'] * 1e-5:.6g} bar (push / pull), "
+                f"pump flow {t['pump_flow'] * 6e4:.6g} l/min"]
+    lines = [f"drive train: gear ratio i = {train['ratio']:.6g} (motor speed / drive speed)"]
+    rpm = 30 / math.pi
     for name, m in train.get("motors", {}).items():
         rms = (f"RMS {m['rms']:.6g} N m" if "rms" in m else "RMS not checked (no duty cycle in time)")
         lines.append(f"  motor {name!r}: peak {m['peak']:.6g} N m (peak torque {m['peak_torque']:.6g}), "
-                     f"{rms} (rated {m['rated_torque']:.6g}), speed {m['peak_speed']:.6g} rad/s "
-                     f"(max {m['max_speed']:.6g}); {inertia_ratio_text(m, 'J_load/(i^2 J_r) = ', 'optimal ratio')}: "
+                     f"{rms} (rated {m['rated_torque']:.6g}), speed {m['peak_speed']:.6g} rad/s = "
+                     f"{m['peak_speed'] * rpm:.5g} rpm (max {m['max_speed']:.6g} rad/s = {m['max_speed'] * rpm:.5g} rpm); "
+                     f"{inertia_ratio_text(m, 'J_load/(i^2 J_r) = ', 'optimal ratio')}: "
                      f"{'fits' if m['fits'] else 'does not fit'}")
     if train.get("motors"):
         lines.append(f"  smallest motor that fits: {train['smallest_fitting'] or 'none'} (J_load = "
@@ -180,39 +189,123 @@ def _train_lines(train, kind):
     return lines
 
 
-# --- figures ---------------------------------------------------------------------------------
-def cases_figures(result, folder) -> list:
-    """cases.png and duty.png into ``folder`` (nothing without cases); the paths written."""
+# --- CSV -------------------------------------------------------------------------------------
+def cases_csv(result, path) -> list:
+    """Beside ``path`` (analyse --csv FILE): FILE-STEM_case-NAME.csv per case (its samples, every
+    header 'name [unit]', SI but the sweep in the unit the scene wrote) and FILE-STEM_cycle.csv
+    (the duty cycle's time series: the cases' samples in time, holds and dwells as their two
+    ends); the paths written (none without cases)."""
+    import csv
+    import io
+    import re
+
+    from .files import write_file
+    from .units import sweep_scale
+
     cr = _cases(result)
     if cr is None:
         return []
-    folder, kind = Path(folder), result.scene.drive.kind
-    units, sweep = UNITS[kind], result.scene.sweep.name
-    keys = [k for k in ("drive", "motor_torque") if any(k in c.columns for c in cr.cases.values())]
-    fig, axes = new_figure(len(keys), 1, figsize=(7, 3.2 * len(keys)))
-    axes = np.atleast_1d(axes)
-    for ax, key in zip(axes, keys):
-        for name, c in cr.cases.items():
-            ax.plot(c.columns["s"], c.columns[key], label=name)
-        g = cr.governing.get(key)
-        if g:
-            ax.plot([g["s"]], [np.sign(cr.cases[g["case"]].peak_at[key]["value"]) * g["value"]], "k*", ms=10,
-                    label=f"governing: {g['case']}")
-        ax.set_ylabel(f"{key} [{units.get(key, '')}]")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
-    axes[-1].set_xlabel(f"sweep {sweep}")
-    axes[0].set_title("load cases over the stroke")
-    written = [folder / "cases.png"]
-    save_figure(fig, written[-1])
+    path = Path(path)
+    units = UNITS[result.scene.drive.kind]
+    sf, su = sweep_scale(result.scene)
+    sweep = result.scene.sweep.name
+
+    more = {"q": "rad" if result.scene.drive.kind == "rotary" else "m", "inertia_term": units["drive"],
+            "velocity_term": units["drive"], "sd": f"{'rad' if su in ('deg', 'rad') else 'm'}/s"}
+
+    def head(key):
+        unit = ColumnUnits({**units, **more}).get(key, "")
+        return f"{sweep} [{su or '-'}]" if key == "s" else f"{key} [{unit if unit not in ('', '1') else '-'}]"
+
+    def text(heads, rows):
+        buf = io.StringIO()
+        writer = csv.writer(buf, lineterminator="\n")
+        writer.writerow(heads)
+        writer.writerows(rows)
+        return buf.getvalue()
+
+    written = []
+    for name, c in cr.cases.items():
+        keys = [k for k in CASE_COLUMNS if k in c.columns]
+        cols = [np.asarray(c.columns[k], float) * (sf if k == "s" else 1.0) for k in keys]
+        slug = re.sub(r"[^A-Za-z0-9]+", "_", name).strip("_")
+        written.append(write_file(path.with_name(f"{path.stem}_case-{slug}.csv"),
+                                    text([head(k) for k in keys], [[repr(float(x)) for x in row] for row in zip(*cols)])))
+    if "reason" not in cr.duty:
+        keys = [k for k in ("s", "drive", "power", "motor_speed", "motor_torque") if k in first_columns(cr)]
+        rows, t0 = [], 0.0
+        for step in cr.duty["steps"]:
+            if step["kind"] == "case":
+                c = cr.cases[step["case"]]
+                order = np.argsort(c.columns["t"], kind="stable")
+                for _ in range(math.ceil(step["repeat"])):
+                    for i in order:
+                        rows.append([repr(t0 + float(c.columns["t"][i])), step["case"]]
+                                    + [repr(float(c.columns[k][i]) * (sf if k == "s" else 1.0)) for k in keys])
+                    t0 += c.duration
+            else:
+                for end in (t0, t0 + step["time"]):
+                    level = step.get("load", 0.0) if step["kind"] == "hold" else 0.0
+                    rows.append([repr(end), step["kind"]] + [repr(level) if k == "drive" else "" for k in keys])
+                t0 += step["time"]
+        written.append(write_file(path.with_name(f"{path.stem}_cycle.csv"),
+                                    text(["t [s]", "step"] + [head(k) for k in keys], rows)))
+    return written
+
+
+def first_columns(cr) -> set:
+    """The columns every case has."""
+    return set.intersection(*(set(c.columns) for c in cr.cases.values()))
+
+
+# --- figures ---------------------------------------------------------------------------------
+def cases_figures(result, folder) -> list:
+    """cases.png, duty.png and the figures of what was sized (torque_speed.png, cylinder.png:
+    report/sized.py) into ``folder`` (nothing without cases); the paths written."""
+    cr = _cases(result)
+    if cr is None:
+        return []
+    from .sized import sized_figures
+
+    folder = Path(folder)
+    written = [case_load_figure(cr, result.scene, folder / "cases.png")]
     if "reason" not in cr.duty:
         written.append(folder / "duty.png")
-        save_figure(_duty_figure(cr, units), written[-1])
+        save_figure(_duty_figure(cr, UNITS[result.scene.drive.kind]), written[-1])
         from .output_motion import motion_figure   # the sweep's motion in time beside the motor's
 
         if motion_figure(result, cr, folder / "motion.png") is not None:
             written.append(folder / "motion.png")
-    return written
+    return written + sized_figures(cr, folder)
+
+
+def case_load_figure(cr, scene, path, title="load cases over the stroke") -> Path:
+    """Each case's drive load (and motor torque, rod buckling) over the stroke, the sweep in the
+    unit the scene wrote, the governing case of each marked: ``path`` (a CasesResult ``cr``)."""
+    from .units import number, quantity, scaled, sweep_scale
+
+    units, sweep = UNITS[scene.drive.kind], scene.sweep.name
+    sf, su = sweep_scale(scene)
+    keys = [k for k in ("drive", "motor_torque", "rod_buckling") if any(k in c.columns for c in cr.cases.values())]
+    fig, axes = new_figure(len(keys), 1, figsize=(7, 3.2 * len(keys)))
+    axes = np.atleast_1d(axes)
+    for ax, key in zip(axes, keys):
+        unit = units.get(key, "") if units.get(key) != "1" else ""
+        f, shown = scaled(np.concatenate([np.asarray(c.columns[key], float) for c in cr.cases.values()
+                                          if key in c.columns]), unit)   # kN where large
+        for name, c in cr.cases.items():
+            ax.plot(np.asarray(c.columns["s"]) * sf, np.asarray(c.columns[key]) * f, label=name)
+        g = cr.governing.get(key)
+        if g:
+            ax.plot([g["s"] * sf], [np.sign(cr.cases[g["case"]].peak_at[key]["value"]) * g["value"] * f], "k*", ms=10,
+                    label=f"governing: {g['case']}, {quantity(g['value'], unit)} at {number(g['s'] * sf)} {su}".rstrip())
+        ax.set_ylabel(f"{key} [{shown or '-'}]")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    axes[-1].set_xlabel(f"{sweep} [{su}]" if su else sweep)
+    axes[0].set_title(title)
+    save_figure(fig, Path(path))
+    return Path(path)
 
 
 def _duty_figure(cr, units):

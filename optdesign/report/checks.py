@@ -119,6 +119,9 @@ def summary_lines(result) -> list:
     sweep = result.scene.sweep.name
     su_ = f" {su}" if su else ""
     lines = [result.scene.title]
+    if result.scene.cases:   # the peaks below are not the cases': say so
+        lines.append("the nominal [drive] state (its speed and acceleration at every position; the load cases, "
+                     "their governing peaks and the drive train follow below):")
     peak_at = getattr(result, "peak_at", {}) or {}
     for key, v in result.peaks.items():
         factor, unit = column_display(result, key)

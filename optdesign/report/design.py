@@ -8,7 +8,7 @@ from . import design_figures
 from .design_figures import FIGURES, write_figures
 from .files import write_file
 from .output import SCHEMA, to_json
-from .units import constraint_scale, peak_quantity
+from .units import ROUND_OFF, constraint_scale, objective_kind_text, peak_quantity
 
 
 def optimisation_json(result) -> dict:
@@ -30,16 +30,14 @@ def optimisation_json(result) -> dict:
     }
 
 
-def summary(result) -> str:
+def summary(result, catalogue=None) -> str:
     lines = [f"{result.scene.title}", f"minimise {result.scene.objective.minimise}: {headline(result)}", result.message]
     if result.success:
         lines.append("design:")
         lines += [f"  {k} = {v:.9g}" for k, v in result.design.items()]
-        if result.objective_kind in ("rms_time", "mix"):  # load cases over time (report/design_cases.py)
-            lines.append(f"objective = {result.objective:.9g} (the RMS over the duty cycle's time on the cases' samples)")
-        else:
-            lines.append(f"objective = {result.objective:.9g} (certified over the continuous stroke; "
-                         f"{result.objective_sampled:.9g} on the scene's samples)")
+        what = objective_kind_text(result)   # a certified peak, or an integral: said so
+        sampled = f"; {result.objective_sampled:.9g} on the scene's samples" if result.objective_kind == "peak" else ""
+        lines.append(f"objective = {result.objective:.9g} ({what}{sampled})")
         if result.peak_certified is not None:
             lines.append(f"peak |{peak_quantity(result)}| certified = {result.peak_certified:.9g}, "
                          f"sampled = {result.peak_sampled:.9g}")
@@ -49,7 +47,8 @@ def summary(result) -> str:
             # in the unit the scene wrote the bounds in (deg), the multiplier per that unit
             f, unit = constraint_scale(by_name[name]) if name in by_name else (1.0, "")
             per = f" per {unit}" if unit else ""
-            lines.append(f"  {name}: {_fmt(c['value'], f)} in [{_fmt(c['lower'], f)}, {_fmt(c['upper'], f)}]"
+            size = max([abs(c[k]) for k in ("value", "lower", "upper") if c.get(k) is not None], default=0.0) * f
+            lines.append(f"  {name}: {_fmt(c['value'], f, size)} in [{_fmt(c['lower'], f)}, {_fmt(c['upper'], f)}]"
                          f"{' ' + unit if unit else ''}  multiplier {_fmt(c['multiplier'], 1 / f)}{per}"
                          + (f" ({c['active']} active)" if c["active"] else ""))
         lines += _lockup_notes(result)
@@ -58,7 +57,7 @@ def summary(result) -> str:
             notes = getattr(result, "sensitivity_notes", {})
             lines += [f"  {k}: {v:.6g}" + (f" ({notes[k]})" if k in notes else "")
                       for k, v in result.sensitivities.items()]
-        lines += [cases_summary(result)] if result.scene.cases else []   # report/design_cases.py
+        lines += [cases_summary(result, catalogue)] if result.scene.cases else []   # report/design_cases.py
     lines += starts_lines(result)
     lines.append(f"time: {result.timings.get('total_s', float('nan')):.3f} s "
                  f"(build {result.timings.get('build_s', float('nan')):.3f} s)")
@@ -136,8 +135,9 @@ def _indices(starts) -> str:
     return f"starts {shown}" + (", ..." if len(starts) > 8 else "")
 
 
-def _fmt(v, factor=1.0):
-    return "-" if v is None else f"{v * factor:.6g}"
+def _fmt(v, factor=1.0, scale=0.0):
+    """6 significant digits; 0 where round-off beside values of size ``scale`` (units.ROUND_OFF)."""
+    return "-" if v is None else "0" if abs(v * factor) <= ROUND_OFF * scale else f"{v * factor:.6g}"
 
 
 FILES = ("result.json", "summary.txt") + FIGURES
@@ -175,7 +175,7 @@ def result_summary(result, catalogue=None) -> str:
         return summary(result)
     from .design_cases import catalogue_summary
 
-    return catalogue_summary(catalogue) + "\n\n" + summary(result)
+    return catalogue_summary(catalogue) + "\n\n" + summary(result, catalogue)
 
 
 def _write_results(result, folder, workers, animate=True, catalogue=None, figures=None) -> list:

@@ -10,6 +10,8 @@ import re
 import numpy as np
 
 from .cases import UNITS, inertia_ratio_text, unresolved_lines
+from .drive_train import catalogue_at_optimum, train_summary
+from .units import sweep_scale
 
 _IN_CASE = re.compile(r"^(?P<what>.*?) in cases? '(?P<case>[^']*)'(?P<more>(, '[^']*')*)$")
 _COLUMN = {"motor peak torque": "motor_torque", "motor speed": "motor_speed", "rod buckling": "rod_buckling"}
@@ -65,7 +67,7 @@ def cases_json(result) -> dict:
     cases = cases_at_optimum(result)
     if cases is None:
         return {}
-    return {"cases": {"governing": governing(result, cases),
+    return {"cases": {"governing": governing(result, cases), "governing_cases": cases.governing,
                       "duty": {k: v for k, v in cases.duty.items() if k != "integrals"},
                       "drive_train": cases.train, "unresolved": unresolved(cases)}}
 
@@ -76,13 +78,15 @@ def unresolved(cases) -> dict:
     return {name: c.integrals["unresolved"] for name, c in cases.cases.items() if c.integrals.get("unresolved")}
 
 
-def cases_summary(result) -> str:
+def cases_summary(result, catalogue=None) -> str:
     """Lines for the summary: where the peak and each active constraint lie, the cycle, the
-    drive train at the optimum."""
+    drive train at the optimum (with a ``catalogue``, every motor of it at the chosen design)."""
     cases = cases_at_optimum(result)
     if cases is None:
         return ""
     sweep = result.scene.sweep.name
+    sf, su = sweep_scale(result.scene)
+    su_ = f" {su}" if su else ""
     g = governing(result, cases)
     lines = ["load cases at the optimum:"]
     if result.objective_kind in ("rms_time", "mix"):
@@ -90,26 +94,27 @@ def cases_summary(result) -> str:
                      "rule: not certified over the continuous stroke; a peak term is)")
     if "peak" in g:
         p = g["peak"]
-        lines.append(f"  peak |{p['quantity']}| = {p['value']:.9g}: case {p['case']!r} at {sweep} = {p['s']:.9g}")
+        unit = UNITS[result.scene.drive.kind].get(p["quantity"], "")
+        unit = f" {unit}" if unit not in ("", "1") else ""
+        lines.append(f"  peak |{p['quantity']}| = {p['value']:.9g}{unit}: case {p['case']!r} at {sweep} = "
+                     f"{p['s'] * sf:.6g}{su_}")
     for name, c in g["constraints"].items():
-        lines.append(f"  active {name}: case {c['case']!r} at {sweep} = {c['s']:.9g} (value {c['value']:.6g})")
+        lines.append(f"  active {name}: case {c['case']!r} at {sweep} = {c['s'] * sf:.6g}{su_} (value {c['value']:.6g})")
     duty = cases.duty
     if "reason" not in duty:
-        rms = ", ".join(f"{k} {v:.6g}" for k, v in duty["rms_time"].items())
+        units = UNITS[result.scene.drive.kind]
+        rms = ", ".join(f"{k} {v:.6g} {units.get(k, '')}".rstrip() for k, v in duty["rms_time"].items())
         lines.append(f"  duty cycle {duty['cycle_time']:.6g} s: RMS over time {rms}; energy {duty['energy']:.6g} J, "
                      f"mean power {duty['mean_power']:.6g} W")
     for name, u in unresolved(cases).items():
         lines += [f"  case {name!r}:{line[1:]}" for line in unresolved_lines(u, UNITS[result.scene.drive.kind])]
     train = cases.train
     for name, m in train.get("motors", {}).items():
-        lines.append(f"  motor {name!r} at i = {train['ratio']:.6g}: peak {m['peak']:.6g} N m, "
-                     f"{'RMS %.6g N m' % m['rms'] if 'rms' in m else 'RMS not checked (no duty cycle in time)'}, speed {m['peak_speed']:.6g} rad/s; {inertia_ratio_text(m, '', 'classical optimal ratio')}")
-    if "bore_undetermined" in train:
-        lines.append(f"  cylinder: rod {train['rod']:.6g} m, buckling utilisation {train['buckling_utilisation']:.4g}; "
-                     f"bore: {train['bore_undetermined']}")
-    if "bore" in train:
-        lines.append(f"  cylinder: bore {train['bore']:.6g} m, rod {train['rod']:.6g} m, buckling utilisation "
-                     f"{train['buckling_utilisation']:.4g}, pump flow {train['pump_flow'] * 6e4:.6g} l/min")
+        lines.append(f"  motor {name!r} at i = {train['ratio']:.6g}: {inertia_ratio_text(m, '', 'classical optimal ratio')}")
+    doc = {"cases": {"drive_train": train, "governing_cases": cases.governing}}
+    if catalogue is not None:
+        doc.update(chosen_motor=catalogue.chosen, catalogue_at_optimum=catalogue_at_optimum(catalogue))
+    lines += train_summary(doc, (sf, su, sweep))
     return "\n".join(lines)
 
 
@@ -119,7 +124,7 @@ def catalogue_json(catalogue, result_json) -> dict:
     in the order tried); interrupted by Ctrl-C, ``interrupted`` is true and
     ``interrupted_motor`` says which motor after how many of its starts."""
     stopped = catalogue.interrupted
-    return {"chosen_motor": catalogue.chosen,
+    return {"chosen_motor": catalogue.chosen, "catalogue_at_optimum": catalogue_at_optimum(catalogue),
             "catalogue": {name: result_json(r) for name, r in catalogue.results.items()},
             "not_tried": list(catalogue.not_tried),
             "motors": {name: outcome for name, outcome, _ in motor_outcomes(catalogue)},

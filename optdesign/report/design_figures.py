@@ -11,7 +11,7 @@ import multiprocessing
 from pathlib import Path
 
 FIGURES = ("drive_and_constraints.png", "mechanism.png", "mechanism.svg", "animation.gif", "animation.mp4",
-           "report.html")
+           "cases.png", "torque_speed.png", "cylinder.png", "report.html")
 
 
 def analyses(result) -> list:
@@ -30,7 +30,9 @@ def load_figure(result, folder, runs=None) -> Path:
 
     scene = result.scene
     path = Path(folder) / "drive_and_constraints.png"
-    stroke_figure(runs or analyses(result), path, title=f"{scene.title}\n{scene.objective.minimise}: start and optimum")
+    nominal = " (the nominal [drive] state; the load cases: cases.png)" if scene.cases else ""
+    stroke_figure(runs or analyses(result), path,
+                  title=f"{scene.title}\n{scene.objective.minimise}: start and optimum{nominal}")
     return path
 
 
@@ -61,6 +63,21 @@ def animation(result, folder, analysis=None) -> list:
                    title=f"{scene.title} (optimum)")
 
 
+def sized_figures(result, folder) -> list:
+    """With [[cases]]: the load figure per case at the optimum (cases.png) and the figures of
+    what was sized (torque_speed.png, cylinder.png: report/sized.py)."""
+    from .cases import case_load_figure
+    from .design_cases import cases_at_optimum
+    from .sized import sized_figures as draw
+
+    cases = cases_at_optimum(result)
+    if cases is None:
+        return []
+    folder = Path(folder)
+    return [case_load_figure(cases, result.scene, folder / "cases.png", "load cases at the optimum")] + draw(
+        cases, folder, "the optimum")
+
+
 def write_figures(result, folder, workers=1, animate=True) -> list:
     """Every figure and report.html into ``folder``; returns the paths written.  With
     ``workers`` > 1 the animation (the longest) is forked as soon as the optimum's analysis
@@ -87,7 +104,7 @@ def write_figures(result, folder, workers=1, animate=True) -> list:
         job(animation, result, folder, optimum)
     runs = [("start", Analysis(scene).run()), ("optimum", optimum)]
     job(mechanism_figure, result, folder, runs)
-    written = [load_figure(result, folder, runs)]
+    written = [load_figure(result, folder, runs)] + sized_figures(result, folder)
     for k, (target, args) in enumerate(jobs):
         if fork:
             children[k].join()

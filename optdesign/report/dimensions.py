@@ -50,8 +50,8 @@ def _uses(resolved, c, name):
     return any(resolved.depends_on(e, (name,)) for e in exprs)
 
 
-def _text(parameter, value, kind):
-    factor, unit = parameter_unit(parameter, kind)
+def _text(parameter, value, kind, scene=None):
+    factor, unit = parameter_unit(parameter, kind, scene)
     return f"{parameter.name} = {value * factor:.4g} {unit}".rstrip()
 
 
@@ -81,20 +81,20 @@ def dimensions(geometry, frame, p_values=None) -> list:
         n1 = float(np.hypot(*d1))
         scale = max(float(np.hypot(*P)), n1 * abs(v), 1e-12)
         if n1 > 1e-12 and np.hypot(*d2) <= 1e-7 * max(n1, 1.0) * max(1.0, scale):
-            out.append(Dimension(name, "linear", _text(parameter, v, "length"), P - v * d1, P))
+            out.append(Dimension(name, "linear", _text(parameter, v, "length", resolved.scene), P - v * d1, P))
             continue
         centre = P + np.array([-d1[1], d1[0]])
         if n1 > 1e-12 and np.hypot(*(d2 - (centre - P))) <= 1e-6 * max(n1, 1e-12):
             r = P - centre
             end = float(np.arctan2(r[1], r[0]))
-            out.append(Dimension(name, "angular", _text(parameter, v, "angle"), centre, radius=float(np.hypot(*r)),
+            out.append(Dimension(name, "angular", _text(parameter, v, "angle", resolved.scene), centre, radius=float(np.hypot(*r)),
                                  angles=(end - v, end)))
             continue
         ends = _link_of(c, name, frame)
         if ends is not None:
-            out.append(Dimension(name, "linear", _text(parameter, v, "length"), *ends))
+            out.append(Dimension(name, "linear", _text(parameter, v, "length", resolved.scene), *ends))
         else:
-            out.append(Dimension(name, "note", _text(parameter, v, "length"), P))
+            out.append(Dimension(name, "note", _text(parameter, v, "length", resolved.scene), P))
     return out
 
 

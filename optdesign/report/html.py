@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .units import constraint_scale, number, parameter_unit, peak_quantity, quantity, scaled, sweep_scale
+from .units import constraint_scale, objective_kind_text, number, parameter_unit, peak_quantity, quantity, scaled, sweep_scale
 
 STYLE = """
 body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, sans-serif; margin: 0; color: #1d2733;
@@ -62,12 +62,15 @@ def _svg(path) -> str:
 
 
 def objective_unit(result) -> str:
+    """The objective's unit where it is one quantity's peak or RMS (N m, N, W, ...), else ''."""
+    from .cases import UNITS
+
     text = result.scene.objective.minimise.replace(" ", "")
-    drive = "N m" if result.scene.drive is not None and result.scene.drive.kind == "rotary" else "N"
-    for name, unit in (("drive", drive), ("static_load", drive), ("power", "W")):
-        if text in (f"peak({name})", f"rms({name})"):
-            return unit
-    return ""
+    m = re.fullmatch(r"(?:peak|rms|rms_sweep|rms_time)\((\w+)(?:,[^()]*)?\)", text)
+    if m is None or result.scene.drive is None:
+        return ""
+    unit = UNITS[result.scene.drive.kind].get(m.group(1), "")
+    return "" if unit == "1" else unit
 
 
 def verdict(result) -> tuple:
@@ -81,7 +84,7 @@ def verdict(result) -> tuple:
     if total == 1:
         return "warn", (f"Local optimum {value} from a single start: run more starts (--starts 20) to see whether a "
                         "better one exists.")
-    text = f"Best optimum {value} (certified over the continuous stroke), reached by {n} of {total} starts"
+    text = f"Best optimum {value} ({objective_kind_text(result)}), reached by {n} of {total} starts"
     if len(optima) > 1:
         text += f"; the starts found {len(optima)} distinct local optima"
     if 4 * n < total or n < 2:
@@ -97,7 +100,7 @@ def _design_rows(result, analyses):
         if not p.is_design:
             continue
         kind = "angle" if "deg" in p.value.source else "length"
-        f, unit = parameter_unit(p, kind)
+        f, unit = parameter_unit(p, kind, scene)
         bound = result.constraints.get(f"bounds of {p.name}", {})
         at = bound.get("active")
         rows.append([p.name, number(values[p.name] * f), number(result.design[p.name] * f, 6),
@@ -115,13 +118,15 @@ def _constraint_rows(result):
         if c.get("kind") == "bound":
             continue
         f, unit = constraint_scale(by_name[name]) if name in by_name else (1.0, "")
-        show = lambda v: "-" if v is None else number(v * f)  # noqa: E731
+        size = max([abs(c[k]) for k in ("min", "max", "value", "lower", "upper") if c.get(k) is not None], default=0.0)
+        show = lambda v: "-" if v is None else number(v * f, scale=size * f)  # noqa: E731  (round-off as 0)
         if c.get("min") is not None and c.get("max") is not None and c.get("kind") != "stroke constraint":
             value = f"{show(c['min'])} .. {show(c['max'])}"
         else:
             value = show(c.get("value"))
+        per = f" per {unit}" if unit else ""   # d objective / d bound in the unit the bound is shown in
         rows.append([name, c.get("kind", ""), value, show(c.get("lower")), show(c.get("upper")), unit,
-                     c.get("active") or "", number(c.get("multiplier") or 0.0, 4)])
+                     c.get("active") or "", number((c.get("multiplier") or 0.0) / f, 4) + per])
         active.append(bool(c.get("active")))
     return rows, active
 
@@ -148,8 +153,12 @@ def _peak(result, analyses) -> str:
     parts = []
     if result.objective is not None:
         shown = (lambda v: quantity(v, unit, 7)) if unit else (lambda v: number(v, 7))
-        parts.append(f"<p id=\"certified\">Objective <b>{_e(shown(result.objective))}</b>, certified over the "
-                     f"continuous stroke ({_e(shown(result.objective_sampled))} on the scene's samples alone).</p>")
+        if result.objective_kind in ("peak", None):
+            parts.append(f"<p id=\"certified\">Objective <b>{_e(shown(result.objective))}</b>, certified over the "
+                         f"continuous stroke ({_e(shown(result.objective_sampled))} on the scene's samples alone).</p>")
+        else:
+            parts.append(f"<p id=\"certified\">Objective <b>{_e(shown(result.objective))}</b>: "
+                         f"{_e(objective_kind_text(result))}.</p>")
     what = peak_quantity(result)
     if result.peak_certified is not None and what != "drive":   # peak(NAME) of another quantity
         parts.append(f"<p>Peak |{_e(what)}| {_e(number(result.peak_certified, 7))} certified "
@@ -180,6 +189,20 @@ def _optima(result) -> str:
     return _table("optima", head, rows)
 
 
+def _drive_train(result, folder) -> str:
+    """The drive-train section (report/drive_train.py) from the folder's result.json: the
+    numbers the JSON holds."""
+    import json
+
+    from .drive_train import train_html
+
+    path = Path(folder) / "result.json"
+    if not result.scene.cases or not path.exists():
+        return ""
+    sf, su = sweep_scale(result.scene)
+    return train_html(json.loads(path.read_text()), (sf, su, result.scene.sweep.name), _table, _e)
+
+
 def write_html(result, folder, analyses=(), files=()) -> Path:
     """Write ``folder``/report.html (atomically) from ``result`` and the figure ``files`` that
     exist in ``folder``; ``analyses``: (label, AnalysisResult) of the start and the optimum."""
@@ -204,10 +227,11 @@ def write_html(result, folder, analyses=(), files=()) -> Path:
                                       design_rows, design_active),
             "<h2>Constraints</h2>",
             "<p class=\"meta\">Per-sample constraints show their range over the stroke at the optimum; the "
-            "multiplier is d objective / d bound (0 where the bound is not active). Active rows are marked.</p>",
+            "multiplier is d objective / d bound per unit of the bound as shown (per deg where it is in deg; 0 "
+            "where the bound is not active). Active rows are marked.</p>",
             _table("constraints", ["constraint", "kind", "value", "min", "max", "unit", "active", "multiplier"],
                    constraint_rows, constraint_active),
-            "<h2>Certified peak</h2>", _peak(result, analyses),
+            "<h2>Objective</h2>", _peak(result, analyses), _drive_train(result, folder),
             "<h2>Local optima</h2>", _optima(result)]
     if result.sensitivities:
         body += ["<h2>Sensitivities</h2>", "<p class=\"meta\">d objective / d parameter, SI units.</p>",
@@ -216,9 +240,17 @@ def write_html(result, folder, analyses=(), files=()) -> Path:
     body.append("<h2>Figures</h2>")
     captions = {"mechanism.svg": "The start and the optimum, side by side at one scale, at the start of the stroke.",
                 "drive_and_constraints.png": "Drive load and constraints over the stroke, start and optimum: bounds "
-                                             "dashed, feasible side shaded, peaks marked.",
-                "animation.gif": "The optimum moving over its stroke, with its drive load and transmission angle."}
-    for name in ("mechanism.svg", "drive_and_constraints.png", "animation.gif"):
+                                             "dashed, feasible side shaded, peaks marked"
+                                             + (" (the nominal [drive] state; the load cases below)."
+                                                if scene.cases else "."),
+                "cases.png": "Each load case at the optimum over the stroke, the governing case of each peak marked.",
+                "torque_speed.png": "The motor's torque-speed plane at the optimum: peak and rated envelopes, the speed "
+                                    "limit, each case's operating points and RMS point, the duty cycle's RMS point.",
+                "cylinder.png": "The cylinder's pressure and pump flow through the duty cycle at the optimum.",
+                "animation.gif": "The optimum moving over its stroke, with its drive load"
+                                 + (" (the governing case's)" if scene.cases else "") + " and transmission angle."}
+    for name in ("mechanism.svg", "drive_and_constraints.png", "cases.png", "torque_speed.png", "cylinder.png",
+                 "animation.gif"):
         path = folder / name
         if name in files or path.exists():
             if name == "animation.gif":

@@ -1,7 +1,8 @@
-"""The forces at the pins drawn where they act (issue 30): an arrow at each pin of the
-mechanism's joint structure (:mod:`optdesign.model.joints`) at the drawn position, the force
-on the ground (or on the first body that meets there), all arrows on one scale, each labelled
-with its value there and its peak over the stroke."""
+"""Forces drawn where they act (issue 30): an arrow at each pin of the mechanism's joint
+structure (:mod:`optdesign.model.joints`) at the drawn position, the force on the ground (or
+on the first body that meets there), all arrows on one scale, each labelled with its value
+there and its peak over the stroke; and the force elements ([[forces]]) between their points
+(a spring as a zigzag, a gas spring, damper or constant force as a bar), with their names."""
 from __future__ import annotations
 
 import numpy as np
@@ -15,6 +16,7 @@ from .drawing import arrow
 from .units import quantity
 
 PIN = "#6a1b9a"
+ELEMENT = "#a0522d"
 
 
 def pin_forces(scene, s_values):
@@ -49,3 +51,26 @@ def draw_pin_forces(ax, scene, frames, index, ctx):
         vec = f[:, index]
         arrow(ax, where, vec * scale, PIN, f"{p} {quantity(float(np.hypot(*vec)), 'N', 3)} "
                                            f"(peak {quantity(peak[p], 'N', 3)})", ctx.w, ctx=ctx)
+
+
+def draw_force_elements(ax, scene, frame, w):
+    """The [[forces]] between two points at ``frame`` (one position): a spring as a zigzag of
+    eight turns, the other kinds as a thick line, each named at its middle."""
+    for f in scene.forces:
+        if f.between is None:
+            continue
+        p, q = (np.asarray(frame.points[n][0], float) for n in f.between)
+        if not (np.all(np.isfinite(p)) and np.all(np.isfinite(q))) or np.hypot(*(q - p)) == 0:
+            continue
+        d = q - p
+        if f.kind == "spring":
+            t = np.linspace(0, 1, 34)
+            wave = np.r_[0, 0, np.tile([1, -1], 15), 0, 0] * 0.6 * w
+            normal = np.array([-d[1], d[0]]) / np.hypot(*d)
+            xy = p[None, :] + t[:, None] * d[None, :] + wave[:, None] * normal[None, :]
+            ax.plot(xy[:, 0], xy[:, 1], "-", color=ELEMENT, lw=0.9, zorder=4)
+        else:
+            ax.plot([p[0], q[0]], [p[1], q[1]], "-", color=ELEMENT, lw=2.2, alpha=0.8, zorder=4,
+                    solid_capstyle="round")
+        mid = p + 0.5 * d
+        ax.text(mid[0] + 0.6 * w, mid[1], f.name, fontsize=6.5, color=ELEMENT, ha="left", va="center", zorder=9)

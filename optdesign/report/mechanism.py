@@ -12,7 +12,7 @@ import numpy as np
 from .dimensions import dimensions, draw_dimensions
 from .drawing import Context, context, draw_ghost, draw_mechanism, draw_paths, frame_view, limits, panel_size
 from .geometry import Frames, Geometry
-from .joint_arrows import draw_pin_forces
+from .joint_arrows import draw_force_elements, draw_pin_forces
 from .layout import fixed_layout
 from .output import new_figure, save_figures
 from .topology import Topology, topology
@@ -50,6 +50,7 @@ def draw_design(ax, v: View, index=0, ghosts=4, dims=True, labels="joints", titl
         ax.text(0.01, 0.01, assembly_note(v), transform=ax.transAxes, fontsize=7, color="#b00020", va="bottom",
                 wrap=True)
     draw_mechanism(ax, v.top, frame, v.ctx, labels=labels, loads=loads, scene=v.scene)
+    draw_force_elements(ax, v.scene, frame, v.ctx.w)
     if joints:
         draw_pin_forces(ax, v.scene, v.frames, index, v.ctx)
     if dims:
@@ -86,7 +87,7 @@ def design_title(label, scene, names=None) -> str:
     parts = []
     for name in names:
         factor, unit = parameter_unit(scene.parameter(name), "angle" if "deg" in scene.parameter(name).value.source
-                                      else "length")
+                                      else "length", scene)
         parts.append(f"{name} = {values[name] * factor:.4g} {unit}".rstrip())
     return textwrap.fill(f"{label}: " + ", ".join(parts), 70) if parts else label
 

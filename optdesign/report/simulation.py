@@ -111,7 +111,7 @@ def _mark_events(ax, result, values):
                 label=label, zorder=5)
 
 
-FIGURES = ("q.png", "q_rate.png", "drive_load.png", "cycle.png")
+FIGURES = ("q.png", "q_rate.png", "drive_load.png", "cycle.png", "torque_speed.png")
 
 
 def figures(result, folder, label="folder") -> list:
@@ -162,5 +162,23 @@ def _figures(result, folder) -> list:
         from .cycle import cycle_figure, cycle_figures
 
         written.append(folder / "cycle.png")
-        cycle_figure(result, cycle_figures(result), written[-1], EVENT_STYLE)
+        figures = cycle_figures(result)
+        cycle_figure(result, figures, written[-1], EVENT_STYLE)
+        written += _torque_speed(result, figures, folder)
     return written
+
+
+def _torque_speed(result, figures, folder) -> list:
+    """torque_speed.png of a simulated duty cycle: the simulated motor's operating points over
+    analyse's cases (report/sized.py); nothing without [[cases]] or a motor."""
+    if "motor" not in figures or not result.scene.cases:
+        return []
+    from ..model.analysis import analyse
+    from .sized import torque_speed_figure
+
+    cases = analyse(result.scene, certify=False).cases
+    path = torque_speed_figure(cases, Path(folder) / "torque_speed.png", "simulate: the duty cycle in time",
+                               motor=figures["motor"]["name"],
+                               simulated=(result.t, result.columns["motor_speed"], result.columns["motor_torque"],
+                                          figures["rms_motor_torque"]))
+    return [] if path is None else [path]

@@ -51,7 +51,7 @@ def figures(study, rows, folder, fronts=None) -> list:
         ok = [r for r in rs if r.get("success") and r.get(goal) is not None]
         x = _conv(x_axis.label, [r[x_axis.column] for r in ok])
         for ax, q in zip(axes[:, 0], quantities):
-            ax.plot(x, _conv(q, [r.get(q, float("nan")) for r in ok]), "o-", ms=3, label=label)
+            ax.plot(x, flat(_conv(q, [r.get(q, float("nan")) for r in ok])), "o-", ms=3, label=label)
         bad = [r for r in rs if not r.get("success")]
         if bad:
             axes[0, 0].plot(_conv(x_axis.label, [r[x_axis.column] for r in bad]), [float("nan")] * len(bad), "x")
@@ -62,6 +62,8 @@ def figures(study, rows, folder, fronts=None) -> list:
         ax.grid(alpha=0.3)
     if outer:
         axes[0, 0].legend(fontsize=7, ncol=2)
+    for ax in axes[:, 0]:
+        ax.ticklabel_format(axis="y", useOffset=False)   # no offset: a flat line reads as its value
     axes[-1, 0].set_xlabel(_label(x_axis.label))
     axes[0, 0].set_title(f"{study.scene.title[:90]}\n{study.mode} study: {len(rows)} cases", fontsize=9)
     written.append(Path(folder) / "study.png")
@@ -70,6 +72,22 @@ def figures(study, rows, folder, fronts=None) -> list:
     if x_axis.kind == "pareto" and study.mode == "optimise":
         written.append(pareto_figure(study, fronts or [], outer, folder, drive))
     return written
+
+
+NOISE = 1e-8   # the optimiser's relative agreement of a certified peak (design.problem.Settings.peak_tol)
+
+
+def flat(values):
+    """``values`` drawn flat (their mean) where they differ by less than the optimiser's
+    tolerance relative to their size: a quantity a study's axis does not change plotted as
+    1e-11 noise read as a trend."""
+    import numpy as np
+
+    v = np.asarray(values, float)
+    finite = v[np.isfinite(v)]
+    if finite.size > 1 and np.ptp(finite) <= NOISE * max(float(np.max(np.abs(finite))), 1e-300):
+        return np.where(np.isfinite(v), float(np.mean(finite)), v)
+    return v
 
 
 def _is_peak_drive(study):

@@ -50,12 +50,32 @@ def constraint_scale(constraint) -> tuple:
     return 1.0, ""
 
 
-def parameter_unit(parameter, kind="length") -> tuple:
+# a force element's number given by a design variable alone: its unit (scene/forces.py)
+ELEMENT_UNITS = {("spring", "rate"): "N/m", ("damper", "rate"): "N s/m", ("torsion", "rate"): "N m/rad",
+                 ("torsion", "preload"): "N m", ("spring", "preload"): "N", ("gas_spring", "extended_force"): "N",
+                 ("constant", "tension"): "N", ("gas_spring", "progression"): ""}
+
+
+def parameter_unit(parameter, kind="length", scene=None) -> tuple:
     """(factor, unit) of a design variable: deg when its value was written in deg (an angle),
+    none for a ratio (a parameter of ``scene``'s [gearbox] ratio: motor speed / drive speed),
+    the unit of the force element's number it is (a spring's rate in N/m, a preload in N, ...),
     else rad for an angle and m for a length."""
     if written_in_deg(parameter.value):
         return 1 / DEG, "deg"
+    if scene is not None and is_ratio(scene, parameter.name):
+        return 1.0, ""
+    for f in getattr(scene, "forces", ()):
+        for key, expr in f.numbers.items():
+            if expr.source.strip() == parameter.name and (f.kind, key) in ELEMENT_UNITS:
+                return 1.0, ELEMENT_UNITS[(f.kind, key)]
     return (1.0, "rad") if kind == "angle" else (1.0, "m")
+
+
+def is_ratio(scene, name) -> bool:
+    """True when parameter ``name`` makes the scene's gear ratio (dimensionless)."""
+    gearbox = getattr(scene, "gearbox", None)
+    return gearbox is not None and name in gearbox.ratio.names()
 
 
 LARGE = {"N": ("kN", "MN"), "N m": ("kN m", "MN m"), "W": ("kW", "MW"), "kg": ("t", "kt")}
@@ -73,12 +93,19 @@ def scaled(values, unit) -> tuple:
     return 1.0, unit
 
 
-def number(value, digits=4) -> str:
+ROUND_OFF = 1e-9   # a value this small relative to the values shown beside it is round-off: shown as 0
+
+
+def number(value, digits=4, scale=0.0) -> str:
     """``value`` to ``digits`` significant digits without an exponent where it is readable
-    (6380, 0.0254), with one where it is not (1.2e-07, 3.4e+09)."""
+    (6380, 0.0254), with one where it is not (1.2e-07, 3.4e+09); 0 where it is round-off
+    beside values of size ``scale`` (|value| <= ROUND_OFF * scale: a motor speed's 3.9e-149
+    at rest beside its 524 rad/s)."""
     v = float(value)
     if not np.isfinite(v):
         return str(v)
+    if abs(v) <= ROUND_OFF * abs(scale):
+        return "0"
     if v != 0 and not 1e-4 <= abs(v) < 1e7:
         return f"{v:.{digits}g}"
     return np.format_float_positional(v, precision=digits, unique=False, fractional=False, trim="-")
@@ -97,3 +124,18 @@ def peak_quantity(result) -> str:
 
     m = re.match(r"^\s*peak\s*\(\s*(.+?)\s*\)\s*$", result.scene.objective.minimise or "")
     return m.group(1) if m else "drive"
+
+
+KIND_TEXT = {
+    "peak": "certified over the continuous stroke",
+    "rms": "an RMS over the sweep's samples: an integral, checked against twice as many panels, not certified",
+    "rms_time": "an RMS over the duty cycle's time: an integral on the cases' sample grid, not certified over "
+                "the continuous stroke",
+    "mix": "a certified peak plus an RMS over the duty cycle's time (an integral on the cases' sample grid)",
+    "expression": "a value of the design, no stroke in it",
+}
+
+
+def objective_kind_text(result) -> str:
+    """What the objective's value is, honestly: a certified peak or an integral."""
+    return KIND_TEXT.get(result.objective_kind, "certified over the continuous stroke")

@@ -147,10 +147,32 @@ def write_summary(result, where) -> Path:
                      "acceleration); the load cases' are case_peak:* (with the governing case), cycle_rms:*, cycle:*, "
                      "motor_fits:*, smallest_motor and cylinder:*")
     lines += [f"journal: {note}" for note in result.notes]
+    lines += case_table(result.study, rows)
     lines.append(f"files: {', '.join(p.name for p in result.paths)}")
     path = result.folder / "summary.txt"
     write_file(path, "\n".join(lines) + "\n")
     return path
+
+
+def case_table(study, rows, shown=30) -> list:
+    """A compact table of the cases (cases.csv's axes, and the objective or the peak drive load
+    with the design for an optimisation), the first ``shown`` of them."""
+    if not rows:
+        return []
+    keys = [c for a in study.axes for c in a.columns] + (
+        ["objective"] + [k for k in rows[0] if k.startswith("design:")] if study.mode == "optimise"
+        else [k for k in ("peak:drive", "case_peak:drive", "cycle_rms:drive") if k in rows[0]])
+    keys = list(dict.fromkeys(k for k in keys if any(k in r for r in rows)))
+
+    def cell(v):
+        return "-" if v is None else f"{v:.6g}" if isinstance(v, float) else str(v)
+
+    table = [["case"] + keys] + [[str(r.get("case"))] + [cell(r.get(k)) for k in keys] for r in rows[:shown]]
+    widths = [max(len(row[j]) for row in table) for j in range(len(table[0]))]
+    out = ["cases:"] + ["  " + "  ".join(c.rjust(w) for c, w in zip(row, widths)) for row in table]
+    if len(rows) > shown:
+        out.append(f"  ... {len(rows) - shown} more in cases.csv")
+    return out
 
 
 # --- the scheduling loop -------------------------------------------------------------------
