@@ -196,6 +196,18 @@ def quadratic_weights(t) -> np.ndarray:
     return w
 
 
+def _trapezoid_weights(nodes, a, b):
+    """int_a^b by the trapezoid rule on the interval(s) of ``nodes`` inside [a, b] (a and b are
+    nodes): for three times too close together for a quadratic through them."""
+    out = np.zeros(3)
+    for j in range(2):
+        if min(a, b) <= min(nodes[j], nodes[j + 1]) and max(nodes[j], nodes[j + 1]) <= max(a, b):
+            half = abs(nodes[j + 1] - nodes[j]) / 2
+            out[j] += half
+            out[j + 1] += half
+    return out
+
+
 def _lagrange_integrals(nodes, a, b):
     """int_a^b of the three Lagrange basis polynomials on ``nodes`` (in |dt|: time may run
     either way along the samples).  In time from ``nodes[0]``: the antiderivative's cubes of
@@ -203,6 +215,9 @@ def _lagrange_integrals(nodes, a, b):
     intervals were 1e-4 s (an RMS of a negative square: a traceback)."""
     c = nodes[0]
     nodes, a, b = np.asarray(nodes, float) - c, a - c, b - c
+    gaps = np.abs(np.diff(nodes))
+    if not gaps.min() > 1e-9 * gaps.max():     # times that coincide (a jerk phase of 1e-11 s): no quadratic
+        return _trapezoid_weights(nodes, a, b)
     out = np.zeros(3)
     for i in range(3):
         tj, tk = (nodes[j] for j in range(3) if j != i)

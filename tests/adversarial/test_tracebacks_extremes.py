@@ -215,3 +215,14 @@ def test_every_number_of_the_tables_at_the_extremes_is_a_result_or_an_error(name
             from optdesign.report.output import to_json
 
             assert finite_everywhere(json.loads(to_json(analysis_json(result)))), (key, value)
+
+
+@pytest.mark.parametrize("jerk", ["5.75e10", "1e49"])
+def test_a_jerk_whose_phases_are_below_the_time_laws_resolution_is_refused(jerk):
+    # the barrier's 'close' reaches 75 deg/s at 180 deg/s^2 in 0.5 s; a jerk phase of a/j = 5e-11 s
+    # made coincident sample times (a traceback), one of 3e-49 s an RMS of 4.6e25 N m
+    text = BARRIER.replace('jerk = "1200 deg"', f"jerk = {jerk}")
+    with pytest.raises(SceneError, match=rf"\[profiles\] close, jerk: the jerk {re.escape(f'{float(jerk):g}')} makes "
+                                         r"its jerk phases .* s long, less than 1e-06 of the 0.5 s it takes to reach "
+                                         r"the top speed"):
+        optdesign.loads(text, "barrier.toml")
