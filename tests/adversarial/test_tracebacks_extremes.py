@@ -173,7 +173,7 @@ CRANE = (ROOT / "problems" / "crane_luffing_drive.toml").read_text()
 
 def test_gravity_that_overflows_the_rms_names_the_case():
     with pytest.raises(ResultError, match=r"^case '[^']+': the time integral of the drive load squared \(its RMS over "
-                                          r"time\) is \+inf: the drive load of case '[^']+' reaches .* whose square "
+                                          r"time\) is (\+inf|NaN): the drive load of case '[^']+' reaches .* whose square "
                                           r"exceeds the largest number a float holds"):
         optdesign.analyse(optdesign.loads(re.sub(r"(?m)^g = .*$", "g = 1e300", CRANE), "crane.toml"), 21)
 
