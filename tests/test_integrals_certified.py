@@ -299,3 +299,26 @@ def test_a_square_root_law_at_the_stroke_s_ends(tmp_path):
     s = case.columns["s"]
     for i, t in ((int(np.argmin(np.abs(s))), 0.0), (int(np.argmin(np.abs(s + a))), T)):
         assert drive[i] == pytest.approx(torque(t)[0], rel=1e-8)
+
+
+def test_a_cases_optimum_carries_its_certified_peak():
+    """`optimise --json` of a scene with [[cases]] had peak_certified and peak_sampled null and
+    cases.governing.peak.value the sampled value: the crane's motor peak over its cases (61
+    samples, one start, the 7.5 kW motor, as tests/test_cases_scenes.py) now carries both, the
+    certified one the objective, never below the sampled one, and the governing peak's value
+    is the certified one."""
+    import dataclasses
+
+    from optdesign.design import optimise
+    from optdesign.report.design import optimisation_json
+
+    scene = load(ROOT / "crane_luffing_drive.toml")
+    scene = dataclasses.replace(scene, sweep=dataclasses.replace(scene.sweep, samples=61))
+    motor = next(m for m in scene.motors if m.name == "7.5 kW")
+    result = optimise(dataclasses.replace(scene, motors=(motor,)), starts=1)
+    assert result.success, result.status
+    out = optimisation_json(result)
+    assert out["peak_certified"] is not None and out["peak_sampled"] is not None
+    assert out["peak_certified"] == out["objective"] >= out["peak_sampled"]
+    peak = out["cases"]["governing"]["peak"]
+    assert peak["quantity"] == "motor_torque" and peak["value"] == out["peak_certified"]
