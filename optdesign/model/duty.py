@@ -195,6 +195,18 @@ def quadratic_weights(t) -> np.ndarray:
     return w
 
 
+def _trapezoid_weights(nodes, a, b):
+    """int_a^b by the trapezoid rule on the interval(s) of ``nodes`` inside [a, b] (a and b are
+    nodes): for three times too close together for a quadratic through them."""
+    out = np.zeros(3)
+    for j in range(2):
+        if min(a, b) <= min(nodes[j], nodes[j + 1]) and max(nodes[j], nodes[j + 1]) <= max(a, b):
+            half = abs(nodes[j + 1] - nodes[j]) / 2
+            out[j] += half
+            out[j + 1] += half
+    return out
+
+
 def _lagrange_integrals(nodes, a, b):
     """int_a^b of the three Lagrange basis polynomials on ``nodes`` (in |dt|: time may run
     either way along the samples).  In time from ``nodes[0]``: the antiderivative's cubes of
@@ -202,6 +214,9 @@ def _lagrange_integrals(nodes, a, b):
     intervals were 1e-4 s (an RMS of a negative square: a traceback)."""
     c = nodes[0]
     nodes, a, b = np.asarray(nodes, float) - c, a - c, b - c
+    gaps = np.abs(np.diff(nodes))
+    if not gaps.min() > 1e-9 * gaps.max():     # times that coincide (a jerk phase of 1e-11 s): no quadratic
+        return _trapezoid_weights(nodes, a, b)
     out = np.zeros(3)
     for i in range(3):
         tj, tk = (nodes[j] for j in range(3) if j != i)
@@ -297,11 +312,11 @@ class DutyCycle:
                 eta = cm.model.eta if cm.model.uses_efficiency else 1.0
                 c = 1 / eta if st.efficiency == "driving" else eta
                 load = c * float(evaluated[st.case]["hold"][st.at])
-                drive_sq += load**2 * duration
+                drive_sq += load * load * duration   # (a product: inf, named by finite.check_cases; ** raised)
                 step.update(case=st.case, at=st.at, load=load)
                 if ratio is not None:
                     motor_load = gear_factor_at_rest(mech, st.efficiency) * load / ratio
-                    motor[0] += motor_load**2 * duration
+                    motor[0] += motor_load * motor_load * duration
                     step["motor_load_torque"] = motor_load
             steps.append(step)
         out = {"cycle_time": T, "steps": steps, "rms_time": {"drive": math.sqrt(drive_sq / T)},
