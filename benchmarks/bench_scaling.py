@@ -27,7 +27,7 @@ from the disk cache (``OPTDESIGN_COMPILE=wait``: compiled before timing, as ever
 has them).  Wall and CPU (``time.process_time``) times; the growth exponent of each is the slope
 of log(time) against log(size) by least squares (CPU time: the machine is shared).  Goal: no
 worse than linear (exponent <= 1) in samples and in cases.  Not a test; it writes
-``results/scaling.md`` (atomically).
+its section of ``results/scaling.md`` (benchmarks/benchfile.py; atomically).
 """
 from __future__ import annotations
 
@@ -49,13 +49,12 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from benchmarks.benchfile import cpu_model, git_state  # noqa: E402
+from benchmarks.benchfile import cpu_model, git_state, write_section  # noqa: E402
 from optdesign.design.multistart import draw_plan, solve_start  # noqa: E402
 from optdesign.design.problem import DesignProblem  # noqa: E402
 from optdesign.design.repair import Repair  # noqa: E402
 from optdesign.design.solver import Solver  # noqa: E402
 from optdesign.model.analysis import Analysis  # noqa: E402
-from optdesign.report.files import write_file  # noqa: E402
 from optdesign.scene.file import load  # noqa: E402
 
 SAMPLES = (101, 1001, 10001)
@@ -183,8 +182,8 @@ def main(argv=None):
     lines += axis_table("Samples (2 design variables, no cases)", "samples", by_samples, list(SAMPLES), 1.0)
     lines += axis_table("Design variables (201 samples, no cases)", "design variables", by_vars, list(VARIABLES), None)
     lines += axis_table("Load cases (201 samples, 2 design variables)", "cases", by_cases, list(CASES), 1.0)
-    write_file(Path(args.out), "\n".join(lines).rstrip() + "\n")
-    print(f"wrote {args.out}")
+    write_section("problem_size", "\n".join(lines).rstrip() + "\n", Path(args.out))
+    print(f"wrote its section of {args.out}")
     return 0
 
 

@@ -19,17 +19,24 @@ ORDER = ("reduced_model", "optimise", "per_start", "study", "commands")   # the 
 TITLE = "# Benchmarks\n\nEach section is written by the script it names, in one run of that script; ratios are measured within one run.\n"
 
 
+SCALING_MD = ROOT / "results" / "scaling.md"
+TITLES = {SCALING_MD: "# Scaling\n\nEach section is written by the script it names, in one run of that script.\n"}
+ORDERS = {SCALING_MD: ("problem_size", "study_scale")}
+
+
 def write_section(name: str, markdown: str, path: Path = BENCH_MD) -> Path:
     """Replace (or add) section ``name`` of ``path`` with ``markdown`` (its headings one level
-    down, under the file's title)."""
+    down, under the file's title: results/bench.md's, or results/scaling.md's)."""
     path = Path(path)
+    title = TITLES.get(path.resolve(), TITLE)
+    order = ORDERS.get(path.resolve(), ORDER)
     markdown = re.sub(r"^#", "##", markdown, flags=re.M)
     text = path.read_text() if path.exists() else ""
     sections = {m.group(1): m.group(0) for m in
                 re.finditer(r"<!-- begin (\w+) -->\n.*?<!-- end \1 -->\n", text, flags=re.S)}
     sections[name] = f"<!-- begin {name} -->\n{markdown.rstrip()}\n<!-- end {name} -->\n"
-    names = [n for n in ORDER if n in sections] + sorted(n for n in sections if n not in ORDER)
-    write_file(path, TITLE + "\n" + "\n".join(sections[n] for n in names))
+    names = [n for n in order if n in sections] + sorted(n for n in sections if n not in order)
+    write_file(path, title + "\n" + "\n".join(sections[n] for n in names))
     return path
 
 

@@ -211,21 +211,34 @@ def test_analyse_names_the_catalogue_motor_behind_motor_torque(capsys):
 
 def test_optimise_takes_its_samples_option(tmp_path, capsys):
     """`optimise --samples 3` was accepted ('number of sweep samples, >= 2') and ignored: the
-    barrier's RMS objective came out 0.478540606 as on the scene's 181 samples.  The cycle's
-    RMS on 3 samples (plus the profiles' phase boundaries) is analyse's on 3 samples."""
+    barrier's RMS objective came out 0.478540606 as on the scene's 181 samples.  On 3 samples
+    (plus the profiles' phase boundaries) the NLP's RMS is the rule's on them, 0.2 % off the
+    cycle's: the optimum is refused, saying so (issue 27), and nothing is written; on the
+    scene's samples the reported objective is analyse's certified RMS at the optimum."""
     import json
 
     from optdesign.cli.main import main
 
     assert main(["optimise", str(DATA / "barrier_gate_motor.toml"), "--samples", "3", "--starts", "1", "--json",
-                 "-q", "--no-animation", "--out", str(tmp_path / "out")]) == 0
+                 "-q", "--no-animation", "--out", str(tmp_path / "out")]) == 2
     out = json.loads(capsys.readouterr().out)
-    i = out["design"]["i"]
-    scene = optdesign.load(DATA / "barrier_gate_motor.toml", {"i": i})
-    on3 = optdesign.analyse(scene, 3).cases.duty["rms_time"]["motor_torque"]
-    on181 = optdesign.analyse(scene).cases.duty["rms_time"]["motor_torque"]
-    assert out["objective"] == pytest.approx(on3, rel=1e-9)
-    assert abs(on3 - on181) > 1e-3 * on181
+    assert not out["success"] and "do not resolve the duty cycle's integrals" in out["message"]
+    tried = {k: v for k, v in out["catalogue"].items() if v["design"]}   # the motors phase 1 could fit
+    assert tried and all(not v["success"] and "use more samples" in v["message"] for v in tried.values())
+    for motor, entry in tried.items():
+        scene = optdesign.load(DATA / "barrier_gate_motor.toml", entry["design"])
+        on3 = optdesign.analyse(scene, 3).cases.train["motors"][motor]["rms"]
+        on181 = optdesign.analyse(scene).cases.train["motors"][motor]["rms"]
+        assert on3 == pytest.approx(on181, rel=1e-9)                  # the certified RMS does not depend on them
+        assert entry["objective"] == pytest.approx(on181, rel=1e-9)
+        assert abs(entry["objective_sampled"] - on181) > 1e-3 * on181   # the rule's on 3 samples
+    assert not (tmp_path / "out").exists()
+    assert main(["optimise", str(DATA / "barrier_gate_motor.toml"), "--starts", "1", "--json",
+                 "-q", "--no-animation", "--out", str(tmp_path / "out181")]) == 0
+    out = json.loads(capsys.readouterr().out)
+    scene = optdesign.load(DATA / "barrier_gate_motor.toml", out["design"])
+    motors = optdesign.analyse(scene).cases.train["motors"]
+    assert out["objective"] == pytest.approx(motors[out["chosen_motor"]]["rms"], rel=1e-12)
 
 
 def _barrier_with(tmp_path, *edits):
@@ -256,23 +269,20 @@ def test_a_law_profile_that_never_gets_there_is_refused(tmp_path, law, says):
     assert says in str(err.value) and "barrier.toml" in str(err.value)
 
 
-def test_a_law_profile_that_starts_like_a_square_root_has_its_time(tmp_path, monkeypatch):
+def test_a_law_profile_that_starts_like_a_square_root_has_its_time(tmp_path):
     """V = w sqrt(sin(2 theta)) is 0 at both ends and reaches them in a finite time:
     T = int_0^(pi/2) dtheta / (w sqrt(sin 2 theta)) = Gamma(1/4)^2 / (2 sqrt(2 pi)) / w."""
     from math import gamma
 
-    from optdesign.errors import ResultError
-    from optdesign.model import cases
-
     path = _barrier_with(tmp_path, (LAW[0], LAW[1].format("1.5*sqrt(sin(2*theta))")))
-    # its acceleration V dV/dtheta at theta = 0 is 0 * inf: the case's load there is NaN, which
-    # analyse names (issue 32: it printed 'peak |drive| = nan' and 'RMS nan'); its time is right
-    with pytest.raises(ResultError, match=r"^case 'close': the drive load is NaN at the sweep value 0 \(node 1 of "):
-        optdesign.analyse(optdesign.load(path))
-    monkeypatch.setattr(cases, "check_cases", lambda *a: None)
+    # its acceleration V dV/dtheta at theta = 0 is 0 * inf in the graph: the case's load there
+    # was NaN ('peak |drive| = nan', 'RMS nan'; issue 32 named it); it is the limit from inside
+    # (issue 27: model/cases.py _law_end_limits), and its time the adaptive quadrature's
     res = optdesign.analyse(optdesign.load(path))
+    close = res.cases.cases["close"]
+    assert np.all(np.isfinite(close.columns["drive"])) and np.isfinite(close.integrals["rms_time"])
     T = gamma(0.25) ** 2 / (2 * np.sqrt(2 * np.pi)) / 1.5
-    assert res.cases.cases["close"].duration == pytest.approx(T, rel=1e-6)
+    assert close.duration == pytest.approx(T, rel=1e-10)
 
 
 def test_a_case_without_motion_in_time_prints_no_nan(tmp_path, capsys):

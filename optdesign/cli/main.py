@@ -32,14 +32,17 @@ def main(argv=None):
     from ..report import folder
 
     plain_warnings()
+    words = sys.argv[1:] if argv is None else list(argv)
     try:
         top = parser()
-        args = top.parse_args(negative_values_joined(top, sys.argv[1:] if argv is None else list(argv)))   # the options' checks import optdesign.scene (CasADi)
+        args = top.parse_args(negative_values_joined(top, words))   # the options' checks import optdesign.scene (CasADi)
     except KeyboardInterrupt:
-        print(f"\noptdesign: interrupted ({interrupted_outcome([])})", file=sys.stderr)
+        # a Ctrl-C while the options are read (their checks import CasADi): named like any other
+        command = next((" " + w for w in words if w in COMMANDS), "")
+        print(f"\noptdesign{command}: interrupted ({interrupted_outcome([])})", file=sys.stderr)
         return 130
     del folder.replaced[:]
-    args.argv = list(sys.argv[1:] if argv is None else argv)   # for a message that repeats the command
+    args.argv = words   # for a message that repeats the command
     try:
         args.to_stderr = prints_to_stderr(args)     # a file option names standard output
         with quiet(args.quiet, keep_stdout=getattr(args, "json", False) or args.to_stderr), casadi_messages_hidden():

@@ -25,6 +25,7 @@ from .phase1 import Phase1
 from .problem import DesignProblem, SolverSettings
 from .repair import Repair
 from .results import OptimisationResult, StartReport
+from .cycle_certify import certify_cycle
 from .sensitivities import (constraint_report, objective_gradient_factor, objective_value, sensitivities,
                             sensitivity_notes)
 from .solver import Solver
@@ -253,26 +254,40 @@ def summarise(problem, solver, reports, solutions, timings, plan=None, fixed=Non
     # the best start's solution with its sample points on the continuous extrema (its
     # multipliers are then the continuous problem's); the same optimum to the tolerances
     sol = solver.polish(solutions[best], fixed)
-    best_value = objective_value(pb, sol)
+    best_value, refused, cycle = certify_cycle(pb, sol, objective_value(pb, sol), fixed)
     factor = objective_gradient_factor(pb, sol)
     peak_key = (pb.objective_text, "abs")
     peak_c = abs(sol.certified[peak_key]) if peak_key in sol.certified else None
     peak_s = abs(sol.sampled[peak_key]) if peak_key in sol.sampled else None
     n = len(reports)
-    constraints = constraint_report(pb, sol, factor)
+    if peak_c is None and pb.objective_kind == "peak":   # load cases: the largest of the cases' peaks
+        peak_c, peak_s = objective_value(pb, sol), objective_value(pb, sol, certified=False)
+    constraints = _certified_cycle(constraint_report(pb, sol, factor), cycle)
     message = ("local optimum: IPOPT converged and the continuous check agrees (1 start: "
                "a local optimum, run more starts to search for a better one)" if n == 1 else
                "optimal: the best of the starts' local optima; IPOPT converged and the continuous check agrees")
     if sol.notes:   # what the enclosure could not prove (kinematics/enclosure.py): said, never pretended
         message += "; " + "; ".join(f"{name} {sense}: {note}" for (name, sense), note in sorted(sol.notes.items()))
+    if refused:
+        message = f"refused: {refused}"
     return OptimisationResult(
         scene=pb.scene, design=dict(zip(pb.design_names, map(float, np.clip(sol.x, pb.lower, pb.upper)))),
         objective=best_value, objective_sampled=objective_value(pb, sol, certified=False),
         objective_kind=pb.objective_kind, peak_certified=peak_c, peak_sampled=peak_s,
-        success=True, status=sol.status, message=message,
+        success=not refused, status="samples do not resolve the cycle" if refused else sol.status, message=message,
         constraints=constraints, sensitivities=sensitivities(pb, sol, factor, constraints),
         starts_total=n, starts_at_best=at_best, starts=tuple(reports), timings=timings,
         settings=pb.settings, optima=optima, start_plan=starts_info, sensitivity_notes=sensitivity_notes(pb))
+
+
+def _certified_cycle(constraints, cycle):
+    """The constraint report with each cycle constraint's value certified (the NLP's kept as
+    ``value_sampled``) and its quadrature error."""
+    for name, c in cycle.items():
+        if name in constraints:
+            constraints[name] = dict(constraints[name], value=c["value"], value_error=c["error"],
+                                     value_sampled=constraints[name].get("value"))
+    return constraints
 
 
 def _with_optimum(report, j):

@@ -24,6 +24,7 @@ from .finite import check_cases
 from .mapped import MappedFunction
 from .profiles import check_law, constant_motion, case_profile
 from .reduction import ReducedModel
+from .time_integrals import certified_integrals, columns_at
 from .train import cylinder_outputs, cylinder_sizing, gear_outputs, motor_numbers
 
 
@@ -182,12 +183,12 @@ class CaseAnalysis:
             sigma = cm.profile.sigma if cm.profile is not None else 1.0
             integrals = case_integrals(times, columns, sigma)
             if integrals:
-                integrals["unresolved"] = self._unresolved(cm, names, function, p_case, integrals, sigma)
+                integrals = self._certified(cm, names, function, p_case, nodes, sigma, integrals)
             profile = None if cm.case.profile is None else (cm.case.profile if isinstance(cm.case.profile, str)
                                                             else f"inline {cm.profile.shape.kind}")
             results[cm.name] = CaseResult(cm.name, cm.case.direction, profile, cm.case.efficiency,
                                           {k: cm.values[k] for k in cm.case.overrides}, columns, peaks, peak_at,
-                                          times.duration, integrals, on_sample, constraints)
+                                          integrals.get("duration", times.duration), integrals, on_sample, constraints)
             evaluated[cm.name] = {"hold": ends, "on_sample": on_sample}
         duty = self.duty.evaluate(results, evaluated, p_values, self.mech)
         env = self.mech.resolved.environment(np.asarray(p_values, float))
@@ -213,35 +214,40 @@ class CaseAnalysis:
             values["q"] = np.unwrap(values["q"])
         if cm.profile is not None and cm.profile.law_speed is not None:
             check_law(cm.profile, nodes, cm.profile.sigma * values["sd"], cm.name, self.mech.scene.path)   # V: a reverse case has sd = -V
+            _law_end_limits(cm.profile, nodes, values, lambda s: function(s, p_case), names)
         times = CaseTimes.of(cm, nodes, values)
         values["t"] = times.t
         return values, times
 
-    def _unresolved(self, cm, names, function, p_case, integrals, sigma) -> dict:
-        """The integrals over time that the samples do not resolve: each one's value from every
-        other sample of the scene's (the rule's error falls as the square of the spacing, so
-        on a load that the samples follow the two differ by a small fraction of a percent) when
-        it differs from the value on all of them by more than RESOLUTION of the larger; {} when
-        every one agrees.  A load that changes faster than the samples, as next to a lock-up
-        where the drive turns ever faster for the same motion of the output, gives
-        integrals that are not the stroke's (name -> {value, samples, half_value, half_samples})."""
-        s = self.s_values
-        if len(s) < 5:
-            return {}
-        half = s[::2] if len(s) % 2 else np.r_[s[:-1:2], s[-1]]
-        nodes, _ = case_nodes(half, cm.profile)
-        values, times = self._evaluate(cm, names, function, nodes, p_case)
-        coarse = case_integrals(times, {"s": nodes, **values}, sigma)
-        out = {}
-        for key, scale in (("energy", max(abs(integrals["energy"]), integrals["energy_driving"])),
-                           ("rms_time", integrals["rms_time"])):
-            a, b = integrals[key], coarse[key]
-            if abs(a - b) > RESOLUTION * max(scale, abs(b)):
-                out[key] = {"value": a, "samples": len(s), "half_value": b, "half_samples": len(half)}
+    def _certified(self, cm, names, function, p_case, nodes, sigma, sampled) -> dict:
+        """The case's integrals over time to :data:`.time_integrals.TOLERANCE` (adaptive
+        quadrature), with ``errors``, ``sampled`` (the rule on the samples, as the NLP has them)
+        and ``unresolved`` (those the quadrature could not bring within its tolerance)."""
+        exact = certified_integrals(cm, columns_at(function, names, p_case), nodes, sigma)
+        out = {k: exact[k] for k in sampled}
+        out["duration"] = exact["duration"]   # a law's by the quadrature (tanh-sinh's was 1e-7 off at a square root)
+        out.update(errors=exact["errors"], sampled=dict(sampled), intervals=exact["intervals"])
+        out["unresolved"] = {k: {"value": exact[k], "error": exact["errors"][k], "samples": len(self.s_values),
+                                 "sampled_value": sampled[k]}
+                             for k in ("energy", "rms_time") if k in exact["not_converged"] or (
+                                 k == "rms_time" and {"drive_squared", "time"} & set(exact["not_converged"]))}
         return out
 
 
-RESOLUTION = 0.01   # an integral over time that changes by more than this fraction with half the samples
+def _law_end_limits(profile, nodes, values, function, names):
+    """A law's columns at a stroke's end where its speed falls to 0 like a square root: its
+    acceleration V dV/ds is 0 x inf there in the graph (it printed peak drive = nan), so each
+    column that is not finite there is replaced by its limit from inside, extrapolated linearly
+    from 1e-6 and 2e-6 of the stroke in (off by O(1e-12) of the column's curvature)."""
+    for i in (0, len(nodes) - 1):
+        if all(np.isfinite(v[i]) for v in values.values()):
+            continue
+        inward = 1.0 if nodes[i] == min(nodes[0], nodes[-1]) else -1.0
+        h = 1e-6 * profile.length
+        inner = dict(zip(names, (np.asarray(v, float).ravel() for v in function(nodes[i] + inward * np.array([h, 2 * h])))))
+        for k, v in values.items():
+            if k in inner and not np.isfinite(v[i]):
+                v[i] = 2 * inner[k][0] - inner[k][1]
 
 
 def case_nodes(s, profile):
@@ -312,6 +318,8 @@ def add_motor_torque(results, duty, motor):
         r.peak_at["motor_torque"] = {"s": float(r.columns["s"][i]), "value": float(torque[i])}
     if "rms" in motor:
         duty["rms_time"]["motor_torque"] = motor["rms"]
+        if "rms_error" in motor and "errors" in duty:
+            duty["errors"]["rms_time"]["motor_torque"] = motor["rms_error"]
 
 
 def governing_cases(results: dict) -> dict:

@@ -34,13 +34,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import casadi as ca
 import numpy as np
 
 from ..errors import SceneError
 from ..scene.expressions import evaluate
-from .profiles import tanh_sinh
-from .vectorised import VectorisedSX
+from .profiles import speed_function, tanh_sinh
+from .time_integrals import rms_error
 from .train import gear_factor_at_rest, motor_numbers
 
 PEAK_KEYS = ("drive", "static_load", "reduced_inertia", "power", "motor_torque", "motor_load_torque",
@@ -108,7 +107,7 @@ def time_weights(nodes, t, profile=None) -> np.ndarray:
         def integrand(s, d_lo, d_hi):
             return d_lo / width[:, None] / profile.law_speed(s.ravel()).reshape(s.shape)
     else:
-        speed = _speed_function(profile)
+        speed = speed_function(profile)
         sigma, begin, end = profile.sigma, profile.s_begin, profile.s_end
 
         def integrand(s, d_lo, d_hi):
@@ -196,6 +195,18 @@ def quadratic_weights(t) -> np.ndarray:
     return w
 
 
+def _trapezoid_weights(nodes, a, b):
+    """int_a^b by the trapezoid rule on the interval(s) of ``nodes`` inside [a, b] (a and b are
+    nodes): for three times too close together for a quadratic through them."""
+    out = np.zeros(3)
+    for j in range(2):
+        if min(a, b) <= min(nodes[j], nodes[j + 1]) and max(nodes[j], nodes[j + 1]) <= max(a, b):
+            half = abs(nodes[j + 1] - nodes[j]) / 2
+            out[j] += half
+            out[j + 1] += half
+    return out
+
+
 def _lagrange_integrals(nodes, a, b):
     """int_a^b of the three Lagrange basis polynomials on ``nodes`` (in |dt|: time may run
     either way along the samples).  In time from ``nodes[0]``: the antiderivative's cubes of
@@ -203,6 +214,9 @@ def _lagrange_integrals(nodes, a, b):
     intervals were 1e-4 s (an RMS of a negative square: a traceback)."""
     c = nodes[0]
     nodes, a, b = np.asarray(nodes, float) - c, a - c, b - c
+    gaps = np.abs(np.diff(nodes))
+    if not gaps.min() > 1e-9 * gaps.max():     # times that coincide (a jerk phase of 1e-11 s): no quadratic
+        return _trapezoid_weights(nodes, a, b)
     out = np.zeros(3)
     for i in range(3):
         tj, tk = (nodes[j] for j in range(3) if j != i)
@@ -211,21 +225,6 @@ def _lagrange_integrals(nodes, a, b):
             return t**3 / 3 - (tj + tk) * t**2 / 2 + tj * tk * t
         out[i] = (anti(b) - anti(a)) / ((nodes[i] - tj) * (nodes[i] - tk))
     return out if b >= a else -out
-
-
-def _speed_function(profile):
-    """V(x, y) of a closed-form profile, vectorised with numpy (x, y: arrays of one shape, the
-    distances from the motion's beginning and to its end; the smaller one is used exactly)."""
-    z, L = ca.SX.sym("z"), profile.length
-    # one input: z = x in the first half of the motion, z = -y in the second
-    x, y = ca.if_else(z >= 0, z, L + z), ca.if_else(z >= 0, L - z, -z)
-    f = VectorisedSX(ca.Function("V", [z, ca.SX.sym("p", 0)], [ca.fabs(profile.along(x, y)[0])], ["z", "p"], ["V"]))
-
-    def speed(a, b):
-        a, b = np.asarray(a, float), np.asarray(b, float)
-        zz = np.where(a <= b, a, -b).ravel()
-        return np.broadcast_to(f(zz, np.zeros(0))["V"], zz.shape).reshape(a.shape)
-    return speed
 
 
 def case_integrals(times: CaseTimes, columns: dict, sigma: float = 1.0) -> dict:
@@ -284,6 +283,8 @@ class DutyCycle:
             return {"reason": f"case {missing[0]!r} runs at the constant [drive] speed with an acceleration: no "
                               "motion in time, so no RMS over time; give it a profile"}
         steps, T, drive_sq, energy, driving, motor = [], 0.0, 0.0, 0.0, 0.0, np.zeros(3)
+        err = dict.fromkeys(("drive_squared", "energy", "time", "motor_load_squared", "motor_load_acceleration",
+                             "motor_acceleration_squared"), 0.0)   # the quadrature's error estimates
         mech = mech or next(iter(self.cases.values())).mech
         ratio = self._ratio(mech, p_values)
         for st in self.steps:
@@ -297,6 +298,9 @@ class DutyCycle:
                 if ratio is not None:
                     motor += n * np.array([r.integrals[k] for k in ("motor_load_squared", "motor_load_acceleration",
                                                                     "motor_acceleration_squared")])
+                for k, e in r.integrals.get("errors", {}).items():
+                    if k in err:
+                        err[k] += n * e
                 steps.append({"kind": "case", "case": st.case, "repeat": int(n) if n == int(n) else n,
                               "time": n * r.duration})
                 continue
@@ -308,20 +312,25 @@ class DutyCycle:
                 eta = cm.model.eta if cm.model.uses_efficiency else 1.0
                 c = 1 / eta if st.efficiency == "driving" else eta
                 load = c * float(evaluated[st.case]["hold"][st.at])
-                drive_sq += load**2 * duration
+                drive_sq += load * load * duration   # (a product: inf, named by finite.check_cases; ** raised)
                 step.update(case=st.case, at=st.at, load=load)
                 if ratio is not None:
                     motor_load = gear_factor_at_rest(mech, st.efficiency) * load / ratio
-                    motor[0] += motor_load**2 * duration
+                    motor[0] += motor_load * motor_load * duration
                     step["motor_load_torque"] = motor_load
             steps.append(step)
         out = {"cycle_time": T, "steps": steps, "rms_time": {"drive": math.sqrt(drive_sq / T)},
                "energy": energy, "energy_driving": driving, "mean_power": energy / T,
                "integrals": {"drive_squared": drive_sq}}
+        out["errors"] = {"rms_time": {"drive": rms_error(drive_sq, err["drive_squared"], T, err["time"])},
+                         "energy": err["energy"], "mean_power": err["energy"] / T + abs(energy) * err["time"] / T**2}
         if ratio is not None:
             out["rms_time"]["motor_load_torque"] = math.sqrt(motor[0] / T)
+            out["errors"]["rms_time"]["motor_load_torque"] = rms_error(motor[0], err["motor_load_squared"], T, err["time"])
             out["integrals"].update(motor_load_squared=motor[0], motor_load_acceleration=motor[1],
                                     motor_acceleration_squared=motor[2])
+            out["integral_errors"] = {k: err[k] for k in ("motor_load_squared", "motor_load_acceleration",
+                                                          "motor_acceleration_squared", "time")}
         return out
 
     @staticmethod
@@ -358,6 +367,11 @@ def motor_report(scene, values, results, duty, ratio) -> dict:
             a, b, c2 = (duty["integrals"][k] for k in ("motor_load_squared", "motor_load_acceleration",
                                                         "motor_acceleration_squared"))
             entry["rms"] = math.sqrt(max(a + 2 * J * b + J * J * c2, 0.0) / duty["cycle_time"])
+            if "integral_errors" in duty:
+                ea, eb, ec, et = (duty["integral_errors"][k] for k in ("motor_load_squared", "motor_load_acceleration",
+                                                                       "motor_acceleration_squared", "time"))
+                entry["rms_error"] = rms_error(max(a + 2 * J * b + J * J * c2, 0.0), ea + 2 * J * eb + J * J * ec,
+                                               duty["cycle_time"], et)
         # within 1e-7 of a limit counts as on it (an optimum puts the design there to IPOPT's tolerance)
         slack = 1 + 1e-7
         entry["fits"] = bool(peak <= num["peak_torque"] * slack and speed <= num["max_speed"] * slack

@@ -164,21 +164,25 @@ def check_cases(result, unit) -> None:
                               "case's motion or load is not defined there (e.g. a speed law with an infinite "
                               "slope where its speed is 0); check the case's profile and values")
     loads = {name: float(np.max(np.abs(r.columns["drive"]))) for name, r in result.cases.items()}
+
+    def cause(name):
+        if name is None:
+            return ""
+        sets = ", ".join(f"{k} = {v:g}" for k, v in result.cases[name].overrides.items())
+        return (f": the drive load of case {name!r} reaches {loads[name]:.3g} {unit}"
+                + (f" (the case sets {sets})" if sets else "")
+                + (", whose square exceeds the largest number a float holds (1.8e308)" if loads[name] > 1e154 else ""))
+
     worst = max(loads, key=loads.get) if loads else None
-    cause = "" if worst is None else (
-        f": the drive load of case {worst!r} reaches {loads[worst]:.3g} {unit}"
-        + (f" (the case sets {', '.join(f'{k} = {v:g}' for k, v in result.cases[worst].overrides.items())})"
-           if result.cases[worst].overrides else "")
-        + (", whose square exceeds the largest number a float holds (1.8e308)" if loads[worst] > 1e154 else ""))
-    places = [(f"case {name!r}", r.integrals) for name, r in result.cases.items()]
-    places += [("the duty cycle", result.duty), ("the drive train", result.train)]
-    for where, figures in places:
+    places = [(f"case {name!r}", r.integrals, name) for name, r in result.cases.items()]
+    places += [("the duty cycle", result.duty, worst), ("the drive train", result.train, worst)]
+    for where, figures, name in places:
         found = _first_not_finite(figures)
         if found is not None:
             key, value = found
             what = FIGURES.get(key.rsplit(".", 1)[-1], key)
-            raise ResultError(f"{where}: {what} is {_what(value)}{cause}; check the values of the scene and of its "
-                              "cases")
+            raise ResultError(f"{where}: {what} is {_what(value)}{cause(name)}; check the values of the scene and of "
+                              "its cases")
 
 
 def _first_not_finite(value, key=""):

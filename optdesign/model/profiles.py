@@ -227,6 +227,12 @@ class MotionProfile:
             tau += list(np.linspace(a, b, n + 1)[1:])
         return self.s_begin + self.sigma * law.evaluate(np.array(tau))[0] * self.length
 
+    def law_position(self):
+        """A law in time's f(tau) (fraction of the stroke at the fraction tau of its time) as a
+        numpy function."""
+        t = ca.SX.sym("t")
+        return _numpy_of(t, self.shape.motion_law.derivatives(t)[0])
+
     def _law_segments(self) -> list:
         s = self.law_nodes()
         return [(float(min(s[0], s[-1])), float(max(s[0], s[-1])), s[1:-1])]
@@ -254,6 +260,28 @@ def _numpy_of(s, expr):
         x = np.asarray(x, float)
         return np.broadcast_to(f(x.ravel(), np.zeros(0))["v"], (x.size,)).reshape(x.shape).copy()
     return run
+
+
+def speed_function(profile):
+    """V(x, y) of a profile, vectorised with numpy (x, y: arrays of one shape, the distances
+    from the motion's beginning and to its end; the smaller one is used exactly, except by a
+    law, a function of the sweep value itself)."""
+    if profile.law_speed is not None:
+        def law(a, b):
+            a, b = np.asarray(a, float), np.asarray(b, float)
+            s = np.where(a <= b, profile.s_begin + profile.sigma * a, profile.s_end - profile.sigma * b)
+            return profile.law_speed(s)
+        return law
+    z, L = ca.SX.sym("z"), profile.length
+    # one input: z = x in the first half of the motion, z = -y in the second
+    x, y = ca.if_else(z >= 0, z, L + z), ca.if_else(z >= 0, L - z, -z)
+    f = VectorisedSX(ca.Function("V", [z, ca.SX.sym("p", 0)], [ca.fabs(profile.along(x, y)[0])], ["z", "p"], ["V"]))
+
+    def speed(a, b):
+        a, b = np.asarray(a, float), np.asarray(b, float)
+        zz = np.where(a <= b, a, -b).ravel()
+        return np.broadcast_to(f(zz, np.zeros(0))["V"], zz.shape).reshape(a.shape)
+    return speed
 
 
 def tanh_sinh(f, a, b, h=1 / 16, levels=48):

@@ -114,17 +114,16 @@ def cases_table(result, samples: bool = True) -> str:
 
 
 def unresolved_lines(unresolved, units) -> list:
-    """What the case's samples do not resolve (model/cases.py ``_unresolved``): its integrals
-    from half the samples, a warning and what to do."""
+    """The integrals over time that the adaptive quadrature could not bring within its tolerance
+    (model/cases.py ``_certified``): a warning with the value, its error estimate and what to do."""
     if not unresolved:
         return []
     shown = {"energy": ("energy", "J"), "rms_time": ("RMS over its time", units["drive"])}
-    parts = [f"{shown[key][0]} {u['value']:.6g} {shown[key][1]} on {u['samples']} samples, "
-             f"{u['half_value']:.6g} {shown[key][1]} on {u['half_samples']}" for key, u in unresolved.items()]
-    return [f"  WARNING: not resolved by the samples ({'; '.join(parts)}): the drive's load changes faster than "
-            "the samples follow, as next to a lock-up, where the drive turns ever faster for the same motion of "
-            "the output; these integrals (and the duty cycle's) are not the stroke's: use more samples "
-            "(--samples, [sweep] samples) or keep the design away from the lock-up"]
+    parts = [f"{shown[key][0]} {u['value']:.6g} {shown[key][1]} +- {u['error']:.2g} (the rule on the "
+             f"{u['samples']} samples: {u['sampled_value']:.6g})" for key, u in unresolved.items()]
+    return [f"  WARNING: not resolved by the quadrature ({'; '.join(parts)}): the drive's load changes faster than "
+            "the quadrature follows, as at a lock-up, where the drive turns ever faster for the same motion of "
+            "the output; these integrals (and the duty cycle's) are not certified: keep the design away from the lock-up"]
 
 
 def _duty_lines(duty, units):

@@ -39,6 +39,9 @@ def governing(result, cases) -> dict:
     m = re.match(r"^\s*(?:[\d.eE+-]+\s*\*\s*)?peak\s*\(\s*(\w+)", result.scene.objective.minimise)
     if m and m.group(1) in cases.governing:
         out["peak"] = dict(cases.governing[m.group(1)], quantity=m.group(1))
+        if result.objective_kind == "peak" and result.peak_certified is not None:
+            # the optimiser's certified peak over the cases (the analysis's case peaks are the samples')
+            out["peak"].update(value=result.peak_certified, value_sampled=out["peak"]["value"])
     for name, c in result.constraints.items():
         hit = _IN_CASE.match(name)
         if not hit or not c.get("active"):
@@ -90,8 +93,8 @@ def cases_summary(result, catalogue=None) -> str:
     g = governing(result, cases)
     lines = ["load cases at the optimum:"]
     if result.objective_kind in ("rms_time", "mix"):
-        lines.append("  (the RMS over time is the time integral on each case's sample grid, optdesign.model.duty's "
-                     "rule: not certified over the continuous stroke; a peak term is)")
+        lines.append("  (the RMS over time, energy and mean power below: adaptive quadrature to 1e-10 of each case's "
+                     "stroke, model/time_integrals.py; the optimiser's own is the rule on the samples)")
     if "peak" in g:
         p = g["peak"]
         unit = UNITS[result.scene.drive.kind].get(p["quantity"], "")

@@ -139,6 +139,9 @@ def _number(profile, key, values):
     return value
 
 
+JERK_RESOLUTION = 1e-6   # an s-curve's jerk phase at least this fraction of its acceleration phase
+
+
 def _phase(speed, rate, jerk=0.0) -> Phase:
     if jerk == 0.0:
         return Phase(speed / rate, speed**2 / (2 * rate), rate, 0.0)
@@ -175,6 +178,12 @@ def profile_shape(profile: Profile, values: dict, length: float, suffix: str = "
     else:
         v = _number(profile, "speed", values)
     up, down = _phase(v, a, j), _phase(v, d, j)
+    if j and min(ph.peak / j / ph.duration for ph in (up, down)) < JERK_RESOLUTION:
+        ph = min((up, down), key=lambda ph: ph.peak / j / ph.duration)
+        fail(profile.where("jerk"), f"the jerk {j:g} makes its jerk phases {ph.peak / j:.3g} s long, less than "
+                                    f"{JERK_RESOLUTION:g} of the {ph.duration:.3g} s it takes to reach the top speed: "
+                                    "too short for the time law's samples; use kind = \"trapezoidal\" (an unlimited jerk) or a "
+                                    "smaller jerk" + suffix)
     if up.distance + down.distance > length * (1 + 1e-12):
         reach = _reachable(length, a, d, j)
         fail(profile.where("speed"), f"the top speed {v:g} cannot be reached in the stroke of {length:.6g}: "

@@ -21,7 +21,7 @@ from .forces import check_forces
 from .points import CONSTRUCTIONS, Loop
 from .simulation import check_phases
 from .validate_cases import DriveSizingValidator, case_columns
-from .values import RESERVED
+from .values import RESERVED, outside_meaningful
 from .where import Where, fail, near_miss, show
 
 
@@ -270,8 +270,9 @@ class Validator:
                 constant_value(getattr(d, name), values, where.at(name))
         if d.efficiency is not None:
             eta = constant_value(d.efficiency, values, where.at("efficiency"))
-            if not 0.0 < eta <= 1.0:
-                self._fail(where.at("efficiency"), f"expected 0 < eta <= 1, found {eta:g}")
+            if not 0.0 < eta <= 1.0 or outside_meaningful(eta):
+                self._fail(where.at("efficiency"), f"expected 0 < eta <= 1, found {eta:g}" + (
+                    f" ({outside_meaningful(eta).split(', ', 1)[1]})" if outside_meaningful(eta) else ""))
             if eta < 1.0 and constant_value(d.speed, values, where.at("speed")) == 0.0:
                 self._fail(where.at("speed"), f"efficiency {eta:g} < 1 needs the direction of power flow, "
                                               "which a zero speed does not give; set a nonzero speed (its "

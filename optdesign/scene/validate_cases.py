@@ -219,8 +219,9 @@ class DriveSizingValidator:
                                                         f"{'none' if lo is None else f'{lo:g}'}; give min > 0")
         if g.efficiency is not None:
             eta = self.number(where.at("efficiency"), g.efficiency)
-            if not 0 < eta <= 1:
-                self.fail(where.at("efficiency"), f"expected 0 < eta <= 1, found {eta:g}")
+            if not 0 < eta <= 1 or outside_meaningful(eta):
+                self.fail(where.at("efficiency"), f"expected 0 < eta <= 1, found {eta:g}" + (
+                    f" ({outside_meaningful(eta).split(', ', 1)[1]})" if outside_meaningful(eta) else ""))
 
     def _motors(self):
         sc = self.scene

@@ -164,3 +164,65 @@ def test_kinematics_of_a_velocity_infinite_where_the_stroke_starts():
     with pytest.raises(ResultError, match=r"^\[points\] B: its velocity is not finite at theta = 0.0533310105 "
                                           r"\(sample 1 of 21; 1 of the 21 samples\)"):
         optdesign.kinematics(optdesign.loads(text, "jib.toml"), 21)
+
+
+# --- every number of the drive's and the sizing's tables at the extremes ------------------------------
+
+CRANE = (ROOT / "problems" / "crane_luffing_drive.toml").read_text()
+
+
+def test_gravity_that_overflows_the_rms_names_the_case():
+    with pytest.raises(ResultError, match=r"^case '[^']+': the time integral of the drive load squared \(its RMS over "
+                                          r"time\) is (\+inf|NaN): the drive load of case '[^']+' reaches .* whose square "
+                                          r"exceeds the largest number a float holds"):
+        optdesign.analyse(optdesign.loads(re.sub(r"(?m)^g = .*$", "g = 1e300", CRANE), "crane.toml"), 21)
+
+
+@pytest.mark.parametrize("table", ["drive", "gearbox"])
+def test_an_efficiency_beyond_the_band_is_refused(table):
+    text = CRANE.split(f"[{table}]", 1)
+    head, tail = text[0], re.sub(r"(?m)^efficiency = .*$", "efficiency = 1e-300", text[1], count=1)
+    with pytest.raises(SceneError, match=rf"\[{table}\] efficiency: expected 0 < eta <= 1, found 1e-300 \(outside "
+                                         r"1e-50 .. 1e\+50 in magnitude"):
+        optdesign.loads(head + f"[{table}]" + tail, "crane.toml")
+
+
+def numbers_of_the_tables(text):
+    """(line index, key) of every plain number in the scene's tables but [parameters], [sweep]."""
+    table = ""
+    for i, line in enumerate(text.split("\n")):
+        head = re.match(r"\s*\[+([^\]]+)\]+", line)
+        if head:
+            table = head.group(1)
+        elif table not in ("parameters", "sweep", "reference") and re.match(r"^\w+\s*=\s*-?[0-9.]+(e[-+]?\d+)?\s*(#.*)?$",
+                                                                           line, re.I):
+            yield i, line.split("=")[0].strip()
+
+
+@pytest.mark.parametrize("name, text", [("loading_ramp_cylinder", RAMP), ("barrier_gate_motor", BARRIER)])
+def test_every_number_of_the_tables_at_the_extremes_is_a_result_or_an_error(name, text):
+    lines = text.split("\n")
+    found = list(numbers_of_the_tables(text))
+    assert len(found) >= 8
+    for i, key in found:
+        for value in ("1e-300", "1e300", "-1"):
+            changed = "\n".join(lines[:i] + [f"{key} = {value}"] + lines[i + 1:])
+            try:
+                result = optdesign.analyse(optdesign.loads(changed, f"{name}.toml"), 21)
+            except OptdesignError:
+                continue
+            from optdesign.report.analysis import analysis_json
+            from optdesign.report.output import to_json
+
+            assert finite_everywhere(json.loads(to_json(analysis_json(result)))), (key, value)
+
+
+@pytest.mark.parametrize("jerk", ["5.75e10", "1e49"])
+def test_a_jerk_whose_phases_are_below_the_time_laws_resolution_is_refused(jerk):
+    # the barrier's 'close' reaches 75 deg/s at 180 deg/s^2 in 0.5 s; a jerk phase of a/j = 5e-11 s
+    # made coincident sample times (a traceback), one of 3e-49 s an RMS of 4.6e25 N m
+    text = BARRIER.replace('jerk = "1200 deg"', f"jerk = {jerk}")
+    with pytest.raises(SceneError, match=rf"\[profiles\] close, jerk: the jerk {re.escape(f'{float(jerk):g}')} makes "
+                                         r"its jerk phases .* s long, less than 1e-06 of the 0.5 s it takes to reach "
+                                         r"the top speed"):
+        optdesign.loads(text, "barrier.toml")

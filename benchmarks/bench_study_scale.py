@@ -1,0 +1,133 @@
+"""Studies at scale (issue 31): cases per second and the client's peak memory of an analyse
+study of the truck crane (problems/truck_crane.toml, boom mass mB x payload mP: leaf
+parameters) against its
+size, on the local pool of 2 processes and on a Dask LocalCluster of 2 worker processes
+(loopback; the cluster runs in another process, so the client's memory is the client's alone),
+and the journal's throughput with group commit against one fsync per case.
+
+    python benchmarks/bench_study_scale.py [--sizes 2000,20000]
+
+Each study runs in a fresh Python process (``optdesign.study`` from a script) that reports its
+wall time and its peak resident memory (``ru_maxrss``: imports included, so the growth between
+two sizes is what the cases cost); the pool's processes are its children and not counted.
+Journal: ``Journal.add`` of N records of an analyse row's size, each made durable at once
+(``durable=True``, the old way) or committed in groups (``durable=False`` and a ``sync`` every
+``--group`` records, as a study's scheduling loop does for the cases that come back together),
+on this machine's disk.
+
+writes its section of results/scaling.md (benchmarks/benchfile.py)."""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from benchfile import ROOT, SCALING_MD, cpu_model, git_state, write_section  # noqa: E402
+
+CHILD = """
+import json, resource, sys, time
+import optdesign
+from optdesign.study import Study, grid
+n, out, where = int(sys.argv[1]), sys.argv[2], sys.argv[3]
+masses = 10   # boom mass x payload: leaf parameters, one build serves every case
+study = Study(optdesign.load(sys.argv[4]), [grid("mB", 500, 800, masses), grid("mP", 500, 3000, n // masses)],
+              mode="analyse")
+kw = {"workers": 2} if where == "pool" else {"scheduler": where}
+t0 = time.perf_counter()
+result = study.run(out=out, restart=True, figures=False, **kw)
+wall = time.perf_counter() - t0
+assert result.complete and result.computed == n, result
+ok = sum(1 for r in result.rows if r.get("success"))
+print(json.dumps({"wall": wall, "maxrss_kB": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, "ok": ok}))
+"""
+
+
+def run_study(n, where, folder):
+    done = subprocess.run([sys.executable, "-c", CHILD, str(n), str(folder), where, str(ROOT / "problems" /
+                                                                                    "truck_crane.toml")],
+                          capture_output=True, text=True, cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    if done.returncode:
+        raise SystemExit(f"study of {n} cases on {where} failed:\n{done.stderr[-3000:]}")
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def journal_rate(n, group, folder):
+    """Records per second into a fresh journal: group 1 = an fsync per record."""
+    from optdesign.study.journal import Journal
+
+    row = {f"peak:{k}": 12345.678901234 + i for i, k in enumerate(["drive", "power", "static", "velocity"])}
+    row.update({f"constraint:c{i}:min": 0.1234567 * i for i in range(12)}, status="ok", success=True)
+    with Journal(folder, restart=True) as journal:
+        t0 = time.perf_counter()
+        for i in range(n):
+            journal.add({"id": f"{i:016x}", "case": i, "row": row, "x": None, "time_s": 0.0025},
+                        durable=group == 1)
+            if group > 1 and (i + 1) % group == 0:
+                journal.sync()
+        journal.sync()
+        return n / (time.perf_counter() - t0), journal.path.stat().st_size / n
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--sizes", default="2000,20000")
+    ap.add_argument("--journal", type=int, default=20000, help="records written per journal run")
+    ap.add_argument("--group", type=int, default=50, help="records per fsync with group commit")
+    args = ap.parse_args()
+    sizes = [int(s) for s in args.sizes.split(",")]
+    load0 = os.getloadavg()
+    import distributed
+
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp, \
+            distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                     dashboard_address=None) as cluster:
+        run_study(min(sizes), cluster.scheduler_address, Path(tmp) / "warm")   # helpers started, code compiled
+        for n in sizes:
+            for label, where in (("pool, 2 processes", "pool"), ("Dask LocalCluster, 2 workers", cluster.scheduler_address)):
+                r = run_study(n, where, Path(tmp) / f"{n}-{label[:4]}")
+                rows.append((n, label, r))
+                print(n, label, r, flush=True)
+        rates = {g: journal_rate(args.journal, g, Path(tmp) / f"journal-{g}") for g in (1, args.group)}
+    load1 = os.getloadavg()
+    lines = ["# Studies at scale (`python benchmarks/bench_study_scale.py`)", "",
+             f"Written by `python benchmarks/bench_study_scale.py --sizes {args.sizes}` on "
+             f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; {git_state()}; machine {cpu_model()}, nproc "
+             f"{os.cpu_count()}; load average {load0[0]:.2f} before, {load1[0]:.2f} after (shared).", "",
+             "An analyse study of the truck crane (10 boom masses x payloads), each run in a fresh process; the "
+             "client's peak memory is its `ru_maxrss` (imports included; the pool's processes and the Dask "
+             "cluster are not counted).", "",
+             "| cases | where | wall [s] | cases/s | client peak memory [MB] | successful |", "|---|---|---|---|---|---|"]
+    for n, label, r in rows:
+        lines.append(f"| {n:,} | {label} | {r['wall']:.1f} | {n / r['wall']:.0f} | {r['maxrss_kB'] / 1024:.0f} | "
+                     f"{r['ok']:,} |")
+    lines.append("")
+    for label in dict.fromkeys(lb for _, lb, _ in rows):
+        mine = [(n, r) for n, lb, r in rows if lb == label]
+        if len(mine) >= 2:
+            (n0, r0), (n1, r1) = mine[0], mine[-1]
+            per_case = (r1["maxrss_kB"] - r0["maxrss_kB"]) * 1024 / (n1 - n0)
+            lines.append(f"- {label}: the client's peak grows by {per_case / 1000:.2f} kB per case from {n0:,} to "
+                         f"{n1:,} cases.")
+    for n in sizes:
+        pool = next(r for m, lb, r in rows if m == n and lb.startswith("pool"))
+        dask = next(r for m, lb, r in rows if m == n and lb.startswith("Dask"))
+        lines.append(f"- {n:,} cases: Dask / pool throughput {pool['wall'] / dask['wall']:.2f}x.")
+    lines += ["", f"Journal ({args.journal:,} records of an analyse row, {rates[1][1]:.0f} bytes each, this "
+              "machine's disk):", "",
+              "| commit | records/s |", "|---|---|",
+              f"| an fsync per record | {rates[1][0]:,.0f} |",
+              f"| group commit, an fsync per {args.group} records | {rates[args.group][0]:,.0f} |", "",
+              f"Group commit / per-record fsync: {rates[args.group][0] / rates[1][0]:.1f}x."]
+    write_section("study_scale", "\n".join(lines) + "\n", SCALING_MD)
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
