@@ -4,7 +4,7 @@ workers=1; a motor catalogue motor by motor, as the command does), each version 
 Python process:
 
     git worktree add /tmp/old a267455
-    python benchmarks/bench_optimiser_table.py --old /tmp/old [--out results/optimiser_table.md]
+    python benchmarks/bench_optimiser_table.py --old /tmp/old [--new /tmp/new] [--out results/optimiser_table.md]
 
 Per scene and version: the starts that reached the known optimum (certified objective within
 1e-6 relative of it), the failed starts by status, the CPU and wall time per start (the whole
@@ -68,12 +68,14 @@ def scenes() -> list:
     import optdesign
 
     out = [p for p in sorted((ROOT / "problems").glob("*.toml")) if optdesign.load(p).objective is not None]
-    return out + sorted((ROOT / "tests" / "data" / "issue27").glob("*.toml"))
+    # the long ones first (issue 27's knuckle press), a motor catalogue (many optimisations) last
+    out.sort(key=lambda p: len(optdesign.load(p).motors) > 1)
+    return sorted((ROOT / "tests" / "data" / "issue27").glob("*.toml"), reverse=True) + out
 
 
-def run(version: Path, scene: Path) -> dict:
+def run(version: Path, scene: Path, warm=True) -> dict:
     env = dict(os.environ, PYTHONPATH=str(version), MPLBACKEND="Agg", OPTDESIGN_COMPILE="wait")
-    for mode in ("warm", "timed"):
+    for mode in ("warm", "timed") if warm else ("timed",):
         done = subprocess.run([sys.executable, "-c", RUN, str(scene), mode], capture_output=True, text=True,
                               env=env, cwd=str(version))
         if done.returncode != 0:
@@ -111,41 +113,58 @@ def cell(d) -> str:
     return f"{d['at']}/{d['n']} | {failed} | {d['cpu_per_start_s'] * 1e3:.0f} ({d['wall_per_start_s'] * 1e3:.0f}) | {best}"
 
 
+def both(args, scene):
+    """The old and the new run of one scene, one after the other (so that both see about the same
+    load of the machine)."""
+    return scene, {"old": run(args.old, scene, not args.no_warm), "new": run(args.new, scene, not args.no_warm)}
+
+
 def main():
+    from concurrent.futures import ThreadPoolExecutor, as_completed
+
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--old", type=Path, required=True, help="a checkout of the old code (git worktree add)")
+    ap.add_argument("--new", type=Path, default=ROOT, help="a checkout of the new code (default: this one)")
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "optimiser_table.md")
     ap.add_argument("--scenes", nargs="*", help="only these scene names")
+    ap.add_argument("--parallel", type=int, default=1, help="scenes run at once (each: old, then new)")
+    ap.add_argument("--no-warm", action="store_true", help="no one-start run before the timed one (a warm cache)")
     args = ap.parse_args()
     refs = references()
-    old_head = subprocess.run(["git", "-C", str(args.old), "rev-parse", "--short", "HEAD"], capture_output=True,
-                              text=True).stdout.strip()
-    new_head = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
-                              text=True).stdout.strip()
-    rows, data = [], {"old": old_head, "new": new_head, "when": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
-                      "scenes": {}}
+    heads = {k: subprocess.run(["git", "-C", str(getattr(args, k)), "rev-parse", "--short", "HEAD"], capture_output=True,
+                               text=True).stdout.strip() for k in ("old", "new")}
+    data = {**heads, "when": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "scenes": {}}
+    todo = [p for p in scenes() if not args.scenes or p.stem in args.scenes]
     t0 = time.perf_counter()
-    for scene in scenes():
-        if args.scenes and scene.stem not in args.scenes:
-            continue
-        runs = {"old": run(args.old, scene), "new": run(ROOT, scene)}
-        target, marked = refs.get(scene.stem), ""
-        if target is None:
-            values = [r["objective"] for r in runs.values() if r.get("objective") is not None and r.get("success")]
-            target, marked = (min(values) if values else None), " (best of the two runs)"
-        out = {k: summary(r, target) for k, r in runs.items()}
-        data["scenes"][scene.stem] = {"known_optimum": target, "source": "runs" if marked else "reference", **out}
-        where = "" if scene.parent.name == "problems" else " (issue 27)"
-        known = "-" if target is None else f"{target:.10g}{marked}"
-        rows.append(f"| {scene.stem}{where} | {known} | {cell(out['old'])} | {cell(out['new'])} |")
-        print(rows[-1], flush=True)
+    rows = {}
+    with ThreadPoolExecutor(max(1, args.parallel)) as pool:
+        for future in as_completed([pool.submit(both, args, scene) for scene in todo]):
+            scene, runs = future.result()
+            target, marked = refs.get(scene.stem), ""
+            if target is None:
+                values = [r["objective"] for r in runs.values() if r.get("objective") is not None and r.get("success")]
+                target, marked = (min(values) if values else None), " (best of the two runs)"
+            out = {k: summary(r, target) for k, r in runs.items()}
+            data["scenes"][scene.stem] = {"known_optimum": target, "source": "runs" if marked else "reference", **out}
+            where = "" if scene.parent.name == "problems" else " (issue 27)"
+            known = "-" if target is None else f"{target:.10g}{marked}"
+            rows[scene] = f"| {scene.stem}{where} | {known} | {cell(out['old'])} | {cell(out['new'])} |"
+            print(rows[scene], flush=True)
+            write(args, data, [rows[p] for p in todo if p in rows], len(todo), time.perf_counter() - t0)
+
+
+def write(args, data, rows, total, seconds):
+    """The table so far (a scene's row once both of its runs finished), atomically."""
+    done = "" if len(rows) == total else f" **{len(rows)} of {total} scenes so far.**"
     lines = [
         "# The optimiser, old against new (issue 27)",
         "",
-        f"`python benchmarks/bench_optimiser_table.py --old /tmp/old` ({data['when']}, {time.perf_counter() - t0:.0f} s): "
-        f"old = {old_head}, new = {new_head}; every optimisation scene in problems/ and issue 27's two scenes, "
-        f"`optimise(scene, {STARTS}, {SEED})` with the default settings, workers=1 (a motor catalogue motor by motor), "
-        "each version in its own process, the compile cache shared and warm.",
+        f"`python benchmarks/bench_optimiser_table.py --old /tmp/old --new /tmp/new"
+        f"{' --parallel %d' % args.parallel if args.parallel > 1 else ''}{' --no-warm' if args.no_warm else ''}` "
+        f"({data['when']}, {seconds:.0f} s): old = {data['old']}, new = {data['new']}; every optimisation scene in "
+        f"problems/ and issue 27's two scenes, `optimise(scene, {STARTS}, {SEED})` with the default settings, "
+        "workers=1 (a motor catalogue motor by motor, as the command does), each version in its own process, "
+        f"the compile cache shared.{done}",
         "",
         f"*At optimum*: starts whose certified objective is within {AT:g} (relative) of the known optimum: the "
         "independent reference (results/optimise_library.json; issue 27's scenes: their tests' numpy references), "
@@ -166,7 +185,6 @@ def main():
     tmp = js.with_suffix(".json.tmp")
     tmp.write_text(json.dumps(data, indent=1))
     os.replace(tmp, js)
-    print(f"wrote {args.out} and {js}")
 
 
 if __name__ == "__main__":
