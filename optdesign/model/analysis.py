@@ -124,7 +124,7 @@ class Analysis:
         self.vectorised = stroke_evaluator(self.function)
         self._points = None
         self.certified = CertifiedExtremes(self) if certify else None
-        self.case_analysis = CaseAnalysis(self.mech, self.s_values, joints) if scene.cases else None
+        self.case_analysis = CaseAnalysis(self.mech, self.s_values, joints, certify) if scene.cases else None
         self.build_time = time.perf_counter() - t0
 
     def run(self, p_values=None) -> AnalysisResult:
