@@ -208,9 +208,13 @@ def certify(enclosure, evaluate_many, s_grid, V, requests, found, s_tol=1e-13, t
     for _ in range(MAX_PASSES):
         if not len(req):
             break
-        pairs, where = np.unique(np.c_[lo, hi], axis=0, return_inverse=True)
+        # the distinct intervals (rows share them), as complex numbers lo + i hi: np.unique of
+        # a 1-D array (sorting rows with axis=0 cost ~5 % of a certified analysis)
+        key = np.empty(len(lo), complex)
+        key.real, key.imag = lo, hi
+        pairs, where = np.unique(key, return_inverse=True)
         where = where.ravel()
-        L, U, vm_lo, vm_hi = enclosure.bounds(pairs[:, 0], pairs[:, 1], np.unique(rows[req]))
+        L, U, vm_lo, vm_hi = enclosure.bounds(pairs.real, pairs.imag, np.unique(rows[req]))
         r_of, code = rows[req], sense[req]
         ub = _target_bound(L[r_of, where], U[r_of, where], code, upper=True)
         vm_lo, vm_hi = vm_lo[r_of, where], vm_hi[r_of, where]
