@@ -4,11 +4,13 @@ from __future__ import annotations
 import csv
 import io
 import math
+import os
 from pathlib import Path
 
 from ..report.files import write_file
 
 CSV = "cases.csv"
+PARTIAL = f".{CSV}.partial.tmp"   # cases.csv while the study runs (a produced file's temporary name)
 LEADING = ("status", "success", "objective", "objective_sampled", "peak_certified", "starts_total",
            "starts_at_best", "warm", "iterations")
 GROUPS = ("design:", "constraint:", "multiplier:", "sensitivity:", "peak:", "peak_at:", "peak_sampled:", "rms:")
@@ -39,21 +41,83 @@ def cell(value) -> str:
     return str(value)
 
 
-def csv_text(rows, input_names) -> str:
-    """The study's CSV from its merged rows (case identification, inputs, results)."""
-    cols = columns(input_names, rows)
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(cols)
-    for r in rows:
-        w.writerow([cell(r.get(k)) for k in cols])
-    return buf.getvalue()
+class CsvWriter:
+    """cases.csv written while the study runs, into ``PARTIAL`` in the study's folder: a case's row
+    is appended once every case before it has finished (case order, whatever order they finish
+    in), so that the file is the same, byte for byte, however the cases were run, and nothing but
+    the file grows with the study.  ``finished(case)`` gives a finished case's merged row, else
+    None.  The columns are those of the rows written so far (:func:`columns`); a row bringing a
+    new column (the first successful case after failed ones) has the file rewritten once with it,
+    so the end result is the table of every finished row whatever came first."""
+
+    def __init__(self, folder, input_names, cases, finished):
+        self.path = Path(folder) / PARTIAL
+        self.inputs, self.cases, self.finished = list(input_names), cases, finished
+        self.seen, self.cols, self.next = {}, None, 0
+        self.fh = open(self.path, "w", newline="")
+        self.writer = csv.writer(self.fh, lineterminator="\n")
+
+    def advance(self):
+        """Append the rows from the first case not written up to the first unfinished one."""
+        while self.next < len(self.cases):
+            row = self.finished(self.cases[self.next])
+            if row is None:
+                return
+            self._write(row)
+            self.next += 1
+
+    def finish(self) -> Path:
+        """Append the finished cases after the first unfinished one too, and close the file."""
+        for i in range(self.next, len(self.cases)):
+            row = self.finished(self.cases[i])
+            if row is not None:
+                self._write(row)
+        self.next = len(self.cases)
+        if self.cols is None:
+            self.writer.writerow(columns(self.inputs, []))
+        self.close()
+        return self.path
+
+    def close(self):
+        if not self.fh.closed:
+            self.fh.close()
+
+    def _write(self, row):
+        new = [k for k in row if k not in self.seen]
+        if new or self.cols is None:
+            self.seen.update(dict.fromkeys(new))
+            cols = columns(self.inputs, [self.seen])
+            if cols != self.cols:
+                self._rewrite(cols)
+        self.writer.writerow([cell(row.get(k)) for k in self.cols])
+
+    def _rewrite(self, cols):
+        """The file again with columns ``cols``: the cells written keep their text, the new
+        columns are empty in the rows before (a missing value's cell)."""
+        old, self.cols = self.cols, cols
+        self.fh.close()
+        if old is not None:
+            tmp = self.path.with_name(self.path.name + ".new")
+            with open(self.path, newline="") as src, open(tmp, "w", newline="") as dst:
+                reader, writer = csv.reader(src), csv.writer(dst, lineterminator="\n")
+                next(reader)
+                writer.writerow(cols)
+                where = [old.index(k) if k in old else None for k in cols]
+                for r in reader:
+                    writer.writerow(["" if j is None else r[j] for j in where])
+            os.replace(tmp, self.path)
+            self.fh = open(self.path, "a", newline="")
+        else:
+            self.fh = open(self.path, "w", newline="")
+        self.writer = csv.writer(self.fh, lineterminator="\n")
+        if old is None:
+            self.writer.writerow(cols)
 
 
-def write_csv(folder, rows, input_names) -> Path:
-    """Write cases.csv atomically."""
+def write_csv(folder, writer: CsvWriter) -> Path:
+    """cases.csv in ``folder``: the study's :class:`CsvWriter` finished and moved there."""
     path = Path(folder) / CSV
-    write_file(path, csv_text(rows, input_names))
+    os.replace(writer.finish(), path)
     return path
 
 
