@@ -80,7 +80,7 @@ def execute(study, folder: Path, workers, scheduler, progress, restart, figures)
                     where = executor.describe()
                     executor.close()
             del todo
-            rows = merged_rows(cases, journal.records)
+            rows = table.finish()
             try:
                 result = write_folder(study, cases, folder, rows, table, figures, computed, reused, t0, where,
                                       journal.notes)
@@ -132,11 +132,6 @@ def write_folder(study, cases, folder, rows, table, figures, computed, reused, t
         made.clear()
         paths = write(folder)
     return dataclasses.replace(made[-1], folder=folder, paths=paths)
-
-
-def merged_rows(cases, records) -> list:
-    """One dict per finished case, in case order: identification, inputs, results."""
-    return [merged_row(c, records[c.id]["row"]) for c in cases if c.id in records]
 
 
 def merged_row(case, row) -> dict:
@@ -307,4 +302,4 @@ def _schedule(study, chains, journal, executor, progress, done, total, ctrl_c, c
     return computed
 
 
-__all__ = ["execute", "merged_rows"]
+__all__ = ["execute", "merged_row"]

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import itertools
 import json
 import math
 import pickle
@@ -43,7 +42,7 @@ MODES = ("optimise", "analyse")
 
 
 # --- cases ------------------------------------------------------------------------------------
-@dataclasses.dataclass(frozen=True, slots=True)
+@dataclasses.dataclass(frozen=True)
 class Case:
     """One case: its place in the study, its content and its id (a digest of the content and,
     for a warm-started case, of the previous case of its chain)."""
@@ -55,14 +54,6 @@ class Case:
     bounds: tuple             # ((constraint, side, value), ...)
     inputs: tuple             # ((column, value), ...) as in the CSV
     id: str
-
-
-def case_id_text(scene_digest: str, mode: str, overrides, bounds, run: dict, prev) -> str:
-    """What a case's id digests: its content as JSON (``prev``: the id of the case before it in
-    its chain, or None)."""
-    content = {"scene": scene_digest, "mode": mode, "overrides": [list(o) for o in overrides],
-               "bounds": [list(b) for b in bounds], "run": run, "prev": prev}
-    return json.dumps(content, sort_keys=True)
 
 
 # --- the study --------------------------------------------------------------------------------
@@ -141,7 +132,7 @@ class Study:
             if int(getattr(self, what)) < 1:
                 raise SceneError(f"study: {what} must be at least 1, found {getattr(self, what)!r}")
         object.__setattr__(self, "seed", whole("Study: seed", self.seed, 0))
-        study_cases("Study: cases", math.prod(len(a) for a in self.axes))
+        study_cases("Study: cases", math.prod(len(a) for a in self.axes), self.columns_estimate())
         if self.mode == "optimise":
             if sc.objective is None:
                 raise SceneError(f"{sc.path}: an optimise study needs an [objective] table (or use mode 'analyse')")
@@ -168,49 +159,53 @@ class Study:
                 for point in axis.points:   # unknown names and bad values fail here, early
                     case_scene(sc, self.mode, dict(point))
 
+    def columns_estimate(self) -> int:
+        """About how many columns a case's row has (for the memory check): identification and
+        inputs, then per mode its results (an analysis: 3 per peak of 4 quantities, 2 RMS, 2 per
+        constraint, ~16 for load cases; an optimisation: ~10, the design, 3 per constraint, a
+        sensitivity per parameter)."""
+        sc = self.scene
+        n = 4 + len(self.input_columns) + 2
+        if self.mode == "analyse":
+            return n + 12 + 2 + 2 * len(sc.constraints) + (16 if sc.cases else 0)
+        return n + 10 + sum(p.is_design for p in sc.parameters) + 3 * len(sc.constraints) + len(sc.parameters)
+
     # --- cases ---
     @property
     def input_columns(self) -> list:
         return [c for a in self.axes for c in a.columns]
 
     def cases(self) -> list:
-        """The cases in study order (the last axis fastest), with chains and ids.
-
-        A case's id is the first 16 hex digits of the SHA-256 of ``json.dumps(content,
-        sort_keys=True)`` (:func:`case_id_text`); here that text is put together from pieces
-        written once per axis point (a million cases in seconds, not minutes)."""
-        head = json.dumps({"mode": self.mode}, sort_keys=True)[1:-1]
-        tail = (f'"run": {json.dumps(self._run_settings(), sort_keys=True)}, '
-                f'"scene": {json.dumps(scene_digest(self.scene))}}}')
-        # per axis point: its overrides' and its bounds' JSON, as json.dumps writes a list's items
-        pieces = [[(", ".join(json.dumps(list(pair)) for pair in point) if a.kind != "pareto" else "",
-                    ", ".join(json.dumps([a.constraint, a.side, v]) for _, v in point) if a.kind == "pareto" else "")
-                   for point in a.points] for a in self.axes]
-        kinds = [a.kind == "pareto" for a in self.axes]
-        pareto_at = kinds.index(True) if any(kinds) else None
+        """The cases in study order (the last axis fastest), with chains and ids."""
+        digest = scene_digest(self.scene)
+        run = self._run_settings()
+        sizes = [len(a) for a in self.axes]
+        total = math.prod(sizes)
         chained = self.warm and self.mode == "optimise"
-        sha = hashlib.sha256
-        out, prev, chain = [], "null", -1
-        for index, idx in enumerate(itertools.product(*(range(len(a)) for a in self.axes))):
-            pos = idx[-1] if idx else 0
+        out, prev, chain = [], None, -1
+        for index in range(total):
+            idx, rest = [], index
+            for n in reversed(sizes):
+                idx.append(rest % n)
+                rest //= n
+            idx.reverse()
+            pos = idx[-1] if sizes else 0
             link = pos % self.chain if chained else 0
             if link == 0:
-                chain, prev = chain + 1, "null"
-            parts = [pieces[k][i] for k, i in enumerate(idx)]
-            over = ", ".join(o for o, _ in parts if o)
-            bounds = ", ".join(b for _, b in parts if b)
-            text = f'{{"bounds": [{bounds}], {head}, "overrides": [{over}], "prev": {prev}, {tail}'
-            cid = sha(text.encode()).hexdigest()[:16]
-            points = [a.points[i] for a, i in zip(self.axes, idx)]
-            inputs = points[0] if len(points) == 1 else tuple(itertools.chain.from_iterable(points))
-            if pareto_at is None:
-                overrides, bounds_ = inputs, ()
-            else:
-                overrides = tuple(itertools.chain.from_iterable(p for k, p in enumerate(points) if k != pareto_at))
-                bounds_ = tuple((self.axes[pareto_at].constraint, self.axes[pareto_at].side, v)
-                                for _, v in points[pareto_at])
-            out.append(Case(index, chain, link, overrides, bounds_, inputs, cid))
-            prev = f'"{cid}"' if chained else "null"
+                chain, prev = chain + 1, None
+            overrides, bounds, inputs = [], [], []
+            for axis, i in zip(self.axes, idx):
+                for col, v in axis.points[i]:
+                    inputs.append((col, v))
+                    if axis.kind == "pareto":
+                        bounds.append((axis.constraint, axis.side, v))
+                    else:
+                        overrides.append((col, v))
+            content = {"scene": digest, "mode": self.mode, "overrides": overrides, "bounds": bounds,
+                       "run": run, "prev": prev}
+            cid = hashlib.sha256(json.dumps(content, sort_keys=True).encode()).hexdigest()[:16]
+            out.append(Case(index, chain, link, tuple(overrides), tuple(bounds), tuple(inputs), cid))
+            prev = cid if chained else None
         return out
 
     def _run_settings(self) -> dict:
