@@ -47,24 +47,44 @@ LOOP_LOCKUP = math.sqrt(LOCKUP_MARGIN)
 
 
 def fmt_s(value, scene) -> str:
-    """A sweep value in messages: 10 significant digits (a located position is meant to be
-    read to 1e-9), and in degrees too unless the sweep is a length (:func:`sweep_is_length`)."""
-    return f"{value:.10g}" if sweep_is_length(scene) else f"{value:.10g} ({math.degrees(value):.6g} deg)"
+    """A sweep value in messages, in the units the scene wrote it: 10 significant digits (a
+    located position is meant to be read to 1e-9), and in degrees too when the sweep is an angle
+    (:func:`sweep_is_angle`); a length, a time or any other coordinate as the plain number."""
+    return f"{value:.10g} ({math.degrees(value):.6g} deg)" if sweep_is_angle(scene) else f"{value:.10g}"
 
 
-# The fields of each construction that hold a length (or a coordinate): a sweep that appears in
-# one of them is a length (a cylinder's length, a platform's height), not an angle.
-_LENGTH_FIELDS = {"Fixed": ("x", "y"), "Polar": ("length",), "Dyad": ("length_p", "length_q"),
-                  "Slider": ("length",), "Attach": ("a", "b"), "Loop": ("lengths",)}
+# The fields of each construction that hold an angle: a sweep that is a term of one of them is
+# an angle (a crank's, a jib's), also when its range is written in radians as plain numbers.
+_ANGLE_FIELDS = {"Polar": ("angle",), "Slider": ("angle",), "Loop": ("angles",)}
 
 
-def sweep_is_length(scene) -> bool:
-    """True when the sweep is a length: its range not written with deg or pi, and the sweep
-    variable used in a construction's length or coordinate.  Otherwise (a crank angle, a jib
-    angle, also in radians as plain numbers) messages show its values in degrees too."""
+def sweep_is_angle(scene) -> bool:
+    """True when the sweep is an angle: its range written with deg or pi, or the sweep variable
+    itself a term (+ or -) of a construction's angle, e.g. ``polar = ["A", "r", "phi"]`` or
+    ``"phi + 90 deg"``.  A sweep used only inside another expression there (a normalised time
+    tau in ``psi0 + h*(tau - sin(2*pi*tau)/(2*pi))``), or in a length, is not."""
     sweep = scene.sweep
     if sweep_unit(scene):   # written in deg or with pi: an angle
-        return False
+        return True
+    for c in scene.points:
+        for name in _ANGLE_FIELDS.get(type(c).__name__, ()):
+            value = getattr(c, name, None)
+            for e in value if isinstance(value, (tuple, list)) else (value,):
+                if hasattr(e, "tree") and _is_term(e.tree, sweep.name):
+                    return True
+    return False
+
+
+def _is_term(node, name) -> bool:
+    """True when Name(``name``) is a term of the sum ``node`` (through + - and negation)."""
+    kind = type(node).__name__
+    if kind == "Name":
+        return node.name == name
+    if kind == "Neg":
+        return _is_term(node.operand, name)
+    if kind == "BinOp" and node.op in ("+", "-"):
+        return _is_term(node.left, name) or _is_term(node.right, name)
+    return False
     for c in scene.points:
         for name in _LENGTH_FIELDS.get(type(c).__name__, ()):
             value = getattr(c, name, None)

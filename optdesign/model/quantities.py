@@ -56,7 +56,7 @@ def environment(model, expr=None) -> dict:
             name = f"{func}({pin})"
             if name not in outputs:
                 kind = "slider" if func.startswith("slider") else "pin"
-                known = sorted({k.split("(")[1][:-1] for k in outputs if k.startswith(kind)})
+                known = sorted({k.split("(")[1][:-1] for k in outputs if k.startswith(kind) and ", " not in k})
                 raise SceneError(f"{model.scene.path}: {expr.source!r}: {point!r} is no {kind} of the mechanism's "
                                  f"joint structure; its {kind}s: {', '.join(known) or 'none'}")
             env[f"{func}({point})"] = outputs[name]

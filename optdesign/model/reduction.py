@@ -326,11 +326,36 @@ class ReducedModel:
                 return narrow
         what = "crank angle" if self.rotary else "actuator length"
         pins = "-".join(self.scene.drive.pins)
+        name = self.scene.sweep.name
+        if where in (s_values[0], s_values[-1]) and self._rests_at(where, s_values, p_values):
+            raise DeadCentreError(
+                f"{self.scene.path}: [sweep] {name} = {_fmt_s(where, self.scene)}: the mechanism rests at this end "
+                f"of the stroke (dq/d{name} = 0 and every point's d/d{name} = 0): a rest of the motion, not a dead "
+                f"centre of the drive ({what} {pins}), but the reduced model along {name} is 0/0 there. State the "
+                "motion on the output: make the coordinate that rests (a rocker angle, a ram height) the sweep and "
+                "give its law in time as a [profiles] entry (kind = \"cycloidal\", \"modified-sine\", ...; "
+                "docs/scenes.md, Example 3): at a rest the drive's dq/d(sweep) stays finite.", s=float(where))
         raise DeadCentreError(
             f"{self.scene.path}: [drive] dead centre at {self.scene.sweep.name} = {_fmt_s(where, self.scene)}: the "
             f"drive coordinate ({what} {pins}) stops moving there (dq/d{self.scene.sweep.name} = 0), so "
             "the reduced inertia and load are infinite. Narrow the sweep to exclude it, or move the "
             "drive's pins so that q changes monotonically over the stroke.", s=float(where))
+
+    REST_TOL = 1e-9   # every point's |dr/ds| at most this fraction of its largest sampled: the mechanism rests
+
+    def _rests_at(self, end, s_values, p_values) -> bool:
+        """True when, at the stroke's ``end`` where k = 0, every point of the mechanism stops too
+        (|dr/ds| <= :data:`REST_TOL` of its largest over the samples): the sweep rests there
+        (a time law as the sweep), rather than the drive passing a dead centre while the
+        mechanism moves."""
+        m = self.mech
+        speeds = [ca.norm_2(m.ds(r)) for r in m.points.values() if ca.depends_on(r, m.s)]
+        if not speeds:
+            return False
+        f = ca.Function("point_speeds", [m.s, m.p], [ca.vertcat(*speeds)])
+        sampled = np.abs(np.asarray(f.map(len(s_values))(np.asarray(s_values, float)[None, :], p_values)))
+        there = np.abs(np.asarray(f(end, p_values), float).ravel())
+        return bool(np.all(there <= self.REST_TOL * np.maximum(np.max(sampled, axis=1), 1e-300)))
 
     def _dead_centre_between(self, s_values, k, p_values, scale):
         """(where, narrow): where |k| (one sign over the samples) comes within 1e-12 of max |k|
