@@ -36,7 +36,8 @@ from .equations import Equations, check_inertia, initial_state
 from .integrate import DEFAULT_TOLERANCE, Counts, Integration, state_scales
 from .events import at_rest
 from .motion import run_motion
-from .phase_laws import PhaseLaw
+from .time_peaks import locate_peaks
+from .phase_laws import PhaseLaw, profile_kinks
 from .result import SimulationResult, event_record
 
 QUADRATURES = ("motor_squared", "motor_work", "drive_work")
@@ -230,7 +231,8 @@ class PhasedSimulator:
             span = duration - t_local
             grid = np.linspace(0.0, span, max(int(math.ceil(span / dt - 1e-9)) + 1, 2))
             try:
-                motion = run_motion(run, grid, self.where)
+                kinks = [k - t_local for k in profile_kinks(profile.shape)] if profile is not None else []
+                motion = locate_peaks(run, run_motion(run, grid, self.where), kinks)
             except SolverError as exc:
                 self._law_at_failure(exc, eq, ph, p, t0)
                 raise SolverError(f"{where} (from t = {t0 + t_local:.9g} s): {exc}") from None
@@ -293,7 +295,7 @@ class PhasedSimulator:
             rec["t"] += t0 + offset
             rec["phase"] = ph.name
             evs.append(rec)
-        return piece, record, evs, run.counts.as_dict()
+        return piece, record, evs, run.statistics()
 
     def _released(self, run, x, n_base, t_local, duration, dt, eq, p):
         """Where a mechanism held at rest at x (local time t_local) moves again under a law of
