@@ -264,3 +264,45 @@ def test_knuckle_press_pin_forces_in_load_cases():
             for j, c in enumerate("xy"):
                 assert np.max(np.abs(columns[f"pin_force_{c}(K, {party})"] - ours[f"K on {party}"][j])) <= REL * scale
         assert np.max(np.abs(columns["drive"] - ours["drive"])) <= REL * np.max(np.abs(ours["drive"]))
+
+
+PARTY_CONSTRAINTS = SPRING.replace("[objective]", """[[constraints]]
+name = "lower link at K"
+expr = "pin_force(K, C)"
+max = 1e9
+
+[[constraints]]
+name = "rod at K, x"
+expr = "pin_force_x(K, A)"
+max = 1e9
+
+[[constraints]]
+name = "upper link at K, y"
+expr = "pin_force_y(K, F)"
+max = 1e9
+
+[[constraints]]
+name = "ground at F"
+expr = "pin_force(F, S)"
+max = 1e9
+
+[objective]""")
+
+
+def test_pin_force_on_a_party_in_constraints():
+    """pin_force(P, Q): the force at pin P on the party that runs from P to Q (the lower link
+    K-C, the rod K-A, the upper link K-F at the three-party pin K with the spring's pull; the
+    ground at F, which carries S too), per sample against Newton-Euler; a point that no party at
+    the pin reaches is an error naming the pin's parties."""
+    an = optdesign.analyse(optdesign.loads(PARTY_CONSTRAINTS), samples=37, certify=False)
+    phis = np.asarray(an.columns["s"], float)
+    ours = newton_euler(NOMINAL, phis, spring=(2.0e5, 0.15))
+    scale = max(np.max(np.hypot(*ours[f"pin {p}"])) for p in "SAFKC")
+    expected = {"lower link at K": np.hypot(*ours["K on lower link"]), "rod at K, x": ours["K on connecting rod"][0],
+                "upper link at K, y": ours["K on upper link"][1], "ground at F": np.hypot(*ours["pin F"])}
+    for name, values in expected.items():
+        assert np.max(np.abs(an.constraints[name] - values)) <= REL * scale, name
+    bad = PARTY_CONSTRAINTS.replace('expr = "pin_force(K, C)"', 'expr = "pin_force(K, U)"')
+    with pytest.raises(optdesign.errors.SceneError, match=r"no party at pin K reaches 'U' \(its parties: upper link, "
+                                                          r"lower link, connecting rod\)"):
+        optdesign.analyse(optdesign.loads(bad), samples=5, certify=False)

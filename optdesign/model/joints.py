@@ -39,6 +39,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
+from ..errors import SceneError
 from .joint_structure import JointStructureError, derive
 
 
@@ -132,7 +133,7 @@ class JointForces:
         couples = {id(part): [] for part in st.parts}
         held = {id(part): [] for part in st.parts}       # the reactions' couples (guides, cylinders)
         equations = []
-        self.pins, self.parties, self.shared = {}, {}, []
+        self.pins, self.parties, self.shared, self.reaches = {}, {}, [], {}
         power = []   # (force, velocity) of every reaction and of the loads acting on the pins (sign -)
 
         def link_name(ref):
@@ -152,6 +153,8 @@ class JointForces:
                 equations.append(total - load)
                 first = others[0][2] if others else None
                 parties = [(n, f) for _, n, f in others]
+            # the points each party reaches from the pin (a part's, a link's other end)
+            reach = [part.points for part in nd["parts"]] + [{same[q]} for _, q in nd["members"]]
             for part, _, f in others:
                 if part is not None:
                     applied[id(part)].append((pos(p), f))
@@ -160,6 +163,7 @@ class JointForces:
             if len(nd["parts"]) + len(nd["members"]) >= 2:
                 self.pins[p] = first
                 self.parties[p] = parties
+                self.reaches[p] = reach
                 if len(parties) >= 3 or nd["loads"]:   # the parties' forces are not one equal and opposite pair
                     self.shared.append(p)
         self.sliders = {}
@@ -254,6 +258,22 @@ class JointForces:
         self.reaction_power = sum(terms[1:], terms[0]) if terms else ca.DM(0)
         self.reaction_power_scale = sum((ca.fabs(t) for t in terms[1:]), ca.fabs(terms[0])) if terms else ca.DM(0)
         self.routes = self._check_routes()   # the two routes' relative errors {'drive', 'power'}
+
+    def party_force(self, pin, toward):
+        """The force at ``pin`` on the party that runs from it to the point ``toward`` (the part
+        that carries both, the link between them): ``pin_force(P, Q)`` in an expression."""
+        same = self.structure.same
+        p, q = same.get(pin, pin), same.get(toward, toward)
+        if p not in self.parties:
+            raise SceneError(f"{self.mech.scene.path}: pin_force({pin}, {toward}): {pin!r} is no pin of the "
+                             f"mechanism's joint structure; its pins: {', '.join(sorted(self.parties))}")
+        hits = [(name, f) for (name, f), reach in zip(self.parties[p], self.reaches[p]) if q in reach and q != p]
+        if len(hits) != 1:
+            names = ", ".join(name for name, _ in self.parties[p])
+            raise SceneError(f"{self.mech.scene.path}: pin_force({pin}, {toward}): "
+                             f"{'no party' if not hits else 'more than one party'} at pin {pin} reaches {toward!r} "
+                             f"(its parties: {names}); name a point that one of them alone carries")
+        return hits[0][1]
 
     def _velocity(self, point):
         """The velocity of a point of the mechanism at the model's motion."""
