@@ -410,33 +410,39 @@ def test_analyse_reports_the_joint_forces():
     assert not any(k.startswith("pin_force") for k in plain.columns)
 
 
-def test_drawing_shows_the_pin_forces(tmp_path):
+@pytest.mark.parametrize("case", [None, "test load"])
+def test_drawing_shows_the_pin_forces(case):
     """The mechanism figure draws an arrow at each pin of the jib at the drawn position (the
     stroke's start), labelled with the force there and its peak over the stroke; the arrows'
-    directions are the pin forces' (the force on the ground at A and D, on the jib at B)."""
+    directions are the pin forces' (the force on the ground at A and D, on the jib at B).  With
+    [[cases]] they are the forces of the case with the largest pin force ('test load', 625 kg
+    against 'rated' 500 kg), named in a note."""
     import matplotlib
 
     matplotlib.use("Agg")
     from optdesign.report import mechanism as mech_figure
     from optdesign.report.joint_arrows import PIN
 
-    scene = optdesign.load(ROOT / "problems" / "seed1_jib.toml")
+    scene = optdesign.load(ROOT / "problems" / "seed1_jib.toml") if case is None else optdesign.loads(CASES)
     v = mech_figure.view(scene)
     fig, ax = __import__("matplotlib.pyplot", fromlist=["subplots"]).subplots()
     mech_figure.draw_design(ax, v)
     an = optdesign.analyse(scene, samples=len(v.frames.s), joints=True)
+    run = an if case is None else an.cases.cases[case]
     labels = {t.get_text().split(" ")[0]: t.get_text() for t in ax.texts if t.get_color() == PIN}
-    assert set(labels) == {"A", "D", "B"}
+    assert set(labels) == ({"A", "D", "B"} if case is None else {"A", "D", "B", "pin"})
+    if case is not None:
+        assert labels["pin"] == f"pin forces: case '{case}' (the largest pin force)"
     arrows = [a for a in ax.texts if getattr(a, "arrow_patch", None) is not None
               and matplotlib.colors.same_color(a.arrow_patch.get_edgecolor(), PIN)]
     assert len(arrows) == 3
     for a in arrows:
         tail, tip = np.array(a.xyann), np.array(a.xy)
         pin = min("ADB", key=lambda p: np.hypot(*(np.array(v.frames.at(0).points[p][0]) - tail)))
-        f = np.array([an.columns[f"pin_force_x({pin})"][0], an.columns[f"pin_force_y({pin})"][0]])
+        f = np.array([run.columns[f"pin_force_x({pin})"][0], run.columns[f"pin_force_y({pin})"][0]])
         d = tip - tail
         assert abs(d[0] * f[1] - d[1] * f[0]) <= 1e-9 * np.hypot(*d) * np.hypot(*f) and d @ f > 0, pin
-        assert f"peak {optdesign.report.units.quantity(an.peaks[f'pin_force({pin})'], 'N', 3)}" in labels[pin]
+        assert f"peak {optdesign.report.units.quantity(run.peaks[f'pin_force({pin})'], 'N', 3)}" in labels[pin]
 
 
 CASES = (ROOT / "problems" / "seed1_jib.toml").read_text().replace("[objective]", """[[constraints]]

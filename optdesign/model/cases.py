@@ -271,6 +271,8 @@ def case_nodes(s, profile):
     scene's samples."""
     s = np.asarray(s, float)
     breaks = profile.breakpoints() if profile is not None else np.zeros(0)
+    for stop in getattr(getattr(profile, "shape", None) and profile.shape.motion_law, "stops", ()):
+        s = np.where(np.abs(s - stop) <= 1e-13 * abs(s[-1] - s[0]), stop, s)   # a sample at a stop: the stop exactly
     if not breaks.size and (profile is None or profile.shape.motion_law is None):   # (a law in time: its time nodes)
         return s.copy(), np.ones(len(s), bool)
     delta = 0.5e-9 * abs(s[-1] - s[0])
