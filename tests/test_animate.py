@@ -101,3 +101,37 @@ def test_mp4_where_ffmpeg_is_available(tmp_path):
                                capture_output=True, text=True, check=True)
         stream = json.loads(probe.stdout)["streams"][0]
         assert stream["codec_name"] == "h264" and int(stream["nb_read_frames"]) == 7
+
+
+def test_pin_forces_drawn_in_the_governing_case(tmp_path):
+    """The animation draws the pin forces (issue 30) of the case with the largest pin force:
+    the jib with a 'rated' and a 'test load' case (mC 500 and 625 kg) draws those of 'test
+    load', the forces analyse gives that case at its samples, and names it in the caption; a
+    still shows arrows in the pins' colour, a scene without a drive none."""
+    import sys
+
+    from optdesign.report.joint_arrows import PIN, governing_pin_forces
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from test_joint_forces import CASES
+
+    scene = optdesign.loads(CASES)
+    an = optdesign.analyse(scene, samples=21, joints=True, certify=False)
+    case = an.cases.cases["test load"]
+    forces, name = governing_pin_forces(scene, case.columns["s"])
+    assert name == "test load" and set(forces) == {"A", "B", "D"}
+    for p, f in forces.items():
+        assert an.cases.governing[f"pin_force({p})"]["case"] == "test load"
+        np.testing.assert_allclose(f[0], case.columns[f"pin_force_x({p})"], rtol=1e-12, atol=1e-9)
+        np.testing.assert_allclose(f[1], case.columns[f"pin_force_y({p})"], rtol=1e-12, atol=1e-9)
+    pin = np.array([int(PIN[i:i + 2], 16) for i in (1, 3, 5)])
+
+    def purple(path):
+        from PIL import Image
+
+        rgb = np.asarray(Image.open(path).convert("RGB"), int)
+        return int(np.sum(np.abs(rgb - pin).sum(axis=2) < 40))
+
+    (still,) = animate(scene, [tmp_path / "jib.png"], at=[0.5])
+    (bare,) = animate(optdesign.load(PROBLEMS / "seed2_fourbar.toml"), [tmp_path / "fourbar.png"], at=[0.5])
+    assert purple(still) > 100 and purple(bare) == 0

@@ -234,7 +234,7 @@ def test_case_keys_and_names():
         mutate('direction = "forward"\nset = { mL = 800 }\nprofile = "luff"', 'set = { mL = 800 }\nprofile = "luff"'))
     msg = error(mutate('kind = "trapezoidal"', 'kind = "trapezoid"'))
     assert "[profiles] luff, kind: expected one of 'constant', 'trapezoidal', 's-curve', 'law', 'cycloidal', " in msg
-    assert "'polynomial-4567', 'polynomial', found 'trapezoid'; did you mean 'trapezoidal'?" in msg
+    assert "'polynomial-4567', 'polynomial', 'segments', 'cycle', found 'trapezoid'; did you mean 'trapezoidal'?" in msg
 
 
 def test_a_profile_may_not_depend_on_a_design_variable():

@@ -261,18 +261,36 @@ def test_stiff_controller_agrees_with_profiles(press):
     # 2561 samples); the simulation's at tolerance 1e-10 within 1e-6 of that
     assert stiff["drive_energy"] == pytest.approx(profile["drive_energy"], rel=3e-5)
     assert stiff["drive_energy"] == pytest.approx(5965.2077, rel=2e-6)
-    assert stiff["peak_motor_torque"] == pytest.approx(profile["peak_motor_torque"], rel=3e-3)
-    assert stiff["peak_motor_speed"] == pytest.approx(profile["peak_motor_speed"], rel=1e-3)
+    # both peaks located between the samples (dynamics/time_peaks.py; sampled: -6.75e-4 and
+    # +1.2e-4 with the speed's overshoot missed): what is left is the tracking error
+    assert stiff["peak_motor_torque"] == pytest.approx(profile["peak_motor_torque"], rel=3e-4)
+    assert stiff["peak_motor_speed"] == pytest.approx(profile["peak_motor_speed"], rel=3e-4)
     # the sized ratio puts the return stroke at the motor's speed limit: it binds there
     assert any(b["limit"] == "max speed" and b["phase"] == "return stroke" for b in stiff["limits"])
 
 
 def test_agreement_comes_from_the_stiffness(press):
     stiff, soft, profile = press
-    for key in ("rms_motor_torque", "peak_motor_speed"):   # the tracking error's figures, ~1/K
+    for key in ("rms_motor_torque", "peak_motor_speed", "peak_motor_torque"):   # the tracking error's figures, ~1/K
         d_stiff = abs(stiff[key] - profile[key])
         d_soft = abs(soft[key] - profile[key])
         assert d_soft > 3 * d_stiff, (key, d_soft, d_stiff)
+
+
+def test_loose_tolerance_still_tracks_the_controller(press):
+    """At --tolerance 1e-4 the states' error, magnified by the controller's gains (K i K_p = 1e7
+    N m per rad), saturated the forming stroke and made the return stroke's int T_m^2 dt
+    negative (RMS 0, the cycle's 33 % low); each controller phase now runs at the tolerance that
+    keeps its torque within 1e-4 of the motor's peak torque."""
+    stiff, _, _ = press
+    text = (PROBLEMS / "press_servo_cycle.toml").read_text()
+    scene = optdesign.loads(text, str(PROBLEMS / "press_servo_cycle.toml")).with_parameters(**SIZED)
+    loose = simulate(scene, tolerance=1e-4)
+    fig = cycle_figures(loose)
+    for tight, rough in zip(stiff["phases"], fig["phases"]):
+        assert rough["rms_motor_torque"] == pytest.approx(tight["rms_motor_torque"], rel=1e-4), rough["name"]
+    assert fig["peak_motor_torque"] == pytest.approx(stiff["peak_motor_torque"], rel=1e-4)
+    assert all(p["tolerance"] < 1e-4 for p in loose.phases if p["kind"] == "controller")
 
 
 # --- 3. bad input ---

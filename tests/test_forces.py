@@ -136,7 +136,8 @@ def test_damped_torsion_pendulum_against_solve_ivp():
     np.testing.assert_allclose(np.asarray(result.s), ref.y[0], atol=1e-7)
     # the damper takes energy: without it the same motion keeps more (a check that it acts)
     free = optdesign.simulate(scene.with_parameters(c=0.0))
-    assert np.max(np.abs(np.asarray(free.s) - ref.y[0])) > 1e-2
+    # (each run's samples hold its own located peaks' instants: compared at this run's times)
+    assert np.max(np.abs(np.interp(t, np.asarray(free.t), np.asarray(free.s)) - ref.y[0])) > 1e-2
 
 
 CASES = PENDULUM.split("[simulation]")[0].replace('law = "0"\n', "") + """

@@ -11,7 +11,8 @@ links, centres at the middle, I = m L^2/12) and the ram (its mass at C, the blan
 vertical guide: a normal force and a moment).  The pin K joins three parties (the upper link,
 the lower link, the rod).  Fifteen unknowns, fifteen equations per sample, solved by numpy.
 
-Checked: every pin force's components, the guide's normal force and moment, and the drive
+Checked: every pin force's components (at K, the force on each of its three parties), the
+guide's normal force and moment, and the drive
 torque, to 1e-10 of the largest pin force (the torque to 1e-10 of its own peak), over the
 stroke and around the blanking-force bump; with a spring anchored at the three-party pin K;
 and in two load cases ([[cases]] with another blanking force and ram mass).
@@ -175,6 +176,7 @@ def _tool(scene, phis):
     outs = {"drive": jf.drive}
     outs.update({f"pin {p}": f for p, f in jf.pins.items()})
     outs["slider C"] = ca.vertcat(*jf.sliders["C"][:2])
+    outs.update({f"K on {name}": f for name, f in jf.parties["K"]})
     res = mech.function("jf", outs).map(len(phis))(s=phis[None, :], p=mech.parameter_values)
     return {k: np.asarray(val, float) for k, val in res.items()}
 
@@ -191,6 +193,10 @@ def _compare(tool, ours):
     for k in sorted(pins):
         err = np.max(np.abs(tool[k] - ours[k])) / scale
         assert err <= REL, (k, err)
+    # the three parties at K: the force on each (they sum to the spring's pull on the pin)
+    assert {k for k in tool if k.startswith("K on ")} == {"K on upper link", "K on lower link", "K on connecting rod"}
+    for k in ("K on upper link", "K on lower link", "K on connecting rod"):
+        assert np.max(np.abs(tool[k] - ours[k])) <= REL * scale, k
     for j, k in enumerate(("normal C", "moment C")):
         assert np.max(np.abs(tool["slider C"][j] - ours[k])) <= REL * scale, k
     T = ours["drive"]
@@ -254,4 +260,49 @@ def test_knuckle_press_pin_forces_in_load_cases():
             assert an.cases.cases[case].peaks[f"pin_force({p})"] == pytest.approx(
                 np.max(np.hypot(*ours[f"pin {p}"])), rel=REL)
         assert np.max(np.abs(columns["slider_normal(C)"] - ours["normal C"])) <= REL * scale
+        for party in ("upper link", "lower link", "connecting rod"):
+            for j, c in enumerate("xy"):
+                assert np.max(np.abs(columns[f"pin_force_{c}(K, {party})"] - ours[f"K on {party}"][j])) <= REL * scale
         assert np.max(np.abs(columns["drive"] - ours["drive"])) <= REL * np.max(np.abs(ours["drive"]))
+
+
+PARTY_CONSTRAINTS = SPRING.replace("[objective]", """[[constraints]]
+name = "lower link at K"
+expr = "pin_force(K, C)"
+max = 1e9
+
+[[constraints]]
+name = "rod at K, x"
+expr = "pin_force_x(K, A)"
+max = 1e9
+
+[[constraints]]
+name = "upper link at K, y"
+expr = "pin_force_y(K, F)"
+max = 1e9
+
+[[constraints]]
+name = "ground at F"
+expr = "pin_force(F, S)"
+max = 1e9
+
+[objective]""")
+
+
+def test_pin_force_on_a_party_in_constraints():
+    """pin_force(P, Q): the force at pin P on the party that runs from P to Q (the lower link
+    K-C, the rod K-A, the upper link K-F at the three-party pin K with the spring's pull; the
+    ground at F, which carries S too), per sample against Newton-Euler; a point that no party at
+    the pin reaches is an error naming the pin's parties."""
+    an = optdesign.analyse(optdesign.loads(PARTY_CONSTRAINTS), samples=37, certify=False)
+    phis = np.asarray(an.columns["s"], float)
+    ours = newton_euler(NOMINAL, phis, spring=(2.0e5, 0.15))
+    scale = max(np.max(np.hypot(*ours[f"pin {p}"])) for p in "SAFKC")
+    expected = {"lower link at K": np.hypot(*ours["K on lower link"]), "rod at K, x": ours["K on connecting rod"][0],
+                "upper link at K, y": ours["K on upper link"][1], "ground at F": np.hypot(*ours["pin F"])}
+    for name, values in expected.items():
+        assert np.max(np.abs(an.constraints[name] - values)) <= REL * scale, name
+    bad = PARTY_CONSTRAINTS.replace('expr = "pin_force(K, C)"', 'expr = "pin_force(K, U)"')
+    with pytest.raises(optdesign.errors.SceneError, match=r"no party at pin K reaches 'U' \(its parties: upper link, "
+                                                          r"lower link, connecting rod\)"):
+        optdesign.analyse(optdesign.loads(bad), samples=5, certify=False)

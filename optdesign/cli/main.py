@@ -16,7 +16,7 @@ COMMANDS = ("kinematics", "analyse", "optimise", "simulate", "study", "draw", "a
 
 def parser():
     top = argparse.ArgumentParser(prog="optdesign", description="Optimisation-based design of planar mechanisms.")
-    top.add_argument("--version", action="version", version=f"optdesign {version()}")
+    top.add_argument("--version", action=Version, nargs=0, help="show program's version number and exit")
     sub = top.add_subparsers(dest="command", required=True)
     for name in COMMANDS:
         module = importlib.import_module(f"{__package__}.{name}")
@@ -100,6 +100,15 @@ def negative_values_joined(top, argv) -> list:
         out.append(argv[i])
         i += 1
     return out
+
+
+class Version(argparse.Action):
+    """--version, its number read from the installed package's metadata only when asked
+    (importlib.metadata costs some 0.1 s of every command's start otherwise)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(f"optdesign {version()}")   # on standard output, as argparse's own version action
+        parser.exit()
 
 
 def version() -> str:

@@ -50,6 +50,8 @@ from ..errors import DeadCentreError, ResultError, SceneError
 from ..kinematics.mechanism import _fmt_s
 from ..scene.expressions import evaluate
 
+PEAKED = ("drive", "qd", "power", "transmitted")  # the columns whose peaks in time are located
+
 
 class Equations:
     """The compiled equation of motion of one scene.  The state x is (s, sd), and for a rotary
@@ -165,6 +167,15 @@ class Equations:
         self.output_names = list(outs)
         f = self._function("outputs", states + [p, c, held], [ca.vertcat(*[o + 0 * s for o in outs.values()])])
         self.outputs = self._function("outputs", [xs, p, c, held], [f(*parts, p, c, held)])
+        # the peaked columns and their rates along the motion on branch c (AD, as the bracket's):
+        # what :mod:`.time_peaks` locates the peaks in time with
+        moving = {"drive": T_m, "qd": qd, "power": T_m * qd, "transmitted": T_m - J * qdd}
+        peaked = ca.vertcat(*[moving[n] + 0 * s for n in PEAKED])
+        flow = rate(sdd)
+        peaked_rate = sum((ca.jacobian(peaked, st) * flow[i] for i, st in enumerate(states)),
+                          ca.DM.zeros(len(PEAKED)))
+        f = self._function("peaked", states + [p, c], [peaked, peaked_rate])
+        self.peaked = self._function("peaked", [xs, p, c], list(f(*parts, p, c)))
         self.inertia_check = self._function("inertia", [s, p], [M_s + J * k**2 + 0 * s, k + 0 * s])
 
     def _function(self, name, inputs, outputs):

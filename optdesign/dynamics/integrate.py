@@ -104,11 +104,18 @@ class Integration:
         self.lo, self.hi = min(ends.values()), max(ends.values())
         self.method, self.tol, self.steps = method, tol, steps
         self.counts = Counts()
+        self.peak_counts = Counts()   # the calls that located peaks between samples (:mod:`.time_peaks`)
         self.eta = float(eq.eta(p))
         self.uses_efficiency = eq.uses_efficiency and self.eta != 1.0
         # points per output interval where events are watched: RK4's own steps, else dense output
         self.subsamples = steps if method == "rk4" else SUBSAMPLES
         self._cache = {} if cache is None else cache
+
+    def statistics(self) -> dict:
+        """The counts of the run's integrator calls, and apart under 'peak_location' those that
+        located its peaks between the output samples."""
+        located = {k: v for k, v in self.peak_counts.as_dict().items() if k != "failures"}
+        return {**self.counts.as_dict(), "peak_location": located}
 
     def integrator(self, n):
         """A CasADi integrator of the time-scaled ODE on one branch with its output at tau = 1/N,

@@ -82,6 +82,22 @@ def profile_rate(shape, t):
                       ca.if_else(tt >= T - down.duration, _phase_rate(T - tt, down, v), v))
 
 
+def profile_kinks(shape) -> list:
+    """The instants after its start where a profile ``shape``'s acceleration jumps (its
+    phases' ends, an s-curve's jerk segments', a law's pieces'; a controller tracking it has
+    a kink in its torque there), its end included."""
+    T = shape.time
+    if shape.motion_law is not None:
+        return sorted({float(p.end) * T for p in shape.motion_law.pieces})
+    out = {T}
+    if shape.kind != "constant":
+        for ph, mirrored in ((shape.accelerate, False), (shape.decelerate, True)):
+            tj = ph.peak / ph.jerk if ph.jerk else 0.0
+            for tau in (tj, ph.duration - tj, ph.duration):
+                out.add(T - tau if mirrored else tau)
+    return sorted(t for t in out if 0.0 < t <= T)
+
+
 class PhaseLaw:
     """The torque law of one phase as a callable ``law(env)`` for :class:`.equations.Equations`
     (the torque at the drive, i T_m) and its motor torque ``motor_torque(env)``.  ``kind`` and

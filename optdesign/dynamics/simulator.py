@@ -24,6 +24,7 @@ from ..scene.elements import INTEGRATORS
 from .equations import Equations, check_inertia, initial_state
 from .integrate import DEFAULT_TOLERANCE, Integration, state_scales
 from .motion import run_motion
+from .time_peaks import locate_peaks
 from .result import SimulationResult, event_record
 
 DEFAULT_RK4_STEPS = 20
@@ -97,12 +98,13 @@ class Simulator:
             half = self._integration(method, tol, steps // 2)
             error = rk4_error(run, motion, run_motion(half, grid, self.where), self.scene.path)
             run.counts.merge(half.counts)
+        motion = locate_peaks(run, motion)
         wall = time.perf_counter() - t0
         p = self.mech.parameter_values
         cols = self.equations.columns(motion.X, p, motion.c, motion.held)
         events = [event_record(e, self.equations, p) for e in motion.events]
         return SimulationResult(self.scene, self.scene.drive.kind, method, tol, steps, motion.t, cols, motion.stop,
-                                motion.stop_end, run.counts.as_dict(),
+                                motion.stop_end, run.statistics(),
                                 {"build_s": self.build_time, "integrate_s": wall}, error, events)
 
     def _integration(self, method, tol, steps):

@@ -85,13 +85,6 @@ def _is_term(node, name) -> bool:
     if kind == "BinOp" and node.op in ("+", "-"):
         return _is_term(node.left, name) or _is_term(node.right, name)
     return False
-    for c in scene.points:
-        for name in _LENGTH_FIELDS.get(type(c).__name__, ()):
-            value = getattr(c, name, None)
-            for e in value if isinstance(value, (tuple, list)) else (value,):
-                if hasattr(e, "names") and sweep.name in e.names():
-                    return True
-    return False
 
 
 @dataclass(frozen=True)

@@ -14,6 +14,7 @@ from ..scene.expressions import evaluate
 from .certified import PEAKS, CertifiedExtremes
 from .mapped import MappedFunction
 from .joint_structure import JointStructureError
+from .joints import PEAKED
 from .quantities import environment, joint_calls, joint_forces, model_value
 from ..scene.cases import is_case_constraint
 from .cases import CaseAnalysis
@@ -62,6 +63,9 @@ class AnalysisResult:
     quantities: dict = field(default_factory=dict)
     # why the joint forces (columns pin_force(P), ...: model/joints.py) are not there, or None
     joints_note: str | None = None
+    # the two routes inside the tool (model/joints.py): the relative differences of the drive load
+    # from the joint forces and by virtual work, and the reactions' power; None without joint forces
+    joints_routes: dict | None = None
 
     @property
     def drive_kind(self):
@@ -103,13 +107,14 @@ class Analysis:
         # with ``joints``, the force at every joint (model/joints.py): columns pin_force(P), ...
         # (their certified peaks took the toggle press's build from 0.8 to 3.8 s, measured: so they are
         # asked for); where the joint structure cannot be derived, none, and the reason in joints_note
-        self.joints, self.joints_note = {}, None
+        self.joints, self.joints_note, self.joints_routes = {}, None, None
         try:
-            self.joints = joint_forces(self.model).outputs() if joints else {}
+            if joints:
+                self.joints, self.joints_routes = joint_forces(self.model).outputs(), joint_forces(self.model).routes
         except JointStructureError as exc:
             self.joints_note = str(exc)
         outs.update(self.joints)
-        self.peak_names = [k for k in PEAKS if k in outs] + [k for k in self.joints if k.startswith("pin_force(")]
+        self.peak_names = [k for k in PEAKS if k in outs] + [k for k in self.joints if k.startswith(PEAKED)]
         for name, expr in self.mech.quantities.items():
             outs[f"quantity:{name}"] = expr + 0 * self.mech.s
         self.names = list(outs)
@@ -120,7 +125,7 @@ class Analysis:
         self.vectorised = stroke_evaluator(self.function)
         self._points = None
         self.certified = CertifiedExtremes(self) if certify else None
-        self.case_analysis = CaseAnalysis(self.mech, self.s_values, joints) if scene.cases else None
+        self.case_analysis = CaseAnalysis(self.mech, self.s_values, joints, certify) if scene.cases else None
         self.build_time = time.perf_counter() - t0
 
     def run(self, p_values=None) -> AnalysisResult:
@@ -188,7 +193,8 @@ class Analysis:
         return AnalysisResult(self.scene, columns, bodies, constraints, peaks, timings, peaks_sampled,
                               peak_at, extremes, sampled_stroke,
                               cases=self.case_analysis.run(p_values) if self.case_analysis else None,
-                              certificates=certificates, quantities=quantities, joints_note=self.joints_note)
+                              certificates=certificates, quantities=quantities, joints_note=self.joints_note,
+                              joints_routes=self.joints_routes)
 
     def _per_stroke(self, p_values, s_values):
         """The per-stroke constraints with their aggregates taken over ``s_values``."""

@@ -19,8 +19,10 @@ import numpy as np
 
 from ..scene.cases import CASE_COLUMNS, Case, case_values
 from ..scene.expressions import evaluate
+from .certified import CertifiedPeaks
 from .duty import PEAK_KEYS, CaseTimes, DutyCycle, case_integrals, motor_report
 from .finite import check_cases
+from .joints import PEAKED
 from .mapped import MappedFunction
 from .profiles import check_law, constant_motion, case_profile
 from .reduction import ReducedModel
@@ -135,17 +137,22 @@ class CaseResult:
     integrals: dict = field(default_factory=dict)
     on_samples: np.ndarray | None = None   # which of the case's samples are the scene's
     constraints: dict = field(default_factory=dict)   # name -> values of the constraints per case
+    # the pin forces' peaks are certified over the continuous stroke (``peaks``, ``peak_at``):
+    # their samples' largest values and the enclosures' certificates {bound, note}
+    peaks_sampled: dict = field(default_factory=dict)
+    certificates: dict = field(default_factory=dict)
 
 
 class CaseAnalysis:
     """Every case of a scene over the stroke, compiled once (under :class:`optdesign.model.analysis.Analysis`)."""
 
-    def __init__(self, mech, s_values, joints=False):
-        """``joints``: each case's joint forces too (columns pin_force(P), ...: model/joints.py)."""
+    def __init__(self, mech, s_values, joints=False, certify=True):
+        """``joints``: each case's joint forces too (columns pin_force(P), ...: model/joints.py),
+        their peaks certified over the continuous stroke unless ``certify`` is False."""
         self.mech = mech
         self.s_values = np.asarray(s_values, float)
         self.cases = [CaseModel(mech, c) for c in mech.scene.cases]
-        self.functions = []
+        self.functions, self.pin_peaks = [], []   # pin_peaks: each case's pin forces (CertifiedPeaks), or None
         motor = motor_numbers(mech.scene.motors[0], mech.resolved.values) if len(mech.scene.motors) == 1 else None
         for cm in self.cases:
             outs = cm.outputs()
@@ -153,8 +160,11 @@ class CaseAnalysis:
                 outs["motor_torque"] = outs["motor_load_torque"] + motor["inertia"] * outs["motor_acceleration"]
             for name, expr in cm.constraints(outs).items():
                 outs[f"constraint:{name}"] = expr + 0 * mech.s
+            pins = {}
             if joints:
                 outs.update(_joint_outputs(cm, mech))
+                pins = {k: v for k, v in outs.items() if k.startswith(PEAKED)}
+            self.pin_peaks.append(CertifiedPeaks(mech, pins) if pins and certify else None)
             outs["q"], outs["k"] = mech.q, mech.ds(mech.q)
             outs["hold_load"] = cm.static_load() + 0 * mech.s
             self.functions.append((list(outs), MappedFunction(mech.function(f"case_{len(self.functions)}", outs))))
@@ -164,7 +174,7 @@ class CaseAnalysis:
         """Every case, the governing case of each peak, the duty cycle and the drive train at
         the parameter vector ``p_values``."""
         results, evaluated = {}, {}
-        for cm, (names, function) in zip(self.cases, self.functions):
+        for cm, (names, function), pin_peaks in zip(self.cases, self.functions, self.pin_peaks):
             p_case = cm.case_parameters(np.asarray(p_values, float))
             nodes, on_sample = case_nodes(self.s_values, cm.profile)
             values, times = self._evaluate(cm, names, function, nodes, p_case)
@@ -175,11 +185,16 @@ class CaseAnalysis:
             columns = {"s": nodes}
             columns.update({k: v for k, v in values.items()})
             peaks, peak_at = {}, {}
-            for key in PEAK_KEYS + tuple(k for k in columns if k.startswith("pin_force(")):
+            for key in PEAK_KEYS + tuple(k for k in columns if k.startswith(PEAKED)):
                 if key in columns:
                     i = int(np.argmax(np.abs(columns[key])))
                     peaks[key] = float(abs(columns[key][i]))
                     peak_at[key] = {"s": float(nodes[i]), "value": float(columns[key][i])}
+            sampled_pins, certificates = {}, {}
+            if pin_peaks is not None:   # the pin forces' peaks over the continuous stroke, certified
+                for key, (value, at, certificate) in pin_peaks(nodes, p_case, columns).items():
+                    sampled_pins[key], peaks[key], peak_at[key] = peaks[key], value, at
+                    certificates[f"peak |{key}|"] = certificate
             sigma = cm.profile.sigma if cm.profile is not None else 1.0
             integrals = case_integrals(times, columns, sigma)
             if integrals:
@@ -188,7 +203,8 @@ class CaseAnalysis:
                                                             else f"inline {cm.profile.shape.kind}")
             results[cm.name] = CaseResult(cm.name, cm.case.direction, profile, cm.case.efficiency,
                                           {k: cm.values[k] for k in cm.case.overrides}, columns, peaks, peak_at,
-                                          integrals.get("duration", times.duration), integrals, on_sample, constraints)
+                                          integrals.get("duration", times.duration), integrals, on_sample, constraints,
+                                          sampled_pins, certificates)
             evaluated[cm.name] = {"hold": ends, "on_sample": on_sample}
         duty = self.duty.evaluate(results, evaluated, p_values, self.mech)
         env = self.mech.resolved.environment(np.asarray(p_values, float))
@@ -256,6 +272,8 @@ def case_nodes(s, profile):
     scene's samples."""
     s = np.asarray(s, float)
     breaks = profile.breakpoints() if profile is not None else np.zeros(0)
+    for stop in getattr(getattr(profile, "shape", None) and profile.shape.motion_law, "stops", ()):
+        s = np.where(np.abs(s - stop) <= 1e-13 * abs(s[-1] - s[0]), stop, s)   # a sample at a stop: the stop exactly
     if not breaks.size and (profile is None or profile.shape.motion_law is None):   # (a law in time: its time nodes)
         return s.copy(), np.ones(len(s), bool)
     delta = 0.5e-9 * abs(s[-1] - s[0])
@@ -325,7 +343,7 @@ def add_motor_torque(results, duty, motor):
 def governing_cases(results: dict) -> dict:
     """For each peak, the case with the largest one: {case, value, s} (brute force over cases)."""
     out = {}
-    pins = dict.fromkeys(k for r in results.values() for k in r.peaks if k.startswith("pin_force("))
+    pins = dict.fromkeys(k for r in results.values() for k in r.peaks if k.startswith(PEAKED))
     for key in PEAK_KEYS + tuple(pins):
         have = [(r.peaks[key], name) for name, r in results.items() if key in r.peaks]
         if have:

@@ -125,6 +125,32 @@ class CertifiedExtremes:
         return float(near + math.remainder(q - near, 2 * math.pi))
 
 
+class CertifiedPeaks:
+    """The peaks |v| of named rows of (s, p) over the continuous stroke, located and certified
+    as analyse's (:class:`CertifiedExtremes`: the rows' exact s-derivatives, their enclosure):
+    a load case's pin forces (:class:`~optdesign.model.cases.CaseAnalysis`)."""
+
+    def __init__(self, mech, rows: dict):
+        self.names = list(rows)
+        v = ca.vertcat(*rows.values())
+        dv = mech.ds(v)
+        self.derivatives = MappedFunction(mech.function("peaks_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)}))
+        self.enclosures = Enclosures(self.derivatives.func)
+
+    def __call__(self, s_values, p, columns) -> dict:
+        """name -> (|peak|, {s, value}, certificate {bound, note}) at parameters ``p``, from the
+        sampled ``columns`` on ``s_values`` (ascending or descending)."""
+        s_values = np.asarray(s_values, float)
+        V = np.array([columns[name] for name in self.names], float)
+        if len(s_values) > 1 and s_values[-1] < s_values[0]:
+            s_values, V = s_values[::-1], V[:, ::-1]
+        requests = [Request(i, "abs", ends=True) for i in range(len(self.names))]
+        found = continuous_maxima_rows(lambda s: self.derivatives(s, p), s_values, V, requests,
+                                       enclosure=self.enclosures.at(p))
+        return {name: (abs(ext[0].value), {"s": ext[0].s, "value": ext[0].value}, _certificate(ext[0]))
+                for name, ext in zip(self.names, found)}
+
+
 def _certificate(e, sign=1.0) -> dict:
     """What the enclosure proved of one extremum: ``bound`` (of |v|, of v for a max, of v from
     below for a min; None without one) and ``note`` (why not, "" when certified)."""

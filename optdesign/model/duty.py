@@ -173,9 +173,10 @@ def law_weights(nodes, t, profile) -> np.ndarray:
         if not near:
             raise ValueError(f"law node {g!r} is not among the case's samples")
         chosen.append(order[near[0]])
+    times = profile.law_times()   # (a dwell's nodes are one sample: their weights add up)
     w, coarse = np.zeros(len(nodes)), np.zeros(len(chosen))
-    coarse[::2] = quadratic_weights(t[chosen][::2])
-    w[chosen] = (16 * quadratic_weights(t[chosen]) - coarse) / 15
+    coarse[::2] = quadratic_weights(times[::2])
+    np.add.at(w, chosen, (16 * quadratic_weights(times) - coarse) / 15)
     return w
 
 

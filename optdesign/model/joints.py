@@ -22,15 +22,29 @@ joints).
 
 ``pins`` maps each pin (named by its point) to its force on the first party that meets there
 (the ground, where it meets there; else the first [[bodies]] entry, in file order; else the
-first member): {'x', 'y'} global components [N]; ``sliders`` maps a slider's point to
-{'normal', 'moment', 'x', 'y'} (the guide's push on the slider, N along the line's left normal).
+first member): {'x', 'y'} global components [N]; ``parties`` maps each pin to the force on each
+party that meets there ((name, force): a part's name, ``link P-Q`` for a two-force member,
+``drive`` for a linear drive's actuator), which ``shared`` lists where they differ from one equal
+and opposite pair (three or more parties, or a force element or a guide acting on the pin);
+``sliders`` maps a slider's point to (normal, moment, force) (the guide's push on the slider, N
+along the line's left normal).
+
+Two routes inside the tool (:meth:`JointForces._check_routes`, ``routes``): the drive load from
+the joint forces equals the virtual-work one, and the reactions' power sums to zero (ideal
+joints do no work in the mechanism's motion: each part's reactions at its own rigid motion, the
+links' at their ends, less the loads acting on the pins), else an error.
 """
 from __future__ import annotations
 
 import casadi as ca
 import numpy as np
 
+from ..errors import SceneError
 from .joint_structure import JointStructureError, derive
+
+
+# the joint forces whose peaks over the stroke are reported and certified (analyse, each case)
+PEAKED = ("pin_force(", "slider_normal(", "slider_moment(")
 
 
 def _cross(a, b):
@@ -109,8 +123,9 @@ class JointForces:
                 continue
             a, b = f.between
             tension = model.forces.tension(name, self.sd)
-            node(a)["loads"].append(tension * unit(a, b))
-            node(b)["loads"].append(tension * unit(b, a))
+            for here, there in ((a, b), (b, a)):
+                node(here)["loads"].append(tension * unit(here, there))
+                node(here).setdefault("elements", []).append(tension * unit(here, there))
         normals = {}
         for point, c in st.sliders.items():
             angle = mech.value(c.angle)
@@ -118,26 +133,43 @@ class JointForces:
             if not nodes.get(point, {}).get("parts"):
                 node(point)["loads"].append(X[layout[("normal", point)]] * normals[point])
         # --- node balances -------------------------------------------------------------------
-        applied = {id(part): [] for part in st.parts}    # (position, force) on each part
+        applied = {id(part): [] for part in st.parts}    # (position, force) on each part: the reactions
         couples = {id(part): [] for part in st.parts}
+        held = {id(part): [] for part in st.parts}       # the reactions' couples (guides, cylinders)
         equations = []
-        self.pins = {}
+        self.pins, self.parties, self.shared, self.reaches = {}, {}, [], {}
+        power = []   # (force, velocity) of every reaction and of the loads acting on the pins (sign -)
+
+        def link_name(ref):
+            return "drive" if ref == "drive" else "link " + "-".join(st.members[ref])
+
         for p, nd in nodes.items():
             load = sum(nd["loads"][1:], nd["loads"][0]) if nd["loads"] else ca.DM.zeros(2, 1)
-            others = [(part, X[layout[(p, part.name)]: layout[(p, part.name)] + 2]) for part in nd["parts"][1:]]
-            others += [(None, axial(ref, p, q)) for ref, q in nd["members"]]
-            total = sum((f for _, f in others[1:]), others[0][1]) if others else ca.DM.zeros(2, 1)
+            others = [(part, part.name, X[layout[(p, part.name)]: layout[(p, part.name)] + 2])
+                      for part in nd["parts"][1:]]
+            others += [(None, link_name(ref), axial(ref, p, q)) for ref, q in nd["members"]]
+            total = sum((f for _, _, f in others[1:]), others[0][2]) if others else ca.DM.zeros(2, 1)
             if nd["parts"]:
                 first = load - total
                 applied[id(nd["parts"][0])].append((pos(p), first))
+                parties = [(nd["parts"][0].name, first)] + [(n, f) for _, n, f in others]
             else:
                 equations.append(total - load)
-                first = others[0][1] if others else None
-            for part, f in others:
+                first = others[0][2] if others else None
+                parties = [(n, f) for _, n, f in others]
+            # the points each party reaches from the pin (a part's, a link's other end)
+            reach = [part.points for part in nd["parts"]] + [{same[q]} for _, q in nd["members"]]
+            for part, _, f in others:
                 if part is not None:
                     applied[id(part)].append((pos(p), f))
+            v = self._velocity(p)   # the links' ends (the drive's too) move with the pin
+            power += [(f, v) for part, _, f in others if part is None] + [(-f, v) for f in nd.get("elements", [])]
             if len(nd["parts"]) + len(nd["members"]) >= 2:
                 self.pins[p] = first
+                self.parties[p] = parties
+                self.reaches[p] = reach
+                if len(parties) >= 3 or nd["loads"]:   # the parties' forces are not one equal and opposite pair
+                    self.shared.append(p)
         self.sliders = {}
         for point, normal in normals.items():
             force = X[layout[("normal", point)]] * normal
@@ -147,6 +179,9 @@ class JointForces:
                 part = nodes[point]["parts"][0]
                 applied[id(part)].append((pos(point), force))
                 couples[id(part)].append(moment)
+                held[id(part)].append(moment)
+            else:   # a guide at a pin of links alone: its push on the pin
+                power.append((force, self._velocity(point)))
         for i, (barrel, rod, a, b) in enumerate(st.telescopes):   # a cylinder: barrel and rod slide on each other
             j = layout[("telescope", i)]
             u = unit(a, b)
@@ -155,6 +190,8 @@ class JointForces:
             applied[id(barrel)].append((pos(b), -force))
             couples[id(rod)].append(X[j + 1])
             couples[id(barrel)].append(-X[j + 1])
+            held[id(rod)].append(X[j + 1])
+            held[id(barrel)].append(-X[j + 1])
             self.sliders[f"{a}-{b}"] = (X[j], X[j + 1], force)
         if drive.kind == "rotary":
             couples[id(st.crank)].append(X[layout["drive"]])
@@ -209,29 +246,81 @@ class JointForces:
         self.pins = {p: subst(f) for p, f in self.pins.items() if f is not None}
         self.sliders = {p: tuple(subst(ca.DM(v) if isinstance(v, (int, float)) else v) for v in vals)
                         for p, vals in self.sliders.items()}
+        self.parties = {p: [(name, subst(f)) for name, f in parties] for p, parties in self.parties.items()}
         self.drive = subst(X[layout["drive"]])  # the ideal drive load (T_S or F_S at eta = 1)
-        self._check_routes()
+        # the reactions' power: each part's reactions at its own rigid motion (its frame's origin's
+        # velocity and its turning rate), the links' at their ends' velocities, less the power of
+        # the loads that act on the pins (force elements, the linear drive's push)
+        for part in st.parts:
+            if part.moving:
+                origin, omega = self._rigid(part)
+                for r, f in applied[id(part)]:
+                    arm = r - pos(part.frame[0])
+                    power.append((f, origin + omega * ca.vertcat(-arm[1], arm[0])))
+                power += [(ca.vertcat(m, 0), ca.vertcat(omega, 0)) for m in held[id(part)]]
+        terms = [ca.dot(subst(f), v) for f, v in power]
+        self.reaction_power = sum(terms[1:], terms[0]) if terms else ca.DM(0)
+        self.reaction_power_scale = sum((ca.fabs(t) for t in terms[1:]), ca.fabs(terms[0])) if terms else ca.DM(0)
+        self.routes = self._check_routes()   # the two routes' relative errors {'drive', 'power'}
 
-    def _check_routes(self):
-        """The drive load from the joint forces is the virtual-work one (``model.u``) at the
-        scene's parameters over the stroke, to 1e-9 of its peak: else the derived structure is
-        not the scene's mechanism, an error rather than wrong joint forces."""
+    def party_force(self, pin, toward):
+        """The force at ``pin`` on the party that runs from it to the point ``toward`` (the part
+        that carries both, the link between them): ``pin_force(P, Q)`` in an expression."""
+        same = self.structure.same
+        p, q = same.get(pin, pin), same.get(toward, toward)
+        if p not in self.parties:
+            raise SceneError(f"{self.mech.scene.path}: pin_force({pin}, {toward}): {pin!r} is no pin of the "
+                             f"mechanism's joint structure; its pins: {', '.join(sorted(self.parties))}")
+        hits = [(name, f) for (name, f), reach in zip(self.parties[p], self.reaches[p]) if q in reach and q != p]
+        if len(hits) != 1:
+            names = ", ".join(name for name, _ in self.parties[p])
+            raise SceneError(f"{self.mech.scene.path}: pin_force({pin}, {toward}): "
+                             f"{'no party' if not hits else 'more than one party'} at pin {pin} reaches {toward!r} "
+                             f"(its parties: {names}); name a point that one of them alone carries")
+        return hits[0][1]
+
+    def _velocity(self, point):
+        """The velocity of a point of the mechanism at the model's motion."""
+        return self.mech.ds(self.mech.points[point]) * self.sd
+
+    def _rigid(self, part):
+        """A moving part's rigid motion: the velocity of its frame's origin and its turning rate."""
+        o, x = (self.mech.points[n] for n in part.frame)
+        d = x - o
+        return self._velocity(part.frame[0]), _cross(d, self.mech.ds(d)) / ca.sumsqr(d) * self.sd
+
+    def _check_routes(self, samples=9, tolerance=1e-9):
+        """The two routes inside the tool, at the scene's parameters over the stroke: the drive
+        load from the joint forces is the virtual-work one (``model.u``), to ``tolerance`` of its
+        peak; the reactions' power (:attr:`reaction_power`: ideal joints do no work) is zero, to
+        ``tolerance`` of the sum of its terms' sizes.  Else the derived structure is not the
+        scene's mechanism: an error rather than wrong joint forces.  Returns the two relative
+        errors {'drive', 'power'} (the tests hold them to 1e-12 on every shipped scene)."""
         mech = self.mech
-        s = mech.stroke(9)
+        s = mech.stroke(samples)
         pins = [ca.sqrt(ca.sumsqr(f)) for f in self.pins.values()]
         f = mech.function("routes", {"ne": self.drive, "vw": self.model.u + 0 * mech.s,
-                                     "pins": ca.vertcat(0 * mech.s, *pins)})
+                                     "pins": ca.vertcat(0 * mech.s, *pins), "power": self.reaction_power + 0 * mech.s,
+                                     "power_scale": self.reaction_power_scale + 0 * mech.s})
         out = f.map(len(s))(s=s[None, :], p=mech.parameter_values)
-        ne, vw, pins = (np.asarray(out[k], float) for k in ("ne", "vw", "pins"))
+        ne, vw, pins, power, size = (np.asarray(out[k], float) for k in ("ne", "vw", "pins", "power", "power_scale"))
         ne, vw = ne.ravel(), vw.ravel()
         # a drive load that vanishes over the stroke (a bar turning at constant speed) is
         # compared on the scale of the pin forces
         scale = max(float(np.max(np.abs(vw))), float(np.max(pins)), 1e-300)
-        if not np.max(np.abs(ne - vw)) <= 1e-9 * scale:
+        errors = {"drive": float(np.max(np.abs(ne - vw))) / scale,
+                  "power": float(np.max(np.abs(power))) / max(float(np.max(size)), 1e-300)}
+        if not errors["drive"] <= tolerance:
             raise JointStructureError(
                 f"{mech.scene.path}: the joint structure derived from the scene gives a drive load that is not the "
-                f"model's (differs by {np.max(np.abs(ne - vw)) / scale:.2g} of its peak): the constructions imply "
+                f"model's (differs by {errors['drive']:.2g} of its peak): the constructions imply "
                 "links that are not the mechanism's; declare its links as [[bodies]]")
+        if not errors["power"] <= tolerance:
+            raise JointStructureError(
+                f"{mech.scene.path}: the reactions of the joint structure derived from the scene do work (their power "
+                f"is {errors['power']:.2g} of its terms' sizes): a derived joint is not one of the mechanism's; declare "
+                "its links as [[bodies]]")
+        return errors
 
     def _body(self, b, origin, g, force, moment):
         """Add a [[bodies]] entry's weight, applied loads and inertia forces (d'Alembert)."""
@@ -263,13 +352,19 @@ class JointForces:
 
     def outputs(self) -> dict:
         """Named graphs per sample: ``pin_force(P)`` (magnitude), ``pin_force_x(P)``,
-        ``pin_force_y(P)`` for each pin; ``slider_normal(P)``, ``slider_moment(P)`` for each
-        slider."""
+        ``pin_force_y(P)`` for each pin (the force on its first party); at each pin in
+        :attr:`shared`, ``pin_force(P, PARTY)`` and its components for each party;
+        ``slider_normal(P)``, ``slider_moment(P)`` for each slider."""
         out = {}
         for p, f in self.pins.items():
             out[f"pin_force({p})"] = ca.sqrt(ca.sumsqr(f))
             out[f"pin_force_x({p})"] = f[0]
             out[f"pin_force_y({p})"] = f[1]
+        for p in self.shared:
+            for party, f in self.parties[p]:
+                out[f"pin_force({p}, {party})"] = ca.sqrt(ca.sumsqr(f))
+                out[f"pin_force_x({p}, {party})"] = f[0]
+                out[f"pin_force_y({p}, {party})"] = f[1]
         for p, (normal, moment, _) in self.sliders.items():
             out[f"slider_normal({p})"] = normal
             out[f"slider_moment({p})"] = moment

@@ -178,8 +178,10 @@ class MotionProfile:
     def breakpoints(self) -> np.ndarray:
         """Sweep values inside the stroke where the profile's acceleration law changes."""
         sh = self.shape
-        if sh.kind in ("law", "constant") or sh.motion_law is not None:   # (a law in time: its acceleration is
-            return np.zeros(0)                                             # continuous; its pieces' ends are nodes)
+        if sh.motion_law is not None:   # a law in time: its acceleration is continuous, its pieces' ends are
+            return np.array(getattr(sh.motion_law, "stops", ()), float)   # nodes; segments: the stops between them
+        if sh.kind in ("law", "constant"):
+            return np.zeros(0)
         xs = [sh.accelerate.distance, self.length - sh.decelerate.distance]
         xs += _phase_breaks(sh.accelerate, sh.speed)
         xs += [self.length - b for b in _phase_breaks(sh.decelerate, sh.speed)]
@@ -219,19 +221,28 @@ class MotionProfile:
         """A law in time's nodes, in the motion's order: each piece's ends and a multiple of 4
         intervals evenly spaced in time inside it (about LAW_NODES over the motion), so that
         Simpson's rule in time on them and on every other one pairs them within each piece."""
-        law = self.shape.motion_law
-        edges = (0.0,) + law.breaks + (1.0,)
+        return self.law_sweep(self._law_taus())
+
+    def law_times(self) -> np.ndarray:
+        """The times of :meth:`law_nodes` [s]."""
+        return self.shape.time * self._law_taus()
+
+    def _law_taus(self) -> np.ndarray:
+        edges = (0.0,) + self.shape.motion_law.breaks + (1.0,)
         tau = [0.0]
         for a, b in zip(edges[:-1], edges[1:]):
             n = 4 * max(1, math.ceil(self.LAW_NODES * (b - a) / 4))
             tau += list(np.linspace(a, b, n + 1)[1:])
-        return self.s_begin + self.sigma * law.evaluate(np.array(tau))[0] * self.length
+        return np.array(tau)
 
-    def law_position(self):
-        """A law in time's f(tau) (fraction of the stroke at the fraction tau of its time) as a
-        numpy function."""
-        t = ca.SX.sym("t")
-        return _numpy_of(t, self.shape.motion_law.derivatives(t)[0])
+    def law_sweep(self, tau) -> np.ndarray:
+        """The sweep value at the fractions ``tau`` of a law in time's duration; during a dwell
+        of segments the stop's value exactly (where the case's graph has the rest)."""
+        tau = np.asarray(tau, float)
+        s = self.s_begin + self.sigma * self.shape.motion_law.evaluate(tau)[0] * self.length
+        for a, b, stop in getattr(self.shape.motion_law, "rests", ()):
+            s = np.where((tau >= a) & (tau <= b), stop, s)
+        return s
 
     def _law_segments(self) -> list:
         s = self.law_nodes()
@@ -315,8 +326,8 @@ def case_profile(scene, case: Case, start: float, stop: float, values=None) -> M
     profile = case.profile if isinstance(case.profile, Profile) else next(
         p for p in scene.profiles if p.name == case.profile)
     values = case_values(scene, case, values)
-    shape = profile_shape(profile, values, abs(stop - start), f" (with the parameters of case {case.name!r})")
     begin, end = (start, stop) if case.sign > 0 else (stop, start)
+    shape = profile_shape(profile, values, abs(stop - start), f" (with the parameters of case {case.name!r})", (begin, end))
     return MotionProfile(profile, shape, begin, end, values, scene.sweep.name)
 
 

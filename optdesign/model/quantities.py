@@ -6,9 +6,12 @@
   name wins (the scene's own names come first);
 - the joint forces (:mod:`.joints`): ``pin_force(P)`` (the magnitude of the force at pin P),
   ``pin_force_x(P)``, ``pin_force_y(P)``, ``slider_normal(P)``, ``slider_moment(P)``, built
-  for a model the first time an expression uses one.
+  for a model the first time an expression uses one; ``pin_force(P, Q)`` (and ``_x``, ``_y``)
+  the force at pin P on the party that runs from P to the point Q.
 """
 from __future__ import annotations
+
+import casadi as ca
 
 from ..errors import SceneError
 from ..scene.cases import JOINT_FUNCTIONS, MODEL_COLUMNS
@@ -28,8 +31,8 @@ def joint_calls(expr) -> set:
 
     def walk(node):
         if isinstance(node, Call):
-            if node.func in JOINT_FUNCTIONS:
-                out.add((node.func, node.args[0].name))
+            if node.func in JOINT_FUNCTIONS:   # pin_force(P) or pin_force(P, Q): 'P' or 'P, Q'
+                out.add((node.func, ", ".join(a.name for a in node.args)))
                 return
             for a in node.args:
                 walk(a)
@@ -52,11 +55,15 @@ def environment(model, expr=None) -> dict:
     if calls:
         outputs = joint_forces(model).outputs()
         for func, point in sorted(calls):
+            if ", " in point:   # pin_force(P, Q): the force at P on the party that runs to Q
+                f = joint_forces(model).party_force(*point.split(", "))
+                env[f"{func}({point})"] = ca.sqrt(ca.sumsqr(f)) if func == "pin_force" else f["xy".index(func[-1])]
+                continue
             pin = joint_forces(model).structure.same.get(point, point)
             name = f"{func}({pin})"
             if name not in outputs:
                 kind = "slider" if func.startswith("slider") else "pin"
-                known = sorted({k.split("(")[1][:-1] for k in outputs if k.startswith(kind)})
+                known = sorted({k.split("(")[1][:-1] for k in outputs if k.startswith(kind) and ", " not in k})
                 raise SceneError(f"{model.scene.path}: {expr.source!r}: {point!r} is no {kind} of the mechanism's "
                                  f"joint structure; its {kind}s: {', '.join(known) or 'none'}")
             env[f"{func}({point})"] = outputs[name]

@@ -137,8 +137,7 @@ def _in_time(profile, columns, tol) -> dict:
     """A law in time (s = s_begin + sigma L f(tau), t = T tau): the integrals in tau on each of
     its pieces, dt = T dtau (no weight to invert: the law's inverse is exact only to 2^-16 of
     tau next to a rest), P dt = T_S qd T dtau."""
-    law, T, L = profile.shape.motion_law, profile.shape.time, profile.length
-    position = profile.law_position()
+    law, T = profile.shape.motion_law, profile.shape.time
     edges = (0.0,) + tuple(law.breaks) + (1.0,)
     pieces = [(a, b, 1.0) for a, b in zip(edges[:-1], edges[1:])]
     starts = [np.linspace(a, b, FIRST_INTERVALS // len(pieces) + 1)[1:-1] for a, b, _ in pieces]
@@ -146,7 +145,7 @@ def _in_time(profile, columns, tol) -> dict:
 
     def f(tau, d, piece):
         nonlocal motor
-        c = columns(profile.s_begin + profile.sigma * L * position(tau))
+        c = columns(profile.law_sweep(tau))
         e = c["drive"] * c["drive_speed"] * T
         rows = [c["drive"] ** 2 * T, e, np.maximum(e, 0.0)]
         motor = "motor_load_torque" in c

@@ -99,6 +99,7 @@ def analysis_json(result) -> dict:
         "certificates": result.certificates,   # the enclosures' bounds, or why there is none
         "quantity_units": {q.name: q.unit for q in result.scene.quantities},   # [quantities]
         "joints_note": result.joints_note,   # why no joint forces (pin_force(P), ...) are given, or None
+        "joints_routes": result.joints_routes,   # the two routes' relative differences (model/joints.py)
         "violations": violations_json(result),   # violated scene constraints: how far, where (report/checks.py)
         "samples": samples,
         **cases_json(result),   # with [[cases]]: cases, governing, duty, drive_train (report/cases.py)
@@ -162,6 +163,10 @@ def analysis_peaks_chunks(result, case_samples: bool = True):
     lines += [f"violated: {violation_text(result, v)}" for v in violations(result)]   # report/checks.py
     if result.joints_note:
         lines.append(f"joint forces: none ({result.joints_note})")
+    if result.joints_routes:   # model/joints.py: the two routes inside the tool
+        lines.append(f"joint forces: the drive load from them differs from the virtual-work one by "
+                     f"{result.joints_routes['drive']:.1e} of its peak; the reactions' power sums to "
+                     f"{result.joints_routes['power']:.1e} of its terms' sizes (9 samples, the scene's parameters)")
     yield "\n" + "\n".join(lines)
     yield cases_table(result, case_samples)   # with [[cases]] (report/cases.py)
 

@@ -19,6 +19,7 @@ import numpy as np
 from .drawing import context, draw_mechanism, draw_paths, frame_view, limits
 from .files import place, temporary_for, write_file
 from .geometry import Geometry
+from .joint_arrows import arrow_scale, draw_pin_arrows, governing_pin_forces
 from .layout import animation_layout
 from .topology import topology
 from .plots import bound_lines, headroom, mark_peak
@@ -99,6 +100,12 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None, 
     s = geometry.stroke(frames) if at is None else geometry.resolved.start + np.asarray(at, float) * (
         geometry.resolved.stop - geometry.resolved.start)
     shots = geometry.frames(s)
+    # the pin forces of every frame (the governing case's with [[cases]]), on one scale: their
+    # largest over the stroke a fifth of the mechanism (report/joint_arrows.py)
+    pins, pin_case = governing_pin_forces(scene, np.r_[s, dense.s])
+    pin_scale = arrow_scale(pins, ctx.extent)
+    for p, f in pins.items():
+        ctx.extra += [shots.at(i).points[p][0] + f[:, i] * pin_scale for i in range(len(s))]
     if analysis is None and scene.drive is not None:
         from ..model.analysis import analyse
 
@@ -170,6 +177,8 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None, 
         canvas.restore_region(background)
         before = set(mech_ax.get_children())
         draw_mechanism(mech_ax, top, shots.at(i), ctx, labels="joints", loads=True, scene=scene, parts="moving")
+        if pin_scale is not None and shots.assembled[i]:
+            draw_pin_arrows(mech_ax, shots.at(i), {p: f[:, i] for p, f in pins.items()}, pin_scale, ctx.w)
         new = sorted((a for a in mech_ax.get_children() if a not in before), key=lambda a: a.get_zorder())
         for a in new:
             texts.draw(a)
@@ -183,6 +192,8 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None, 
             text += f"   {name.split(',')[0]} {caption_value(markers[0][2][i], peak):.4g} {shown}"
         if trans is not None:
             text += f"   transmission {trans[1][i]:.3g} {trans[2]}"
+        if pin_case is not None:
+            text += f"   pin forces: case '{pin_case}'"
         if not shots.assembled[i]:
             text += f"   (does not assemble: [points] {shots.failed[i]})"
         caption.set_text(text)

@@ -2,7 +2,10 @@
 structure (:mod:`optdesign.model.joints`) at the drawn position, the force on the ground (or
 on the first body that meets there), all arrows on one scale, each labelled with its value
 there and its peak over the stroke; and the force elements ([[forces]]) between their points
-(a spring as a zigzag, a gas spring, damper or constant force as a bar), with their names."""
+(a spring as a zigzag, a gas spring, damper or constant force as a bar), with their names.
+Where the scene has [[cases]], the forces drawn are those of the case with the largest pin force
+(:func:`governing_pin_forces`), here and in the animation (report/animate.py: each frame's, on
+one scale)."""
 from __future__ import annotations
 
 import numpy as np
@@ -22,35 +25,68 @@ ELEMENT = "#a0522d"
 def pin_forces(scene, s_values):
     """{pin: (2, n) force} at the sweep values ``s_values``, or {} when the scene has no drive or
     its joint structure cannot be derived."""
+    return governing_pin_forces(scene, s_values, cases=False)[0]
+
+
+def governing_pin_forces(scene, s_values, cases=True):
+    """({pin: (2, n) force} at the sweep values ``s_values``, case): the scene's pin forces, or
+    with [[cases]] (and ``cases``) those of the case whose largest pin force over ``s_values`` is
+    the largest, and its name (None without cases); ({}, None) when the scene has no drive or its
+    joint structure cannot be derived."""
     if scene.drive is None:
-        return {}
+        return {}, None
+    s_values = np.asarray(s_values, float)
     try:
         mech = Mechanism(ResolvedScene(scene))
-        joints = JointForces(ReducedModel(mech))
+        if cases and scene.cases:
+            from ..model.cases import CaseModel
+
+            runs = [(cm.name, cm.model, cm.case_parameters(mech.parameter_values))
+                    for cm in (CaseModel(mech, c) for c in scene.cases)]
+        else:
+            runs = [(None, ReducedModel(mech), mech.parameter_values)]
+        best = (-np.inf, {}, None)
+        for name, model, p in runs:
+            joints = JointForces(model)
+            out = mech.function("pin_forces", joints.pins).map(len(s_values))(s=s_values[None, :], p=p)
+            forces = {pin: np.asarray(out[pin], float) for pin in joints.pins}
+            top = max((float(np.nanmax(np.hypot(*f))) for f in forces.values()), default=-np.inf)
+            if top > best[0]:
+                best = (top, forces, name)
     except JointStructureError:
-        return {}
-    s_values = np.asarray(s_values, float)
-    f = mech.function("pin_forces", joints.pins).map(len(s_values))
-    out = f(s=s_values[None, :], p=mech.parameter_values)
-    return {p: np.asarray(out[p], float) for p in joints.pins}
+        return {}, None
+    return best[1], best[2]
+
+
+def draw_pin_arrows(ax, frame, forces, scale, w, peaks=None, ctx=None):
+    """An arrow of each pin force ``forces`` {pin: (2,) force} at its pin of ``frame`` (one
+    position), ``scale`` [m/N] long, labelled 'A 10.4 kN' (with ``peaks``: ' (peak 13.7 kN)')."""
+    for p, vec in forces.items():
+        tail = f" (peak {quantity(peaks[p], 'N', 3)})" if peaks else ""
+        arrow(ax, frame.points[p][0], vec * scale, PIN, f"{p} {quantity(float(np.hypot(*vec)), 'N', 3)}{tail}", w,
+              ctx=ctx)
+
+
+def arrow_scale(forces, extent) -> float | None:
+    """The arrows' common scale: the largest force over all pins as long as a fifth of the
+    mechanism's ``extent`` (None where there is no force)."""
+    top = max((float(np.nanmax(np.hypot(*f))) for f in forces.values()), default=0.0)
+    return 0.2 * extent / top if top > 0 else None
 
 
 def draw_pin_forces(ax, scene, frames, index, ctx):
     """Arrows of the pin forces at sample ``index`` of ``frames`` (their largest over the
-    stroke as long as a fifth of the mechanism), each labelled 'A 10.4 kN (peak 13.7 kN)'."""
-    forces = pin_forces(scene, frames.s)
-    if not forces:
+    stroke as long as a fifth of the mechanism), each labelled 'A 10.4 kN (peak 13.7 kN)'; with
+    [[cases]] those of the case with the largest pin force, named in a note at the foot."""
+    forces, case = governing_pin_forces(scene, frames.s)
+    scale = arrow_scale(forces, ctx.extent)
+    if scale is None:
         return
     peak = {p: float(np.max(np.hypot(*f))) for p, f in forces.items()}
-    top = max(peak.values())
-    if not top > 0:
-        return
-    scale = 0.2 * ctx.extent / top
-    for p, f in forces.items():
-        where = frames.at(index).points[p][0]
-        vec = f[:, index]
-        arrow(ax, where, vec * scale, PIN, f"{p} {quantity(float(np.hypot(*vec)), 'N', 3)} "
-                                           f"(peak {quantity(peak[p], 'N', 3)})", ctx.w, ctx=ctx)
+    draw_pin_arrows(ax, frames.at(index), {p: f[:, index] for p, f in forces.items()}, scale, ctx.w, peak, ctx)
+    if case is not None:
+        ax.text(0.01, 0.01, f"pin forces: case '{case}' (the largest pin force)", transform=ax.transAxes,
+                fontsize=6.5, color=PIN, ha="left", va="bottom", zorder=9)
 
 
 def draw_force_elements(ax, scene, frame, w):

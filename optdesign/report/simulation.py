@@ -69,7 +69,7 @@ def summary_chunks(result):
              f"steps {st['steps']}, right-hand sides {st['rhs_evaluations']}, error-test failures "
              f"{st['error_test_failures']}, integrator calls {st['integrator_calls']} "
              f"({st.get('failed_calls', 0)} failed" + "".join(f", {n} {flag}" for flag, n in st.get("failures", {}).items())
-             + f"), integrate {result.timings['integrate_s'] * 1e3:.1f} ms",
+             + f"){_peak_location(st)}, integrate {result.timings['integrate_s'] * 1e3:.1f} ms",
              events_line(result),
              f"q from {result.q[0]:.6g} to {result.q[-1]:.6g} {units['q']}; rate {result.qd.min():.6g} .. "
              f"{result.qd.max():.6g} {units['qd']}; drive {result.drive.min():.6g} .. {result.drive.max():.6g} "
@@ -182,3 +182,11 @@ def _torque_speed(result, figures, folder) -> list:
                                simulated=(result.t, result.columns["motor_speed"], result.columns["motor_torque"],
                                           figures["rms_motor_torque"]))
     return [] if path is None else [path]
+
+
+def _peak_location(stats) -> str:
+    """', peaks located between samples with N integrator calls (M steps)', or ''."""
+    located = stats.get("peak_location") or {}
+    if not located.get("integrator_calls"):
+        return ""
+    return f"; peaks located between samples with {located['integrator_calls']} more calls ({located['steps']} steps)"

@@ -81,9 +81,7 @@ class Case:
     def __post_init__(self):
         where = Where("cases", str(self.name))
         check_label(self.name, where, "case")
-        if self.direction is None:
-            fail(where.at("direction"), "missing key 'direction': expected 'forward' (from -> to) or 'reverse'")
-        if self.direction not in DIRECTIONS:
+        if self.direction is not None and self.direction not in DIRECTIONS:   # (None: checked with the scene)
             fail(where.at("direction"), f"expected 'forward' (from -> to) or 'reverse', found {show(self.direction)}"
                  + near_miss(self.direction, DIRECTIONS))
         if self.efficiency not in FLOWS:
@@ -196,10 +194,11 @@ def read_profile(name, data, place=None) -> Profile:
     if not isinstance(data, dict):
         fail(where, f"expected a table such as {{ kind = \"trapezoidal\", speed = 0.1, acceleration = 0.05, "
                     f"deceleration = 0.05 }}, found {show(data)}")
+    keys = KEYS + ("segments",)
     for key in data:
-        if key not in KEYS:
-            fail(where.at(key), f"unknown key {key!r}" + (near_miss(key, KEYS) or f"; expected one of {', '.join(KEYS)}"))
-    return Profile(name, data.get("kind"), *(data.get(k) for k in KEYS[1:]), place=place)
+        if key not in keys:
+            fail(where.at(key), f"unknown key {key!r}" + (near_miss(key, keys) or f"; expected one of {', '.join(keys)}"))
+    return Profile(name, data.get("kind"), *(data.get(k) for k in KEYS[1:]), segments=data.get("segments"), place=place)
 
 
 def read_case(data) -> Case:

@@ -369,10 +369,10 @@ class _Parser:
     def _check_arguments(self, func, args):
         n = len(args)
         if func in GEOMETRIC:
-            want = 2 if func == "angle" and n == 2 else GEOMETRIC[func]   # angle(P, Q): a direction
-            if n != want:
-                self._fail(f"{func}() takes {'2 or 3' if func == 'angle' else want} point name{'s' if want > 1 else ''}, found {n} argument"
-                           + ("s" if n != 1 else ""))
+            pin = func.startswith("pin_force")   # angle(P, Q): a direction; pin_force(P, Q): on the party P->Q
+            if n != (2 if n == 2 and (func == "angle" or pin) else GEOMETRIC[func]):
+                told = "2 or 3" if func == "angle" else ("1 or 2" if pin else GEOMETRIC[func])
+                self._fail(f"{func}() takes {told} point name{'' if told == 1 else 's'}, found {n} argument{'s' * (n != 1)}")
             for a in args:
                 if not isinstance(a, Name) or a.name in CONSTANTS:
                     zero = isinstance(a, Num) and re.search(r"(?<![\w.])0\d", self.text)   # '04' for 'O4'
@@ -447,7 +447,7 @@ class _Evaluator:
         if f in ("x", "y"):
             return self.point(args[0].name)[0 if f == "x" else 1, :]
         if f in GEOMETRIC:  # a joint force: a name that model/quantities.py gives
-            return self.run(Name(f"{f}({args[0].name})"))
+            return self.run(Name(f"{f}({', '.join(a.name for a in args)})"))
         vals = [self.run(a) for a in args]
         if f in UNARY:
             return UNARY[f](vals[0])

@@ -189,3 +189,50 @@ def general(v0, v1, a0, a1) -> MotionLaw:
     law.min_speed = float(np.min(speed))
     law.min_speed_at = float(tau[int(np.argmin(speed))])
     return law
+
+
+class Chain(MotionLaw):
+    """Motion laws and dwells one after another along one motion (:mod:`.segments`), as one
+    law of the normalised time tau = t/T over the whole motion (T: every segment's and dwell's
+    time), f the fraction of the motion's length: each law segment g from rest at fraction F_a
+    to rest at F_b over [tau_a, tau_b] is f = F_a + (F_b - F_a) g((tau - tau_a)/(tau_b - tau_a)),
+    each of g's pieces rescaled in closed form (its acceleration, frequencies and start values);
+    a dwell is a piece at rest.  ``parts``: ("law", MotionLaw, to, seconds) and ("dwell", None,
+    at, seconds), positions as sweep values on the motion from ``begin`` to ``end``."""
+
+    def __init__(self, parts, begin, end):
+        self.name = "segments"
+        length, sigma = abs(end - begin), (1.0 if end > begin else -1.0)
+        self.time = float(sum(p[3] for p in parts))
+        pieces, tau, here = [], 0.0, 0.0
+        self.segments, self.rests, self.stops = [], [], []   # (F_a, F_b, tau_a, tau_b, law); (tau_a, tau_b, s); s
+        for i, (kind, law, position, seconds) in enumerate(parts):
+            tau_b = 1.0 if i == len(parts) - 1 else tau + seconds / self.time
+            d = tau_b - tau
+            if kind == "dwell":
+                pieces.append(Piece(tau, tau_b, f0=here))
+                self.rests.append((tau, tau_b, position))
+            else:
+                f_b = 1.0 if position == end else sigma * (position - begin) / length
+                h = f_b - here
+                for p in law.pieces:
+                    pieces.append(Piece(tau + d * p.start, tau + d * p.end, tuple(h / d**2 * a / d**k for k, a in enumerate(p.poly)),
+                                        h / d**2 * p.sin_amp, h / d**2 * p.cos_amp, p.omega / d, h / d * p.v0, here + h * p.f0))
+                self.segments.append((here, f_b, tau, tau_b, law))
+                if position != end:
+                    self.stops.append(position)
+                here = f_b
+            tau = tau_b
+        self.pieces = tuple(pieces)
+        self.peak_speed = max(law.peak_speed * (b - a) / (tb - ta) for a, b, ta, tb, law in self.segments)
+        self.peak_acceleration = max(law.peak_acceleration * (b - a) / (tb - ta) ** 2 for a, b, ta, tb, law in self.segments)
+
+    def inverse(self, u, steps=16, newton=6):
+        """tau at the fraction u of the motion: in the law segment that reaches u (at a stop
+        exactly, the time it is reached: a dwell there follows)."""
+        out = None
+        for f_a, f_b, tau_a, tau_b, law in reversed(self.segments):
+            v = (u - f_a) / (f_b - f_a)
+            here = ca.if_else(v >= 1, tau_b, tau_a + (tau_b - tau_a) * law.inverse(v, steps, newton))
+            out = here if out is None else ca.if_else(u <= f_b, here, out)
+        return out

@@ -23,6 +23,8 @@ rest to rest over the stroke in ``time`` [s], or in the shortest time within a p
 a peak ``acceleration`` or both (the time follows: T = C_v h / speed, T = sqrt(C_a h /
 acceleration)); and ``polynomial``: the quintic over ``time`` with ``start_speed``,
 ``end_speed``, ``start_acceleration``, ``end_acceleration`` (sweep rates; absent: 0).
+``segments``: laws in time between intermediate positions, with dwells (:mod:`.segments`);
+``cycle``: the same both ways, a whole machine cycle (:mod:`.cycles`).
 
 This module holds the item (:class:`Profile`) and the numbers of its phases
 (:func:`profile_shape`, used by the validation and by :mod:`optdesign.model.profiles`, which
@@ -35,6 +37,7 @@ from dataclasses import dataclass, field
 
 from .expressions import Expression, constant_value
 from .motion_laws import GENERAL, LAWS, MotionLaw, general, standard
+from .segments import chain_of, read_segments
 from .values import check_name, outside_meaningful, parse_optional, set_field
 from .where import Where, fail, near_miss, show
 
@@ -48,6 +51,9 @@ KINDS = {
 ENDS = ("start_speed", "end_speed", "start_acceleration", "end_acceleration")
 KINDS[GENERAL] = tuple(("time",) + tuple(e for i, e in enumerate(ENDS) if mask >> i & 1) for mask in range(16))
 KEYS = ("kind", "speed", "acceleration", "deceleration", "jerk", "time") + ENDS
+SEGMENTS = "segments"   # a motion of segments (:mod:`.segments`): its one key is the list, ``segments``
+CYCLE = "cycle"         # a whole machine cycle (:mod:`.cycles`): the same key
+KINDS[SEGMENTS] = KINDS[CYCLE] = ((),)
 
 
 @dataclass(frozen=True)
@@ -65,6 +71,7 @@ class Profile:
     end_speed: Expression | None = None
     start_acceleration: Expression | None = None
     end_acceleration: Expression | None = None
+    segments: tuple | None = None    # kind = "segments": its :class:`~.segments.Segment` list
     place: Where | None = field(default=None, compare=False)   # an inline profile: where its case has it
 
     def __post_init__(self):
@@ -79,6 +86,11 @@ class Profile:
         for key in KEYS[1:]:
             set_field(self, key, parse_optional(getattr(self, key), self.where(key)))
         given = tuple(k for k in KEYS[1:] if getattr(self, k) is not None)
+        if (self.kind in (SEGMENTS, CYCLE)) != (self.segments is not None):
+            fail(self.where(SEGMENTS), f"a {self.kind!r} profile takes segments = [...] (and no other key)" if self.segments
+                 is None else f"segments = [...] belong to a profile of kind = \"segments\" or \"cycle\", not {self.kind!r}")
+        if self.segments is not None:
+            set_field(self, "segments", read_segments(self.segments, self.where(SEGMENTS), self.kind == CYCLE))
         forms = KINDS[self.kind]
         if not any(set(given) == set(form) for form in forms):
             wanted = " or ".join(", ".join(form) for form in forms) if self.kind != GENERAL else \
@@ -150,11 +162,16 @@ def _phase(speed, rate, jerk=0.0) -> Phase:
     return Phase(duration, 0.5 * speed * duration, peak, jerk)   # point-symmetric: mean speed v/2
 
 
-def profile_shape(profile: Profile, values: dict, length: float, suffix: str = "") -> Shape:
+def profile_shape(profile: Profile, values: dict, length: float, suffix: str = "", ends=None) -> Shape:
     """The numbers of ``profile`` (its expressions evaluated with ``values``) on a stroke of
     ``length`` > 0 sweep units; raises SceneError naming the profile when its top speed cannot
     be reached in the stroke (or the stroke cannot be run in its time).  ``suffix`` is added
-    to such a message (e.g. which case's values were used)."""
+    to such a message (e.g. which case's values were used).  A segments profile needs the
+    motion's ``ends`` (begin, end) as sweep values."""
+    if profile.kind == SEGMENTS:
+        begin, end = ends
+        chain = chain_of(profile.segments, values, begin, end, suffix)
+        return Shape(SEGMENTS, length, chain.peak_speed * length / chain.time, time=chain.time, motion_law=chain)
     if profile.kind == "law":
         return Shape("law", length, law=profile.speed)
     if profile.kind in LAWS or profile.kind == GENERAL:

@@ -15,6 +15,7 @@ from .cases import Duty
 from .drawing import Drawing
 from .elements import Drive, Gravity, Objective, Parameter, Simulation, Sweep
 from .expressions import constant_value
+from .cycles import expanded_cycles
 from .quantities import expanded_items
 from .train import Cylinder, Gearbox
 from .validate import Validator
@@ -56,6 +57,8 @@ class Scene:
                      "quantities"):
             set_field(self, name, tuple(getattr(self, name)))
         for name, value in expanded_items(self).items():   # the quantities' names replaced by their expressions
+            set_field(self, name, value)
+        for name, value in expanded_cycles(self).items():  # a case running a cycle: a case per way, holds
             set_field(self, name, value)
         self.validate()
 

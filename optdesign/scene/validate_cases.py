@@ -11,8 +11,10 @@ case; a gear ratio <= 0 (also as a design variable's lower bound); a motor or cy
 from __future__ import annotations
 
 from .cases import CASE_COLUMNS, MODEL_COLUMNS, Case, Duty, case_values, is_case_constraint
+from .cycles import ways_of
 from .expressions import constant_value
-from .profiles import Profile, profile_shape
+from .profiles import CYCLE, Profile, profile_shape
+from .segments import segment_ends
 from .train import MOTOR_UNITS, Cylinder, Gearbox, Motor
 from .values import outside_meaningful
 from .where import Where, near_miss, show
@@ -42,7 +44,8 @@ class DriveSizingValidator:
         for attr, kind in (("duty", Duty), ("gearbox", Gearbox), ("cylinder", Cylinder)):
             if getattr(sc, attr) is not None and not isinstance(getattr(sc, attr), kind):
                 self.fail(Where(attr), f"expected a {kind.__name__}, found {show(getattr(sc, attr))}")
-        self.length = abs(constant_value(sc.sweep.stop, self.values, "") - constant_value(sc.sweep.start, self.values, ""))
+        self.ends = (constant_value(sc.sweep.start, self.values, ""), constant_value(sc.sweep.stop, self.values, ""))
+        self.length = abs(self.ends[1] - self.ends[0])
         self.profiles = {}
         for p in sc.profiles:
             if p.name in self.profiles:
@@ -89,16 +92,27 @@ class DriveSizingValidator:
         return value
 
     # --- profiles and cases ---
-    def _profile(self, p, values, suffix=""):
+    def _profile(self, p, values, suffix="", case=None):
+        """``case``: the case that runs it (its direction gives a segments profile's ends)."""
         names = set(self.params) | ({self.scene.sweep.name} if p.kind == "law" else set())
-        for key in p.keys:
-            expr = getattr(p, key)
-            self.v._check_expression(p.where(key), expr, names, [])
+        exprs = [(p.where(key), getattr(p, key)) for key in p.keys]
+        exprs += [(seg.where.at(f"{seg.where.key}.{key}"), getattr(seg, key)) for seg in p.segments or ()
+                  for key in ("to", "time", "speed", "acceleration", "dwell") if getattr(seg, key) is not None]
+        for where, expr in exprs:
+            self.v._check_expression(where, expr, names, [])
             name = self.depends_on_design(expr)
             if name is not None:
-                self.fail(p.where(key), f"{expr.source!r} depends on the design variable {name!r}: a profile "
-                                        "is the same motion for every design")
-        return profile_shape(p, values, self.length, suffix)
+                self.fail(where, f"{expr.source!r} depends on the design variable {name!r}: a profile "
+                                 "is the same motion for every design")
+        if p.kind == CYCLE:   # (a case runs it as its ways, checked as cases; here the cycle alone)
+            for way in ways_of(self.scene, Case(p.name, None, {}), p, values)[0]:
+                self._profile(way.profile, case_values(self.scene, way, values), suffix, way)
+            return None
+        ends = None
+        if p.segments is not None:
+            ends = segment_ends(p.segments, values, *self.ends) if case is None else (
+                self.ends if case.sign > 0 else self.ends[::-1])
+        return profile_shape(p, values, self.length, suffix, ends)
 
     def _cases(self):
         sc = self.scene
@@ -110,15 +124,17 @@ class DriveSizingValidator:
             seen.add(case.name)
             if sc.drive is None:
                 self.fail(where, "load cases need a [drive] (the drive they load)")
+            if case.direction is None:
+                self.fail(where.at("direction"), "missing key 'direction': expected 'forward' (from -> to) or 'reverse'")
             values = self.case_values(case)
             if isinstance(case.profile, str):
                 if case.profile not in self.profiles:
                     known = sorted(self.profiles)
                     self.fail(where.at("profile"), f"no profile {case.profile!r} in [profiles]" + (
                         near_miss(case.profile, known) or f"; profiles: {', '.join(known) or 'none'}"))
-                self._profile(self.profiles[case.profile], values, f" (with the parameters of case {case.name!r})")
+                self._profile(self.profiles[case.profile], values, f" (with the parameters of case {case.name!r})", case)
             elif case.profile is not None:
-                self._profile(case.profile, values)
+                self._profile(case.profile, values, case=case)
             if case.weight is not None:
                 if sc.duty is not None:
                     self.fail(where.at("weight"), "a weight is the case's share of the cycle without [duty]; "

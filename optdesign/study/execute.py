@@ -10,6 +10,7 @@ from __future__ import annotations
 import collections
 import dataclasses
 import json
+import math
 import pickle
 import signal
 import sys
@@ -31,6 +32,7 @@ from .tasks import scene_digest
 # the files a study derives from its journal (replaced at the end; a restart drops them)
 DERIVED = (study_table.CSV, "pareto.csv", "study.png", "pareto.png", "study.json", "summary.txt")
 COMMIT_S = 0.1   # the journal is made durable (fsync) at least this often while cases come back
+FRESH = 10_000   # rows kept for cases.csv while an earlier case runs (more are read back from the journal)
 
 
 def execute(study, folder: Path, workers, scheduler, progress, restart, figures):
@@ -43,26 +45,51 @@ def execute(study, folder: Path, workers, scheduler, progress, restart, figures)
         for c in cases:
             chains.setdefault(c.chain, []).append(c)
         todo = [ch for ch in chains.values() if any(c.id not in journal.records for c in ch)]
-        executor = _executor(workers, scheduler, len(todo))
-        computed, interrupted, lost = 0, False, None
-        with _CtrlC() as ctrl_c:
-            try:
-                computed = _schedule(study, todo, journal, executor, progress, reused, len(cases), ctrl_c)
-            except KeyboardInterrupt:
-                interrupted = True
-                computed = executor.stop(journal, abandon=ctrl_c.abandoned)
-            except ClusterLost as exc:   # the Dask scheduler is gone: keep what came back
-                lost, computed = exc, executor.finished
-            finally:
-                journal.sync()
-                where = executor.describe()
-                executor.close()
-        rows = merged_rows(cases, journal.records)
+        del chains
+        fresh = {}   # rows that came back in this run and are not in cases.csv yet (at most FRESH)
+
+        def finished(case):
+            row = fresh.pop(case.id, None)
+            if row is None:
+                if case.id not in journal.records:
+                    return None
+                row = journal.records[case.id]["row"]
+            return merged_row(case, row)
+
+        def came_back(case, out):
+            if len(fresh) < FRESH:
+                fresh[case.id] = out["row"]
+            table.advance()
+
+        table = study_table.CsvWriter(folder, study.input_columns, cases, finished)
         try:
-            result = write_folder(study, cases, folder, rows, figures, computed, reused, t0, where, journal.notes)
-        except OptdesignError as exc:
-            raise OptdesignError(f"{exc}; the {len(rows)} finished cases are kept in {journal.path}: run the same "
-                                 "study again with the same folder to write them") from None
+            table.advance()   # the cases finished before (a resumed study)
+            executor = _executor(workers, scheduler, len(todo))
+            computed, interrupted, lost = 0, False, None
+            with _CtrlC() as ctrl_c:
+                try:
+                    computed = _schedule(study, todo, journal, executor, progress, reused, len(cases), ctrl_c,
+                                         came_back)
+                except KeyboardInterrupt:
+                    interrupted = True
+                    computed = executor.stop(journal, abandon=ctrl_c.abandoned)
+                except ClusterLost as exc:   # the Dask scheduler is gone: keep what came back
+                    lost, computed = exc, executor.finished
+                finally:
+                    journal.sync()
+                    where = executor.describe()
+                    executor.close()
+            del todo
+            rows = table.finish()
+            try:
+                result = write_folder(study, cases, folder, rows, table, figures, computed, reused, t0, where,
+                                      journal.notes)
+            except OptdesignError as exc:
+                raise OptdesignError(f"{exc}; the {len(rows)} finished cases are kept in {journal.path}: run the "
+                                     "same study again with the same folder to write them") from None
+        finally:
+            table.close()
+            table.path.unlink(missing_ok=True)   # moved into the folder, or not to be left there
     if lost is not None:
         raise ClusterLost(
             f"{lost}: {len(rows)} of {len(cases)} cases are finished and kept in {folder / study_journal.JOURNAL}; "
@@ -76,7 +103,7 @@ def execute(study, folder: Path, workers, scheduler, progress, restart, figures)
     return result
 
 
-def write_folder(study, cases, folder, rows, figures, computed, reused, t0, where, notes) -> StudyResult:
+def write_folder(study, cases, folder, rows, table, figures, computed, reused, t0, where, notes) -> StudyResult:
     """The derived files (study.json, cases.csv, figures, summary.txt) swapped in as a whole,
     with the journal held (its lock too) and carried into the new folder as the same file by a
     hard link: a kill at any instant leaves the old whole folder or the new whole one, and the
@@ -86,7 +113,7 @@ def write_folder(study, cases, folder, rows, figures, computed, reused, t0, wher
 
     def write(tmp) -> list:
         paths = [write_file(tmp / "study.json", json.dumps(definition(study, cases), indent=1) + "\n"),
-                 study_table.write_csv(tmp, rows, study.input_columns)]
+                 study_table.write_csv(tmp, table)]
         pareto = bool(study.axes) and study.axes[-1].kind == "pareto"
         if complete and figures:
             paths += study_figures.figures(study, rows, tmp, study_table.front(study, rows) if pareto else None)
@@ -107,22 +134,16 @@ def write_folder(study, cases, folder, rows, figures, computed, reused, t0, wher
     return dataclasses.replace(made[-1], folder=folder, paths=paths)
 
 
-def merged_rows(cases, records) -> list:
-    """One dict per finished case, in case order: identification, inputs, results."""
-    rows = []
-    for c in cases:
-        rec = records.get(c.id)
-        if rec is not None:
-            rows.append({"case": c.index, "id": c.id, "chain": c.chain, "link": c.link,
-                         **dict(c.inputs), **rec["row"]})
-    return rows
+def merged_row(case, row) -> dict:
+    """A finished case's row as in cases.csv: identification, inputs, results."""
+    return {"case": case.index, "id": case.id, "chain": case.chain, "link": case.link, **dict(case.inputs), **row}
 
 
 def definition(study, cases) -> dict:
     """study.json: what the study is (not how long it took)."""
     return {"schema": "optdesign/study/1", "title": study.scene.title, "file": study.scene.path,
             "scene_digest": scene_digest(study.scene), "mode": study.mode, "cases": len(cases),
-            "chains": len({c.chain for c in cases}),
+            "chains": cases[-1].chain + 1 if cases else 0,
             "axes": [{"kind": a.kind, "columns": list(a.columns), "constraint": a.constraint, "side": a.side,
                       "points": [[v for _, v in p] for p in a.points]} for a in study.axes],
             "starts": study.starts, "seed": study.seed, "warm": study.warm, "warm_starts": study.warm_starts,
@@ -133,7 +154,7 @@ def write_summary(result, where) -> Path:
     rows = result.rows
     ok = sum(1 for r in rows if r.get("success"))
     lines = [f"{result.study.scene.title}",
-             f"{result.study.mode} study of {len(result.study.cases())} cases: {len(rows)} finished "
+             f"{result.study.mode} study of {math.prod(len(a) for a in result.study.axes)} cases: {len(rows)} finished "
              f"({ok} successful, {len(rows) - ok} failed), {'complete' if result.complete else 'INCOMPLETE: run again to resume'}",
              f"this run: {result.computed} computed, {result.reused} taken from the journal, "
              f"{result.wall_s:.2f} s wall ({where})"]
@@ -205,13 +226,14 @@ class _CtrlC:
         raise KeyboardInterrupt
 
 
-def _schedule(study, chains, journal, executor, progress, done, total, ctrl_c) -> int:
+def _schedule(study, chains, journal, executor, progress, done, total, ctrl_c, came_back) -> int:
     """Feed the executor the chains' cases while it has room (a bounded window: the cases wait
     here, not in the pool or on the cluster), journal each case as it comes back and report it
     once it is durable (group commit: one fsync for the cases that came back together, at least
     every COMMIT_S), and continue each chain from its last finished case.  An analyse study's
     cases are independent (chains of one case, nothing to warm-start): they go in batches of
-    several cases where the executor takes batches (Dask)."""
+    several cases where the executor takes batches (Dask).  ``came_back(case, output)`` after
+    each case is journalled (cases.csv's rows)."""
     blob, digest = pickle.dumps(study.scene), scene_digest(study.scene)
     grouped = study.mode == "analyse" and all(len(ch) == 1 for ch in chains)
     waiting = collections.deque(chains)   # chains not submitted yet
@@ -261,6 +283,7 @@ def _schedule(study, chains, journal, executor, progress, done, total, ctrl_c) -
         if ctrl_c.abandoned:   # computed while the second Ctrl-C was raised: maybe not a result
             raise KeyboardInterrupt
         journal.add(record(case, out), durable=False)
+        came_back(case, out)
         computed += 1
         executor.finished += 1
         if not executor.ready() or time.monotonic() - journal.synced >= COMMIT_S:
@@ -279,4 +302,4 @@ def _schedule(study, chains, journal, executor, progress, done, total, ctrl_c) -
     return computed
 
 
-__all__ = ["execute", "merged_rows"]
+__all__ = ["execute", "merged_row"]

@@ -26,6 +26,7 @@ Loss-free by construction:
 """
 from __future__ import annotations
 
+import collections.abc
 import fcntl
 import json
 import os
@@ -40,18 +41,23 @@ QUARANTINE = "journal.corrupt-{}.jsonl"
 
 class Journal:
     """The append-only record of finished cases in ``folder`` (use as a context manager).
-    ``records``: id -> record; ``notes``: what opening it found and did (damaged lines)."""
+    ``records``: id -> record, a read-only mapping that holds only where each record's line
+    lies in the file (:class:`Records`: a record is read back when asked for, so a journal of a
+    million cases opens in memory for its ids, not its rows); ``notes``: what opening it found
+    and did (damaged lines)."""
 
     def __init__(self, folder, restart: bool = False, produces=()):
         self.folder = Path(folder)
         self.path = self.folder / JOURNAL
         self.restart = restart
         self.produces = tuple(produces)   # the folder's derived files (dropped by a restart)
-        self.records: dict = {}
+        self.records = Records(self)
         self.notes: list = []
         self.quarantined: list = []        # (line number, quarantine file)
         self._fh = None
+        self._end = 0                        # the file's size, lines added included
         self._unsynced, self.synced = False, time.monotonic()
+        self._unflushed = False
 
     def __enter__(self):
         self._fh = _open_locked(self.path)
@@ -96,36 +102,39 @@ class Journal:
 
     # --- reading ---
     def _read(self):
-        """Load every record; cut a torn last line; quarantine damaged lines."""
+        """Index every record (its id and where its line lies), line by line: nothing but the
+        index stays in memory.  Cut a torn last line; quarantine damaged lines."""
         for stale in self.folder.glob(f".{JOURNAL}.*.tmp"):   # a quarantine rewrite cut short by a kill
             stale.unlink(missing_ok=True)
         fh = self._fh
         fh.seek(0)
+        spans, bad, offset, number, tail = self.records.spans, [], 0, 0, b""
         try:
-            data = fh.read()
+            for raw in fh:
+                if not raw.endswith(b"\n"):
+                    tail = raw               # the last line, without its newline
+                    break
+                number += 1
+                record, why = parse_record(raw[:-1])
+                if record is None:
+                    bad.append((number, raw[:-1], why))
+                else:
+                    spans[record["id"]] = _span(offset, len(raw))
+                offset += len(raw)
         except OSError as exc:
             raise OptdesignError(f"{self.path}: cannot read the study journal ({exc.strerror or exc})") from None
-        pieces = data.split(b"\n")
-        tail = pieces.pop()                  # b"" when the file ends with a newline
-        good, bad = [], []
-        for number, raw in enumerate(pieces, 1):
-            record, why = parse_record(raw)
-            if record is None:
-                bad.append((number, raw, why))
-            else:
-                self.records[record["id"]] = record
-                good.append(raw)
         if tail:
-            self.notes.append(f"{self.path}: the last line (line {len(pieces) + 1}, {len(tail)} bytes, no newline) "
+            self.notes.append(f"{self.path}: the last line (line {number + 1}, {len(tail)} bytes, no newline) "
                               "was cut off: a write torn by a killed process")
         if bad:
-            self._quarantine(good, bad)
+            self._quarantine(bad)
         elif tail:
-            fh.truncate(len(data) - len(tail))
+            fh.truncate(offset)
             os.fsync(fh.fileno())
         self._fh.seek(0, os.SEEK_END)
+        self._end = self._fh.tell()
 
-    def _quarantine(self, good, bad):
+    def _quarantine(self, bad):
         stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
         target, n = self.folder / QUARANTINE.format(stamp), 1
         while target.exists():
@@ -134,12 +143,21 @@ class Journal:
         text = "".join(json.dumps({"line": number, "why": why, "text": raw.decode("utf-8", "surrogateescape")})
                        + "\n" for number, raw, why in bad)
         _write_synced(target, text.encode())
-        # the journal without the bad lines: a new file, locked before it takes the journal's name
+        # the journal without the bad lines: a new file, locked before it takes the journal's name;
+        # the valid lines copied over one by one, and indexed again where they lie in it
         tmp = self.folder / f".{JOURNAL}.{os.getpid()}.tmp"
         fh = open(tmp, "w+b")
+        spans, skip, offset, kept = self.records.spans, {number for number, _, _ in bad}, 0, 0
+        spans.clear()
         try:
             fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            fh.write(b"".join(line + b"\n" for line in good))
+            self._fh.seek(0)
+            for number, raw in enumerate(self._fh, 1):
+                if number in skip or not raw.endswith(b"\n"):
+                    continue
+                fh.write(raw)
+                spans[json.loads(raw)["id"]] = _span(offset, len(raw))
+                offset, kept = offset + len(raw), kept + 1
             fh.flush()
             os.fsync(fh.fileno())
             os.replace(tmp, self.path)
@@ -155,7 +173,7 @@ class Journal:
             self.quarantined.append((number, target))
         lines = ", ".join(str(number) for number, _, _ in bad[:10]) + (", ..." if len(bad) > 10 else "")
         self.notes.append(f"{self.path}: {len(bad)} damaged line{'s' if len(bad) > 1 else ''} ({lines}: "
-                          f"{bad[0][2]}) moved to {target.name}; the {len(good)} valid records are kept")
+                          f"{bad[0][2]}) moved to {target.name}; the {kept} valid records are kept")
 
     def add(self, record: dict, durable: bool = True):
         """Append one finished case: one line, written and made durable (fsync) at once, or with
@@ -163,8 +181,9 @@ class Journal:
         once it is durable)."""
         line = json.dumps(record, separators=(",", ":")).encode() + b"\n"
         self._fh.write(line)
-        self.records[record["id"]] = record
-        self._unsynced = True
+        self.records.spans[record["id"]] = _span(self._end, len(line))
+        self._end += len(line)
+        self._unsynced = self._unflushed = True
         if durable:
             self.sync()
 
@@ -173,8 +192,41 @@ class Journal:
         if self._unsynced and self._fh is not None:
             self._fh.flush()
             os.fsync(self._fh.fileno())
-            self._unsynced = False
+            self._unsynced = self._unflushed = False
         self.synced = time.monotonic()
+
+
+    def _line(self, span: int) -> bytes:
+        """The line at ``span`` (without its newline), lines added but not yet written included."""
+        if self._unflushed:
+            self._fh.flush()
+            self._unflushed = False
+        offset, length = span >> 32, span & 0xFFFFFFFF
+        return os.pread(self._fh.fileno(), length, offset)[:-1]
+
+
+class Records(collections.abc.Mapping):
+    """A journal's records by id, read from the file when asked for (``spans``: id -> where its
+    line lies, offset and length packed in one int: about 150 bytes per record in memory)."""
+
+    def __init__(self, journal):
+        self.journal, self.spans = journal, {}
+
+    def __getitem__(self, key):
+        return json.loads(self.journal._line(self.spans[key]))
+
+    def __contains__(self, key):
+        return key in self.spans
+
+    def __iter__(self):
+        return iter(self.spans)
+
+    def __len__(self):
+        return len(self.spans)
+
+
+def _span(offset: int, length: int) -> int:
+    return offset << 32 | length
 
 
 def parse_record(raw: bytes):

@@ -132,7 +132,7 @@ class Study:
             if int(getattr(self, what)) < 1:
                 raise SceneError(f"study: {what} must be at least 1, found {getattr(self, what)!r}")
         object.__setattr__(self, "seed", whole("Study: seed", self.seed, 0))
-        study_cases("Study: cases", math.prod(len(a) for a in self.axes))
+        study_cases("Study: cases", math.prod(len(a) for a in self.axes), self.columns_estimate())
         if self.mode == "optimise":
             if sc.objective is None:
                 raise SceneError(f"{sc.path}: an optimise study needs an [objective] table (or use mode 'analyse')")
@@ -158,6 +158,17 @@ class Study:
             if axis.kind != "pareto":
                 for point in axis.points:   # unknown names and bad values fail here, early
                     case_scene(sc, self.mode, dict(point))
+
+    def columns_estimate(self) -> int:
+        """About how many columns a case's row has (for the memory check): identification and
+        inputs, then per mode its results (an analysis: 3 per peak of 4 quantities, 2 RMS, 2 per
+        constraint, ~16 for load cases; an optimisation: ~10, the design, 3 per constraint, a
+        sensitivity per parameter)."""
+        sc = self.scene
+        n = 4 + len(self.input_columns) + 2
+        if self.mode == "analyse":
+            return n + 12 + 2 + 2 * len(sc.constraints) + (16 if sc.cases else 0)
+        return n + 10 + sum(p.is_design for p in sc.parameters) + 3 * len(sc.constraints) + len(sc.parameters)
 
     # --- cases ---
     @property
@@ -209,7 +220,9 @@ class Study:
                     digest or scene_digest(self.scene), self.mode, case.overrides, case.bounds,
                     int(self.starts), int(self.seed), int(self.warm_starts),
                     tuple(dataclasses.asdict(self.settings).items()),
-                    None if x_warm is None else tuple(x_warm))
+                    None if x_warm is None else tuple(x_warm),
+                    # one parameter axis: each case's overrides are an axis point, validated in _validate
+                    sum(a.kind != "pareto" for a in self.axes) <= 1)
 
     def default_folder(self) -> Path:
         """``optdesign-results/<scene>_study-<axes>-<digest>`` under the current directory: named

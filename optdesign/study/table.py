@@ -4,11 +4,13 @@ from __future__ import annotations
 import csv
 import io
 import math
+import os
 from pathlib import Path
 
 from ..report.files import write_file
 
 CSV = "cases.csv"
+PARTIAL = f".{CSV}.partial.tmp"   # cases.csv while the study runs (a produced file's temporary name)
 LEADING = ("status", "success", "objective", "objective_sampled", "peak_certified", "starts_total",
            "starts_at_best", "warm", "iterations")
 GROUPS = ("design:", "constraint:", "multiplier:", "sensitivity:", "peak:", "peak_at:", "peak_sampled:", "rms:")
@@ -39,21 +41,102 @@ def cell(value) -> str:
     return str(value)
 
 
-def csv_text(rows, input_names) -> str:
-    """The study's CSV from its merged rows (case identification, inputs, results)."""
-    cols = columns(input_names, rows)
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(cols)
-    for r in rows:
-        w.writerow([cell(r.get(k)) for k in cols])
-    return buf.getvalue()
+class CsvWriter:
+    """cases.csv written while the study runs, into ``PARTIAL`` in the study's folder: a case's row
+    is appended once every case before it has finished (case order, whatever order they finish
+    in), so that the file is the same, byte for byte, however the cases were run, and it is not
+    rebuilt at the end.  ``finished(case)`` gives a finished case's merged row, else None; the
+    rows written are kept in ``rows`` (the study's result), each taken from the journal once.
+    The columns are those of the rows written so far (:func:`columns`); a row bringing a new
+    column (the first successful case after failed ones) has the file rewritten once with it, so
+    the end result is the table of every finished row whatever came first.  A write that fails
+    (a full disk) stops the writing; :func:`write_csv` raises it at the end, when the results are
+    written (the journal keeps every case)."""
+
+    def __init__(self, folder, input_names, cases, finished):
+        self.path = Path(folder) / PARTIAL
+        self.inputs, self.cases, self.finished = list(input_names), cases, finished
+        self.seen, self.cols, self.next, self.rows, self.error = {}, None, 0, [], None
+        self.fh = self.writer = None
+        self._write(lambda: self._open("w"))
+
+    def advance(self):
+        """Append the rows from the first case not written up to the first unfinished one."""
+        while self.next < len(self.cases):
+            row = self.finished(self.cases[self.next])
+            if row is None:
+                return
+            self._add(row)
+            self.next += 1
+
+    def finish(self) -> list:
+        """Append the finished cases after the first unfinished one too, and close the file;
+        returns the rows (once finished, it stays so)."""
+        if self.fh is not None and self.fh.closed:
+            return self.rows
+        for i in range(self.next, len(self.cases)):
+            row = self.finished(self.cases[i])
+            if row is not None:
+                self._add(row)
+        self.next = len(self.cases)
+        if self.cols is None:
+            self._write(lambda: self.writer.writerow(columns(self.inputs, [])))
+        self.close()
+        return self.rows
+
+    def close(self):
+        if self.fh is not None and not self.fh.closed:
+            self._write(self.fh.close)
+
+    def _open(self, mode):
+        self.fh = open(self.path, mode, newline="")
+        self.writer = csv.writer(self.fh, lineterminator="\n")
+
+    def _add(self, row):
+        self.rows.append(row)
+        new = [k for k in row if k not in self.seen]
+        if new or self.cols is None:
+            self.seen.update(dict.fromkeys(new))
+            cols = columns(self.inputs, [self.seen])
+            if cols != self.cols:
+                self._write(lambda: self._rewrite(cols))
+        self._write(lambda: self.writer.writerow([cell(row.get(k)) for k in self.cols]))
+
+    def _write(self, action):
+        if self.error is None:
+            try:
+                action()
+            except OSError as exc:
+                self.error = exc
+
+    def _rewrite(self, cols):
+        """The file again with columns ``cols``: the cells written keep their text, the new
+        columns are empty in the rows before (a missing value's cell)."""
+        old, self.cols = self.cols, cols
+        self.fh.close()
+        if old is None:
+            self._open("w")
+            self.writer.writerow(cols)
+            return
+        tmp = self.path.with_name(f".{CSV}.rewrite.tmp")   # a produced file's temporary: a kill's is dropped
+        with open(self.path, newline="") as src, open(tmp, "w", newline="") as dst:
+            reader, writer = csv.reader(src), csv.writer(dst, lineterminator="\n")
+            next(reader)
+            writer.writerow(cols)
+            where = [old.index(k) if k in old else None for k in cols]
+            for r in reader:
+                writer.writerow(["" if j is None else r[j] for j in where])
+        os.replace(tmp, self.path)
+        self._open("a")
 
 
-def write_csv(folder, rows, input_names) -> Path:
-    """Write cases.csv atomically."""
+def write_csv(folder, writer: CsvWriter) -> Path:
+    """cases.csv in ``folder``: the study's :class:`CsvWriter` finished and its file moved there."""
+    writer.finish()
+    if writer.error is not None:
+        raise writer.error
     path = Path(folder) / CSV
-    write_file(path, csv_text(rows, input_names))
+    os.replace(writer.path, path)
     return path
 
 
