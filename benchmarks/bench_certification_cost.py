@@ -1,7 +1,7 @@
 """What the interval-enclosure certificate (issue 27: kinematics/enclosure.py, peaks.certify)
 costs, against the code before it.
 
-    python benchmarks/bench_certification_cost.py [--baseline REV] [--label TEXT] [--repeats N] [--starts N]
+    python benchmarks/bench_certification_cost.py [--baseline REV] [--label TEXT] [--repeats N] [--starts N] [--runs N]
 
 writes results/certification_cost.md.  The baseline is the code at REV (default a267455, the
 last commit before the enclosure; ``--label`` says what it is), exported with ``git archive`` into a temporary folder; every
@@ -69,6 +69,7 @@ def main(argv=None):
     ap.add_argument("--label", default="the last commit before the enclosure", help="what the baseline is")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--starts", type=int, default=4)
+    ap.add_argument("--runs", type=int, default=15, help="Analysis.run() calls timed per tree and scene (median)")
     args = ap.parse_args(argv)
     load_before = os.getloadavg()
     with tempfile.TemporaryDirectory() as tmp:
@@ -88,7 +89,7 @@ def main(argv=None):
                     t[k].append(timed(cmd, tree))
             med = {k: statistics.median(v) for k, v in t.items()}
             rows_a.append((scene, med["before"], med["after"]))
-            ins = {k: inside(tree, scene, max(args.repeats, 3)) for k, tree in trees.items()}
+            ins = {k: inside(tree, scene, args.runs) for k, tree in trees.items()}
             rows_i.append((scene, ins))
         for scene in OPTIMISE:
             t = {k: [] for k in trees}
@@ -104,7 +105,8 @@ def main(argv=None):
     load_after = os.getloadavg()
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
     lines = ["# The cost of the enclosure certificate (issue 27)", "",
-             f"`python benchmarks/bench_certification_cost.py --repeats {args.repeats} --starts {args.starts}` at "
+             f"`python benchmarks/bench_certification_cost.py --repeats {args.repeats} --starts {args.starts} "
+             f"--runs {args.runs}` at "
              f"{commit} (after) against {args.baseline} (before: {args.label}), "
              f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC, on a shared 2-core machine (other jobs running, load "
              f"average {load_before[0]:.1f} at the start and {load_after[0]:.1f} at the end: the ratios, measured "
@@ -112,7 +114,8 @@ def main(argv=None):
              "## `optdesign analyse SCENE` (whole command)", "",
              "| scene | before [s] | after [s] | after / before |", "|---|---|---|---|"]
     lines += [f"| {s} | {b:.2f} | {a:.2f} | {a / b:.2f} |" for s, b, a in rows_a]
-    lines += ["", "## `Analysis.run()` inside one process (after a warm-up run; CPU time of the process)", "",
+    lines += ["", f"## `Analysis.run()` inside one process (after a warm-up run; CPU time of the process, median of "
+              f"{args.runs} runs)", "",
               "| scene | before: certify=False [s] | before: certified [s] | after: certify=False [s] | "
               "after: certified [s] | certified after / before | certified / certify=False, before -> after | "
               "peak |drive| before -> after |",
