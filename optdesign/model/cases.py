@@ -140,6 +140,7 @@ class CaseResult:
     # their samples' largest values and the enclosures' certificates {bound, note}
     peaks_sampled: dict = field(default_factory=dict)
     certificates: dict = field(default_factory=dict)
+    rests: tuple = ()   # a segments profile's dwells: (time from, time to, sweep value) each
 
 
 class CaseAnalysis:
@@ -206,7 +207,7 @@ class CaseAnalysis:
             results[cm.name] = CaseResult(cm.name, cm.case.direction, profile, cm.case.efficiency,
                                           {k: cm.values[k] for k in cm.case.overrides}, columns, peaks, peak_at,
                                           integrals.get("duration", times.duration), integrals, on_sample, constraints,
-                                          sampled_pins, certificates)
+                                          sampled_pins, certificates, _rests(cm.profile))
             evaluated[cm.name] = {"hold": ends, "on_sample": on_sample,   # the quantities at a hold too
                                   "quantities": {q: {k: columns[q][i] for k, i in at.items()} for q in self.quantities}}
         duty = self.duty.evaluate(results, evaluated, p_values, self.mech)
@@ -251,6 +252,12 @@ class CaseAnalysis:
                              for k in ("energy", "rms_time") if k in exact["not_converged"] or (
                                  k == "rms_time" and {"drive_squared", "time"} & set(exact["not_converged"]))}
         return out
+
+
+def _rests(profile) -> tuple:
+    """The dwells of a segments profile in time: (t from, t to, sweep value) each."""
+    law = profile.shape.motion_law if profile is not None else None
+    return tuple((law.time * a, law.time * b, stop) for a, b, stop in getattr(law, "rests", ()))
 
 
 def _law_end_limits(profile, nodes, values, function, names):
