@@ -43,6 +43,7 @@ from .result import SimulationResult, event_record
 QUADRATURES = ("motor_squared", "motor_work", "drive_work")
 OVERRUN = 1e-2  # a phase may run this share of the stroke past its ends (where the mechanism assembles)
 CONNECT = 1e-3   # a profile connects where the state is within this share of the stroke of its start
+TIGHTEST = 1e-12  # a controller's phase is integrated at no tighter a tolerance (:meth:`PhasedSimulator._controller_tolerance`)
 HOLD_REST = 1e-3  # a hold connects where the kinetic energy left is within this share of the cycle's peak so far
 
 
@@ -204,6 +205,8 @@ class PhasedSimulator:
         check_inertia(eq, self.scene, self.stroke_grid, p)
         x_full = np.r_[x, 0.0, np.zeros(len(QUADRATURES))]
         self._check_law(eq, ph, x_full, p, t0)
+        if ph.kind == "controller":
+            tol = self._controller_tolerance(ph, tol, scale, p)
         run = Integration(eq, p, x_full, self.ends, scale, method, tol, None)
         own = math.inf
         if ph.until == "time":
@@ -286,7 +289,7 @@ class PhasedSimulator:
         integrals = {name: float(last[n_base + 1 + i]) for i, name in enumerate(QUADRATURES)}
         integrals["motor_squared"] += held_squared
         record = {"name": ph.name, "kind": ph.kind, "until": ph.until, "case": ph.case, "t_start": t0,
-                  "t_end": t0 + float(T[-1]), "integrals": integrals}
+                  "t_end": t0 + float(T[-1]), "integrals": integrals, "tolerance": run.tol}
         evs = []
         for offset, e in events:
             if e.kind == "phase end":
@@ -296,6 +299,21 @@ class PhasedSimulator:
             rec["phase"] = ph.name
             evs.append(rec)
         return piece, record, evs, run.statistics()
+
+    def _controller_tolerance(self, ph, tol, scale, p):
+        """The tolerance a controller's phase is integrated at.  Its torque K (i k (sd* + K_p
+        (s* - s)) - i k sd) magnifies the states' error: ``tol`` on the states (relative to their
+        scales) would be tol K i k (scale_sd + K_p scale_s) on the torque, 4.4 times the press's
+        peak torque at tol 1e-4 (its forming stroke then saturated, its return stroke's int T_m^2
+        dt came out negative).  So the phase runs at the tolerance that keeps the torque's error
+        within tol of the motor's peak torque, and at no less than ``TIGHTEST``."""
+        values, where = self.resolved.values, ph.where(ph.kind)
+        gain = float(evaluate(ph.setting["gain"], values, {}, f"{where}.gain"))
+        kp = ph.setting.get("position_gain")
+        kp = float(evaluate(kp, values, {}, f"{where}.position_gain")) if kp is not None else 0.0
+        k = float(np.max(np.abs(np.asarray(self._hold.map(len(self.stroke_grid))(self.stroke_grid[None, :], p)[1]))))
+        torque = gain * self.ratio * k * (scale[1] + kp * scale[0])
+        return min(tol, max(tol * self.motor["peak_torque"] / torque, TIGHTEST)) if torque > 0 else tol
 
     def _released(self, run, x, n_base, t_local, duration, dt, eq, p):
         """Where a mechanism held at rest at x (local time t_local) moves again under a law of

@@ -14,6 +14,7 @@ from ..scene.expressions import evaluate
 from .certified import PEAKS, CertifiedExtremes
 from .mapped import MappedFunction
 from .joint_structure import JointStructureError
+from .joints import PEAKED
 from .quantities import environment, joint_calls, joint_forces, model_value
 from ..scene.cases import is_case_constraint
 from .cases import CaseAnalysis
@@ -113,7 +114,7 @@ class Analysis:
         except JointStructureError as exc:
             self.joints_note = str(exc)
         outs.update(self.joints)
-        self.peak_names = [k for k in PEAKS if k in outs] + [k for k in self.joints if k.startswith("pin_force(")]
+        self.peak_names = [k for k in PEAKS if k in outs] + [k for k in self.joints if k.startswith(PEAKED)]
         for name, expr in self.mech.quantities.items():
             outs[f"quantity:{name}"] = expr + 0 * self.mech.s
         self.names = list(outs)

@@ -22,6 +22,7 @@ from ..scene.expressions import evaluate
 from .certified import CertifiedPeaks
 from .duty import PEAK_KEYS, CaseTimes, DutyCycle, case_integrals, motor_report
 from .finite import check_cases
+from .joints import PEAKED
 from .mapped import MappedFunction
 from .profiles import check_law, constant_motion, case_profile
 from .reduction import ReducedModel
@@ -163,7 +164,7 @@ class CaseAnalysis:
             pins = {}
             if joints:
                 outs.update(_joint_outputs(cm, mech))
-                pins = {k: v for k, v in outs.items() if k.startswith("pin_force(")}
+                pins = {k: v for k, v in outs.items() if k.startswith(PEAKED)}
             self.pin_peaks.append(CertifiedPeaks(mech, pins) if pins and certify else None)
             outs["q"], outs["k"] = mech.q, mech.ds(mech.q)
             outs["hold_load"] = cm.static_load() + 0 * mech.s
@@ -188,7 +189,7 @@ class CaseAnalysis:
             columns = {"s": nodes}
             columns.update({k: v for k, v in values.items()})
             peaks, peak_at = {}, {}
-            for key in PEAK_KEYS + tuple(k for k in columns if k.startswith("pin_force(")):
+            for key in PEAK_KEYS + tuple(k for k in columns if k.startswith(PEAKED)):
                 if key in columns:
                     i = int(np.argmax(np.abs(columns[key])))
                     peaks[key] = float(abs(columns[key][i]))
@@ -353,7 +354,7 @@ def add_motor_torque(results, duty, motor):
 def governing_cases(results: dict) -> dict:
     """For each peak, the case with the largest one: {case, value, s} (brute force over cases)."""
     out = {}
-    pins = dict.fromkeys(k for r in results.values() for k in r.peaks if k.startswith("pin_force("))
+    pins = dict.fromkeys(k for r in results.values() for k in r.peaks if k.startswith(PEAKED))
     for key in PEAK_KEYS + tuple(pins):
         have = [(r.peaks[key], name) for name, r in results.items() if key in r.peaks]
         if have:
