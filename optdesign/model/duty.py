@@ -98,7 +98,7 @@ def time_weights(nodes, t, profile=None) -> np.ndarray:
     dt = np.abs(np.diff(t))
     w = np.zeros(len(nodes))
     if profile is not None and profile.shape.motion_law is not None:
-        return law_weights(nodes, t, profile)
+        return law_weights(nodes, profile)
     if profile is None:
         np.add.at(w, np.arange(len(dt)), dt / 2)
         np.add.at(w, np.arange(1, len(dt) + 1), dt / 2)
@@ -142,7 +142,7 @@ def work_weights(nodes, t, profile, speed) -> np.ndarray:
     P is smooth in time but not in s, the quadratic rule in time on P (the weight times V)."""
     nodes = np.asarray(nodes, float)
     if profile.shape.motion_law is not None:
-        return law_weights(nodes, t, profile) * np.asarray(speed, float)
+        return law_weights(nodes, profile) * np.asarray(speed, float)
     ds = np.abs(np.diff(nodes))
     mid = 0.5 * (nodes[:-1] + nodes[1:])
     taken = np.zeros(len(ds), bool)
@@ -159,7 +159,7 @@ def work_weights(nodes, t, profile, speed) -> np.ndarray:
     return w
 
 
-def law_weights(nodes, t, profile) -> np.ndarray:
+def law_weights(nodes, profile) -> np.ndarray:
     """A law in time: Boole's rule in time on its nodes evenly spaced in time
     (:meth:`~.profiles.MotionProfile.law_nodes`, within each piece, where the integrand is
     smooth in time), as Richardson's (16 S_h - S_2h)/15 of Simpson's rule on them and on every
