@@ -584,3 +584,17 @@ def test_joint_forces_in_quantities():
                                 starts=1)
     at = optdesign.analyse(scene.with_parameters(**result.design), joints=True)
     assert result.objective == pytest.approx(at.peaks["pin_force(A)"] / 1000, rel=1e-9)
+
+
+def test_analyse_plots_the_joint_forces(tmp_path):
+    """analyse's figures (--plot DIR) with the joint forces hold joints.png (each pin force and
+    slider normal force over the sweep, peaks marked)."""
+    from PIL import Image
+
+    from figure_checks import _ink
+    from optdesign.report.analysis import analysis_figures
+
+    scene = optdesign.load(ROOT / "problems" / "seed1_slider_crank.toml")
+    written = analysis_figures(optdesign.analyse(scene, samples=41, joints=True, certify=False), tmp_path)
+    assert tmp_path / "joints.png" in [type(tmp_path)(p) for p in written]
+    _ink(np.asarray(Image.open(tmp_path / "joints.png").convert("RGB"), int), "joints.png", 0.02, 8)
