@@ -555,3 +555,46 @@ def test_pin_force_peaks_per_case_are_certified():
             assert dense[p] <= peak * (1 + 1e-12) and peak <= dense[p] * (1 + 1e-8), (name, p, peak, dense[p])
             assert peak <= bound <= peak * (1 + 1e-8)
         assert case.peaks_sampled["pin_force(D)"] < dense["D"] * (1 - 1e-7)   # the samples alone miss it (8.6e-7)
+
+
+QUANTITY = (ROOT / "problems" / "seed1_jib.toml").read_text().replace("[drive]", """[quantities]
+bearing = { expr = "pin_force(A) / 1000", unit = "kN" }
+twice = "2*bearing"
+
+[drive]""", 1).replace("[objective]", """[[constraints]]
+name = "bearing limit"
+expr = "twice"
+max = 100
+
+[objective]""")
+
+
+def test_joint_forces_in_quantities():
+    """A [quantities] entry of the joint forces (it failed: "unknown name 'pin_force(A)'"): its
+    column in analyse, a constraint through a later quantity, and the objective peak(bearing),
+    each the jib's pivot force by Newton-Euler (in kN); the optimum of peak(bearing) is the
+    certified peak of the pivot force at its design."""
+    scene = optdesign.loads(QUANTITY)
+    an = optdesign.analyse(scene, samples=41, joints=True)
+    pivot, _, _ = jib_newton_euler(scene, 41, spring=False)
+    force = np.hypot(*pivot) / 1000
+    assert np.max(np.abs(an.quantities["bearing"] - force)) <= 1e-10 * np.max(force)
+    assert np.max(np.abs(an.constraints["bearing limit"] - 2 * force)) <= 1e-10 * np.max(force)
+    result = optdesign.optimise(optdesign.loads(QUANTITY.replace('minimise = "peak(drive)"', 'minimise = "peak(bearing)"')),
+                                starts=1)
+    at = optdesign.analyse(scene.with_parameters(**result.design), joints=True)
+    assert result.objective == pytest.approx(at.peaks["pin_force(A)"] / 1000, rel=1e-9)
+
+
+def test_analyse_plots_the_joint_forces(tmp_path):
+    """analyse's figures (--plot DIR) with the joint forces hold joints.png (each pin force and
+    slider normal force over the sweep, peaks marked)."""
+    from PIL import Image
+
+    from figure_checks import _ink
+    from optdesign.report.analysis import analysis_figures
+
+    scene = optdesign.load(ROOT / "problems" / "seed1_slider_crank.toml")
+    written = analysis_figures(optdesign.analyse(scene, samples=41, joints=True, certify=False), tmp_path)
+    assert tmp_path / "joints.png" in [type(tmp_path)(p) for p in written]
+    _ink(np.asarray(Image.open(tmp_path / "joints.png").convert("RGB"), int), "joints.png", 0.02, 8)

@@ -115,8 +115,10 @@ class Analysis:
             self.joints_note = str(exc)
         outs.update(self.joints)
         self.peak_names = [k for k in PEAKS if k in outs] + [k for k in self.joints if k.startswith(PEAKED)]
-        for name, expr in self.mech.quantities.items():
-            outs[f"quantity:{name}"] = expr + 0 * self.mech.s
+        for q in scene.quantities:   # those of the joint forces from the model (model/quantities.py)
+            expr = self.mech.quantities.get(q.name)
+            expr = model_value(self.model, q.expr, f"[quantities] {q.name}") if expr is None else expr
+            outs[f"quantity:{q.name}"] = expr + 0 * self.mech.s
         self.names = list(outs)
         self.function = self.mech.function("reduced_model", outs)
         self.mapped = self.function.map(len(self.s_values))

@@ -141,6 +141,7 @@ class CaseResult:
     # their samples' largest values and the enclosures' certificates {bound, note}
     peaks_sampled: dict = field(default_factory=dict)
     certificates: dict = field(default_factory=dict)
+    rests: tuple = ()   # a segments profile's dwells: (time from, time to, sweep value) each
 
 
 class CaseAnalysis:
@@ -167,6 +168,8 @@ class CaseAnalysis:
             self.pin_peaks.append(CertifiedPeaks(mech, pins) if pins and certify else None)
             outs["q"], outs["k"] = mech.q, mech.ds(mech.q)
             outs["hold_load"] = cm.static_load() + 0 * mech.s
+            self.quantities = tuple(k for k in mech.quantities if k not in outs)   # [quantities], as columns
+            outs.update({k: mech.quantities[k] + 0 * mech.s for k in self.quantities})
             self.functions.append((list(outs), MappedFunction(mech.function(f"case_{len(self.functions)}", outs))))
         self.duty = DutyCycle(mech.scene, self.cases)
 
@@ -180,8 +183,9 @@ class CaseAnalysis:
             values, times = self._evaluate(cm, names, function, nodes, p_case)
             hold = values.pop("hold_load")
             constraints = {k.split(":", 1)[1]: values.pop(k) for k in list(values) if k.startswith("constraint:")}
-            ends = {"start": hold[np.argmin(np.abs(nodes - cm.begins_at(np.sign(values["k"][0]))))],
-                    "end": hold[np.argmax(np.abs(nodes - cm.begins_at(np.sign(values["k"][0]))))]}
+            distance = np.abs(nodes - cm.begins_at(np.sign(values["k"][0])))
+            at = {"start": int(np.argmin(distance)), "end": int(np.argmax(distance))}
+            ends = {k: hold[i] for k, i in at.items()}
             columns = {"s": nodes}
             columns.update({k: v for k, v in values.items()})
             peaks, peak_at = {}, {}
@@ -196,7 +200,7 @@ class CaseAnalysis:
                     sampled_pins[key], peaks[key], peak_at[key] = peaks[key], value, at
                     certificates[f"peak |{key}|"] = certificate
             sigma = cm.profile.sigma if cm.profile is not None else 1.0
-            integrals = case_integrals(times, columns, sigma)
+            integrals = case_integrals(times, columns, sigma, self.quantities)
             if integrals:
                 integrals = self._certified(cm, names, function, p_case, nodes, sigma, integrals)
             profile = None if cm.case.profile is None else (cm.case.profile if isinstance(cm.case.profile, str)
@@ -204,8 +208,9 @@ class CaseAnalysis:
             results[cm.name] = CaseResult(cm.name, cm.case.direction, profile, cm.case.efficiency,
                                           {k: cm.values[k] for k in cm.case.overrides}, columns, peaks, peak_at,
                                           integrals.get("duration", times.duration), integrals, on_sample, constraints,
-                                          sampled_pins, certificates)
-            evaluated[cm.name] = {"hold": ends, "on_sample": on_sample}
+                                          sampled_pins, certificates, _rests(cm.profile))
+            evaluated[cm.name] = {"hold": ends, "on_sample": on_sample,   # the quantities at a hold too
+                                  "quantities": {q: {k: columns[q][i] for k, i in at.items()} for q in self.quantities}}
         duty = self.duty.evaluate(results, evaluated, p_values, self.mech)
         env = self.mech.resolved.environment(np.asarray(p_values, float))
         values = {k: float(v) for k, v in env.items()}
@@ -239,7 +244,7 @@ class CaseAnalysis:
         """The case's integrals over time to :data:`.time_integrals.TOLERANCE` (adaptive
         quadrature), with ``errors``, ``sampled`` (the rule on the samples, as the NLP has them)
         and ``unresolved`` (those the quadrature could not bring within its tolerance)."""
-        exact = certified_integrals(cm, columns_at(function, names, p_case), nodes, sigma)
+        exact = certified_integrals(cm, columns_at(function, names, p_case), nodes, sigma, quantities=self.quantities)
         out = {k: exact[k] for k in sampled}
         out["duration"] = exact["duration"]   # a law's by the quadrature (tanh-sinh's was 1e-7 off at a square root)
         out.update(errors=exact["errors"], sampled=dict(sampled), intervals=exact["intervals"])
@@ -248,6 +253,12 @@ class CaseAnalysis:
                              for k in ("energy", "rms_time") if k in exact["not_converged"] or (
                                  k == "rms_time" and {"drive_squared", "time"} & set(exact["not_converged"]))}
         return out
+
+
+def _rests(profile) -> tuple:
+    """The dwells of a segments profile in time: (t from, t to, sweep value) each."""
+    law = profile.shape.motion_law if profile is not None else None
+    return tuple((law.time * a, law.time * b, stop) for a, b, stop in getattr(law, "rests", ()))
 
 
 def _law_end_limits(profile, nodes, values, function, names):
