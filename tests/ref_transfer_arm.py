@@ -347,6 +347,52 @@ def polish(x0, motor, tau_n=31, rounds=6):
     return z[:4], peak_torque(z[:4], J)[0]
 
 
+def track(x0, motor, rounds=40):
+    """The polish's second stage, from ``x0``: SLSQP steps on (r, c, xQ, i, t) inside a trust
+    box (a fraction of the design box around the current design, halved when a step does not
+    lower the continuous peak) with t >= each tracked local maximum of |T_m| in time (every one
+    within 5 % of the peak, each the maximum over a window of +-2 % of its phase around where it
+    was found, refined by a bounded scalar search: smooth in the design by the envelope
+    theorem), the swing equality, the transmission angle and the speed; until the trust box is
+    below 1e-9 of the design box."""
+    J, _, _, speed = MOTORS[motor]
+    starts = phase_starts()
+    span = np.array([hi - lo for lo, hi in BOX.values()])
+    x, value, delta = np.asarray(x0, float), peak_torque(x0, J)[0], 1e-2
+    for _ in range(rounds):
+        _, _, _, near = peak_torque(x, J, within=0.05)
+        tracked = [(dict(CASES)[case], j, tau) for _, case, j, tau in near]
+
+        def peaks(z, tracked=tracked):
+            out = []
+            for m, j, tau in tracked:
+                p = starts[j]
+                w = 0.02 * p[4]
+                lo, hi = max(tau - w, 0.0), min(tau + w, p[4])
+                f = lambda t: -abs(float(_tm(z, p, np.array([t]), m, J)[0]))
+                res = minimize_scalar(f, bounds=(lo, hi), method="bounded", options={"xatol": 1e-14})
+                out.append(max(-res.fun, -f(lo), -f(hi)))
+            return np.array(out)
+
+        cons = [{"type": "eq", "fun": lambda z: np.array([swing(*z[:3]) - SWING])},
+                {"type": "ineq", "fun": lambda z: z[4] - peaks(z)},
+                {"type": "ineq", "fun": lambda z: np.array([transmission(*z[:3])[0] - MU[0],
+                                                             MU[1] - transmission(*z[:3])[1],
+                                                             (speed - z[3] * V) / speed])}]
+        box = [(max(lo, xi - delta * s_), min(hi, xi + delta * s_)) for (lo, hi), xi, s_ in zip(BOX.values(), x, span)]
+        res = minimize(lambda z: z[4], np.append(x, value), method="SLSQP", constraints=cons,
+                       bounds=box + [(0, None)], options={"ftol": 1e-15, "maxiter": 200})
+        trial = peak_torque(res.x[:4], J)[0]
+        if abs(swing(*res.x[:3]) - SWING) <= 1e-12 and trial < value:
+            x, value = res.x[:4], trial
+            delta = min(2 * delta, 1e-2) if np.max(np.abs(res.x[:4] - x) / span) >= 0.9 * delta else delta
+        else:
+            delta /= 4
+        if delta < 1e-9:
+            break
+    return x, value
+
+
 def global_optimum(motor, n=(61, 31), polished=3):
     """The best of SLSQP polishes from the best grid designs (swing, transmission angle and
     speed met) lying apart (1/20 of the box): {"design", "peak", "grid_best", "violation" (the
@@ -364,7 +410,7 @@ def global_optimum(motor, n=(61, 31), polished=3):
             picks.append(k)
     best = None
     for k in picks:
-        z, value = polish(X[k], motor)
+        z, value = track(polish(X[k], motor)[0], motor)
         v = violation(z, motor)
         kept = min(v["mu min"], v["mu max"], v["speed"], -abs(swing(*z[:3]) - SWING))
         if kept >= -1e-9 and (best is None or value < best[1]):
