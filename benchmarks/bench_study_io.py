@@ -10,12 +10,12 @@ each case's id, as a finished study leaves it.  Each measurement runs in a fresh
 importing either this worktree's optdesign or the base commit's (``git archive REF``):
 
 * *journal open*: ``Journal(folder)`` entered (what a resumed study does first): wall time and
-  the growth of the process's peak resident memory (``ru_maxrss`` after minus the resident
-  memory before);
+  the growth of the process's peak resident memory (``VmHWM`` after, reset by
+  ``/proc/self/clear_refs`` once the imports are done, minus the resident memory then);
 * *cases()*: ``Study.cases()``: wall time;
 * *resume*: ``study.run(out=folder, workers=1, figures=False)`` with every case finished (the
   journal read, the rows merged, cases.csv and the other files written): wall time and peak
-  resident memory growth over the process's memory after the imports; its per-case growth is
+  resident memory growth, as above; its per-case growth is
   what the study's memory check budgets (``CASE_BYTES``: optdesign/scene/arguments.py).
 
 Both versions' cases.csv are compared byte for byte.  Writes its section of results/scaling.md
@@ -39,18 +39,20 @@ SCENE = ROOT / "problems" / "truck_crane.toml"
 MASSES = 10
 
 CHILD = """
-import json, resource, sys, time
+import json, sys, time
 what, n, folder, scene_path = sys.argv[1], int(sys.argv[2]), sys.argv[3], sys.argv[4]
 import optdesign
 from optdesign.study import Study, grid
 from optdesign.study.journal import Journal
 study = Study(optdesign.load(scene_path), [grid("mB", 500, 800, %d), grid("mP", 500, 3000, n // %d)], mode="analyse")
 
-def rss_kB():
+def status_kB(key):
     with open("/proc/self/status") as fh:
-        return next(int(l.split()[1]) for l in fh if l.startswith("VmRSS:"))
+        return next(int(l.split()[1]) for l in fh if l.startswith(key + ":"))
 
-base = rss_kB()
+with open("/proc/self/clear_refs", "w") as fh:   # the peak (VmHWM) from now on, not the imports'
+    fh.write("5")
+base = status_kB("VmRSS")
 t0 = time.perf_counter()
 if what == "journal":
     with Journal(folder) as j:
@@ -62,7 +64,7 @@ else:
     assert r.complete and r.reused == n and r.computed == 0, r
     count = len(r.rows)
 wall = time.perf_counter() - t0
-print(json.dumps({"wall": wall, "grow_kB": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - base, "count": count}))
+print(json.dumps({"wall": wall, "grow_kB": status_kB("VmHWM") - base, "count": count}))
 """ % (MASSES, MASSES)
 
 

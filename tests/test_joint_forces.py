@@ -314,13 +314,9 @@ free_length = 0.1
 [drive]""")
 
 
-def test_slider_crank_against_newton_euler():
-    """Massless crank S-A and rod A-C (a two-force member, tension f), the piston at C on its
-    vertical guide (normal force N along the line's left normal, -x; moment M), its mass, the gas
-    force and a spring from H to C: the piston's balance gives f and N, the crank's the torque."""
-    scene = optdesign.loads(SLIDER_CRANK)
-    n = 181
-    out, s = tool(scene, n)
+def slider_crank_newton_euler(scene, n):
+    """The slider-crank with its spring at n samples: the rod's tension f, the guide's normal
+    force N, the crank torque T, and (u = unit C->A, the spring's force on C, A, C, S)."""
     kin = kinematics(scene, n)
     S, _, _ = _v(kin.points["S"])
     A, _, _ = _v(kin.points["A"])
@@ -335,6 +331,17 @@ def test_slider_crank_against_newton_euler():
     f = (rest[0] * normal[1] - rest[1] * normal[0]) / det
     N = (u[0] * rest[1] - u[1] * rest[0]) / det
     T = -_cross(A - S, f * _unit(A, C))   # the massless crank: T + (A - S) x (f u_AC) = 0
+    return f, N, T, (u, spring, A, C)
+
+
+def test_slider_crank_against_newton_euler():
+    """Massless crank S-A and rod A-C (a two-force member, tension f), the piston at C on its
+    vertical guide (normal force N along the line's left normal, -x; moment M), its mass, the gas
+    force and a spring from H to C: the piston's balance gives f and N, the crank's the torque."""
+    scene = optdesign.loads(SLIDER_CRANK)
+    n = 181
+    out, s = tool(scene, n)
+    f, N, T, (u, spring, A, C) = slider_crank_newton_euler(scene, n)
     scale = np.max(np.abs(f))
     _agree(out["drive"].ravel(), T, np.max(np.abs(T)))
     _agree(out["slider C"][0], N, scale)
@@ -343,6 +350,24 @@ def test_slider_crank_against_newton_euler():
     _agree(out["pin S"], f * _unit(A, C), scale)   # on the ground
     # the pin C: on the piston, from the rod and the spring's node load
     _agree(out["pin C"], f * u + spring, scale)
+
+
+def test_slider_normal_force_peak_is_certified():
+    """The guide's normal force's peak over the continuous stroke (analyse --joints at 31
+    samples) is not below Newton-Euler's largest on 20,001 samples and is the vertex of the
+    parabola through it and its neighbours (to 1e-9), below its enclosure's bound; the samples'
+    own largest is below the dense one (old code certified none)."""
+    scene = optdesign.loads(SLIDER_CRANK)
+    an = optdesign.analyse(scene, samples=31, joints=True)
+    _, N, _, _ = slider_crank_newton_euler(scene, 20001)
+    a = np.abs(N)
+    i = int(np.argmax(a))
+    dense = a[i]
+    top = a[i] + (a[i + 1] - a[i - 1])**2 / (8 * (2 * a[i] - a[i - 1] - a[i + 1]))   # the parabola's vertex: O(h^3)
+    peak, bound = an.peaks["slider_normal(C)"], an.certificates["peak |slider_normal(C)|"]["bound"]
+    assert dense <= peak * (1 + 1e-12) and abs(peak - top) <= 1e-9 * peak, (peak, dense, top)
+    assert peak <= bound <= peak * (1 + 1e-8)
+    assert an.peaks_sampled["slider_normal(C)"] < dense * (1 - 1e-7)
 
 
 def _shipped():
@@ -410,33 +435,39 @@ def test_analyse_reports_the_joint_forces():
     assert not any(k.startswith("pin_force") for k in plain.columns)
 
 
-def test_drawing_shows_the_pin_forces(tmp_path):
+@pytest.mark.parametrize("case", [None, "test load"])
+def test_drawing_shows_the_pin_forces(case):
     """The mechanism figure draws an arrow at each pin of the jib at the drawn position (the
     stroke's start), labelled with the force there and its peak over the stroke; the arrows'
-    directions are the pin forces' (the force on the ground at A and D, on the jib at B)."""
+    directions are the pin forces' (the force on the ground at A and D, on the jib at B).  With
+    [[cases]] they are the forces of the case with the largest pin force ('test load', 625 kg
+    against 'rated' 500 kg), named in a note."""
     import matplotlib
 
     matplotlib.use("Agg")
     from optdesign.report import mechanism as mech_figure
     from optdesign.report.joint_arrows import PIN
 
-    scene = optdesign.load(ROOT / "problems" / "seed1_jib.toml")
+    scene = optdesign.load(ROOT / "problems" / "seed1_jib.toml") if case is None else optdesign.loads(CASES)
     v = mech_figure.view(scene)
     fig, ax = __import__("matplotlib.pyplot", fromlist=["subplots"]).subplots()
     mech_figure.draw_design(ax, v)
     an = optdesign.analyse(scene, samples=len(v.frames.s), joints=True)
+    run = an if case is None else an.cases.cases[case]
     labels = {t.get_text().split(" ")[0]: t.get_text() for t in ax.texts if t.get_color() == PIN}
-    assert set(labels) == {"A", "D", "B"}
+    assert set(labels) == ({"A", "D", "B"} if case is None else {"A", "D", "B", "pin"})
+    if case is not None:
+        assert labels["pin"] == f"pin forces: case '{case}' (the largest pin force)"
     arrows = [a for a in ax.texts if getattr(a, "arrow_patch", None) is not None
               and matplotlib.colors.same_color(a.arrow_patch.get_edgecolor(), PIN)]
     assert len(arrows) == 3
     for a in arrows:
         tail, tip = np.array(a.xyann), np.array(a.xy)
         pin = min("ADB", key=lambda p: np.hypot(*(np.array(v.frames.at(0).points[p][0]) - tail)))
-        f = np.array([an.columns[f"pin_force_x({pin})"][0], an.columns[f"pin_force_y({pin})"][0]])
+        f = np.array([run.columns[f"pin_force_x({pin})"][0], run.columns[f"pin_force_y({pin})"][0]])
         d = tip - tail
         assert abs(d[0] * f[1] - d[1] * f[0]) <= 1e-9 * np.hypot(*d) * np.hypot(*f) and d @ f > 0, pin
-        assert f"peak {optdesign.report.units.quantity(an.peaks[f'pin_force({pin})'], 'N', 3)}" in labels[pin]
+        assert f"peak {optdesign.report.units.quantity(run.peaks[f'pin_force({pin})'], 'N', 3)}" in labels[pin]
 
 
 CASES = (ROOT / "problems" / "seed1_jib.toml").read_text().replace("[objective]", """[[constraints]]
@@ -524,3 +555,46 @@ def test_pin_force_peaks_per_case_are_certified():
             assert dense[p] <= peak * (1 + 1e-12) and peak <= dense[p] * (1 + 1e-8), (name, p, peak, dense[p])
             assert peak <= bound <= peak * (1 + 1e-8)
         assert case.peaks_sampled["pin_force(D)"] < dense["D"] * (1 - 1e-7)   # the samples alone miss it (8.6e-7)
+
+
+QUANTITY = (ROOT / "problems" / "seed1_jib.toml").read_text().replace("[drive]", """[quantities]
+bearing = { expr = "pin_force(A) / 1000", unit = "kN" }
+twice = "2*bearing"
+
+[drive]""", 1).replace("[objective]", """[[constraints]]
+name = "bearing limit"
+expr = "twice"
+max = 100
+
+[objective]""")
+
+
+def test_joint_forces_in_quantities():
+    """A [quantities] entry of the joint forces (it failed: "unknown name 'pin_force(A)'"): its
+    column in analyse, a constraint through a later quantity, and the objective peak(bearing),
+    each the jib's pivot force by Newton-Euler (in kN); the optimum of peak(bearing) is the
+    certified peak of the pivot force at its design."""
+    scene = optdesign.loads(QUANTITY)
+    an = optdesign.analyse(scene, samples=41, joints=True)
+    pivot, _, _ = jib_newton_euler(scene, 41, spring=False)
+    force = np.hypot(*pivot) / 1000
+    assert np.max(np.abs(an.quantities["bearing"] - force)) <= 1e-10 * np.max(force)
+    assert np.max(np.abs(an.constraints["bearing limit"] - 2 * force)) <= 1e-10 * np.max(force)
+    result = optdesign.optimise(optdesign.loads(QUANTITY.replace('minimise = "peak(drive)"', 'minimise = "peak(bearing)"')),
+                                starts=1)
+    at = optdesign.analyse(scene.with_parameters(**result.design), joints=True)
+    assert result.objective == pytest.approx(at.peaks["pin_force(A)"] / 1000, rel=1e-9)
+
+
+def test_analyse_plots_the_joint_forces(tmp_path):
+    """analyse's figures (--plot DIR) with the joint forces hold joints.png (each pin force and
+    slider normal force over the sweep, peaks marked)."""
+    from PIL import Image
+
+    from figure_checks import _ink
+    from optdesign.report.analysis import analysis_figures
+
+    scene = optdesign.load(ROOT / "problems" / "seed1_slider_crank.toml")
+    written = analysis_figures(optdesign.analyse(scene, samples=41, joints=True, certify=False), tmp_path)
+    assert tmp_path / "joints.png" in [type(tmp_path)(p) for p in written]
+    _ink(np.asarray(Image.open(tmp_path / "joints.png").convert("RGB"), int), "joints.png", 0.02, 8)

@@ -156,3 +156,32 @@ def test_the_memory_check_budgets_at_least_what_a_finished_study_costs_per_case(
     assert abs(study.columns_estimate() - columns) <= 3, (study.columns_estimate(), columns)
     budget = CASE_BYTES + COLUMN_BYTES * study.columns_estimate()
     assert peak / n <= budget, f"{peak / n:.0f} bytes per case measured, {budget} budgeted"
+
+
+# --- a case as a vector of parameter values -----------------------------------------------------------
+@pytest.mark.parametrize("scene_file, mode, axis", [
+    ("truck_crane.toml", "analyse", values("mP", [0.1 + 0.2 + 1000.0, 2999.999999999, 3.0e3 / 7.0])),
+    ("seed1_jib_design.toml", "optimise", values("mC", [1e3 / 3.0])),
+])
+def test_a_case_given_as_leaf_values_gives_the_numbers_of_its_rebuilt_scene(scene_file, mode, axis):
+    """One parameter axis (its points validated when the study is made): the case runs as the
+    built model with a vector of leaf values; the same case through its rebuilt, validated scene
+    gives the very same row and optimum."""
+    import dataclasses
+
+    from optdesign.study.tasks import run_task
+
+    study = Study(optdesign.load(ROOT / "problems" / scene_file), [axis], mode=mode, starts=1)
+    for case in study.cases():
+        task = study.task(case)
+        assert task.checked
+        fast, rebuilt = run_task(task), run_task(dataclasses.replace(task, checked=False))
+        assert fast["row"] == rebuilt["row"] and fast["x"] == rebuilt["x"]
+        assert fast["row"]["success"]
+
+
+def test_cases_of_two_axes_are_validated_as_scenes(tmp_path):
+    """Two axes: a combination of points, each valid alone, is not known valid together."""
+    study = Study(optdesign.load(ROOT / "problems" / "seed1_jib.toml"), [values("mC", [400.0]), values("l", [4.0])],
+                  mode="analyse")
+    assert not study.task(study.cases()[0]).checked

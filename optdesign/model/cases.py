@@ -22,6 +22,7 @@ from ..scene.expressions import evaluate
 from .certified import CertifiedPeaks
 from .duty import PEAK_KEYS, CaseTimes, DutyCycle, case_integrals, motor_report
 from .finite import check_cases
+from .joints import PEAKED
 from .mapped import MappedFunction
 from .profiles import check_law, constant_motion, case_profile
 from .reduction import ReducedModel
@@ -143,6 +144,7 @@ class CaseResult:
     # each motor's peak torque |T_g + J_r eps_m| in this case: name -> {peak, at {s, value},
     # peak_sampled, certificate} (the peak certified as the others' unless certify is False)
     motors: dict = field(default_factory=dict)
+    rests: tuple = ()   # a segments profile's dwells: (time from, time to, sweep value) each
 
 
 class CaseAnalysis:
@@ -171,10 +173,12 @@ class CaseAnalysis:
             rows = {k: outs[k] for k in PEAK_KEYS if k in outs and not (k == "motor_torque" and self.motor_inertias)}
             rows.update({_motor_key(name): outs["motor_load_torque"] + J * outs["motor_acceleration"]
                          for name, J in self.motor_inertias.items()})
-            rows.update({k: v for k, v in outs.items() if k.startswith("pin_force(")})
+            rows.update({k: v for k, v in outs.items() if k.startswith(PEAKED)})
             self.pin_peaks.append(CertifiedPeaks(mech, rows) if rows and certify else None)
             outs["q"], outs["k"] = mech.q, mech.ds(mech.q)
             outs["hold_load"] = cm.static_load() + 0 * mech.s
+            self.quantities = tuple(k for k in mech.quantities if k not in outs)   # [quantities], as columns
+            outs.update({k: mech.quantities[k] + 0 * mech.s for k in self.quantities})
             self.functions.append((list(outs), MappedFunction(mech.function(f"case_{len(self.functions)}", outs))))
         self.duty = DutyCycle(mech.scene, self.cases)
 
@@ -188,12 +192,13 @@ class CaseAnalysis:
             values, times = self._evaluate(cm, names, function, nodes, p_case)
             hold = values.pop("hold_load")
             constraints = {k.split(":", 1)[1]: values.pop(k) for k in list(values) if k.startswith("constraint:")}
-            ends = {"start": hold[np.argmin(np.abs(nodes - cm.begins_at(np.sign(values["k"][0]))))],
-                    "end": hold[np.argmax(np.abs(nodes - cm.begins_at(np.sign(values["k"][0]))))]}
+            distance = np.abs(nodes - cm.begins_at(np.sign(values["k"][0])))
+            at = {"start": int(np.argmin(distance)), "end": int(np.argmax(distance))}
+            ends = {k: hold[i] for k, i in at.items()}
             columns = {"s": nodes}
             columns.update({k: v for k, v in values.items()})
             peaks, peak_at = {}, {}
-            for key in PEAK_KEYS + tuple(k for k in columns if k.startswith("pin_force(")):
+            for key in PEAK_KEYS + tuple(k for k in columns if k.startswith(PEAKED)):
                 if key in columns:
                     i = int(np.argmax(np.abs(columns[key])))
                     peaks[key] = float(abs(columns[key][i]))
@@ -216,7 +221,7 @@ class CaseAnalysis:
                              "certificate": certificates.pop(f"peak |{_motor_key(name)}|", None)}
                       for name in self.motor_inertias}
             sigma = cm.profile.sigma if cm.profile is not None else 1.0
-            integrals = case_integrals(times, columns, sigma)
+            integrals = case_integrals(times, columns, sigma, self.quantities)
             if integrals:
                 integrals = self._certified(cm, names, function, p_case, nodes, sigma, integrals)
             profile = None if cm.case.profile is None else (cm.case.profile if isinstance(cm.case.profile, str)
@@ -224,8 +229,9 @@ class CaseAnalysis:
             results[cm.name] = CaseResult(cm.name, cm.case.direction, profile, cm.case.efficiency,
                                           {k: cm.values[k] for k in cm.case.overrides}, columns, peaks, peak_at,
                                           integrals.get("duration", times.duration), integrals, on_sample, constraints,
-                                          sampled_pins, certificates, motors)
-            evaluated[cm.name] = {"hold": ends, "on_sample": on_sample}
+                                          sampled_pins, certificates, motors, _rests(cm.profile))
+            evaluated[cm.name] = {"hold": ends, "on_sample": on_sample,   # the quantities at a hold too
+                                  "quantities": {q: {k: columns[q][i] for k, i in at.items()} for q in self.quantities}}
         _certify_governing(results, to_certify)
         duty = self.duty.evaluate(results, evaluated, p_values, self.mech)
         env = self.mech.resolved.environment(np.asarray(p_values, float))
@@ -260,7 +266,7 @@ class CaseAnalysis:
         """The case's integrals over time to :data:`.time_integrals.TOLERANCE` (adaptive
         quadrature), with ``errors``, ``sampled`` (the rule on the samples, as the NLP has them)
         and ``unresolved`` (those the quadrature could not bring within its tolerance)."""
-        exact = certified_integrals(cm, columns_at(function, names, p_case), nodes, sigma)
+        exact = certified_integrals(cm, columns_at(function, names, p_case), nodes, sigma, quantities=self.quantities)
         out = {k: exact[k] for k in sampled}
         out["duration"] = exact["duration"]   # a law's by the quadrature (tanh-sinh's was 1e-7 off at a square root)
         out.update(errors=exact["errors"], sampled=dict(sampled), intervals=exact["intervals"])
@@ -269,6 +275,12 @@ class CaseAnalysis:
                              for k in ("energy", "rms_time") if k in exact["not_converged"] or (
                                  k == "rms_time" and {"drive_squared", "time"} & set(exact["not_converged"]))}
         return out
+
+
+def _rests(profile) -> tuple:
+    """The dwells of a segments profile in time: (t from, t to, sweep value) each."""
+    law = profile.shape.motion_law if profile is not None else None
+    return tuple((law.time * a, law.time * b, stop) for a, b, stop in getattr(law, "rests", ()))
 
 
 def _law_end_limits(profile, nodes, values, function, names):
@@ -363,7 +375,7 @@ def _certify_governing(results, to_certify):
             governs.setdefault(max(have)[1], set()).add(key)
     for name, (peaks, nodes, p_case, sampled) in to_certify.items():
         r = results[name]
-        wanted = governs.get(name, set()) | {k for k in r.peaks if k.startswith("pin_force(")}
+        wanted = governs.get(name, set()) | {k for k in r.peaks if k.startswith(PEAKED)}
         for key, (value, at, certificate) in peaks(nodes, p_case, sampled, names=wanted).items():
             motor = key[len("motor_torque["):-1] if key.startswith("motor_torque[") else None
             if motor is not None:
@@ -406,7 +418,7 @@ def add_motor_torque(results, duty, motor, name):
 def governing_cases(results: dict) -> dict:
     """For each peak, the case with the largest one: {case, value, s} (brute force over cases)."""
     out = {}
-    pins = dict.fromkeys(k for r in results.values() for k in r.peaks if k.startswith("pin_force("))
+    pins = dict.fromkeys(k for r in results.values() for k in r.peaks if k.startswith(PEAKED))
     for key in PEAK_KEYS + tuple(pins):
         have = [(r.peaks[key], name) for name, r in results.items() if key in r.peaks]
         if have:

@@ -3,8 +3,9 @@ structure (:mod:`optdesign.model.joints`) at the drawn position, the force on th
 on the first body that meets there), all arrows on one scale, each labelled with its value
 there and its peak over the stroke; and the force elements ([[forces]]) between their points
 (a spring as a zigzag, a gas spring, damper or constant force as a bar), with their names.
-The animation (report/animate.py) draws the pin forces of each frame on one scale too, those of
-the governing case where the scene has [[cases]] (:func:`governing_pin_forces`)."""
+Where the scene has [[cases]], the forces drawn are those of the case with the largest pin force
+(:func:`governing_pin_forces`), here and in the animation (report/animate.py: each frame's, on
+one scale)."""
 from __future__ import annotations
 
 import numpy as np
@@ -75,13 +76,17 @@ def arrow_scale(forces, extent) -> float | None:
 
 def draw_pin_forces(ax, scene, frames, index, ctx):
     """Arrows of the pin forces at sample ``index`` of ``frames`` (their largest over the
-    stroke as long as a fifth of the mechanism), each labelled 'A 10.4 kN (peak 13.7 kN)'."""
-    forces = pin_forces(scene, frames.s)
+    stroke as long as a fifth of the mechanism), each labelled 'A 10.4 kN (peak 13.7 kN)'; with
+    [[cases]] those of the case with the largest pin force, named in a note at the foot."""
+    forces, case = governing_pin_forces(scene, frames.s)
     scale = arrow_scale(forces, ctx.extent)
     if scale is None:
         return
     peak = {p: float(np.max(np.hypot(*f))) for p, f in forces.items()}
     draw_pin_arrows(ax, frames.at(index), {p: f[:, index] for p, f in forces.items()}, scale, ctx.w, peak, ctx)
+    if case is not None:
+        ax.text(0.01, 0.01, f"pin forces: case '{case}' (the largest pin force)", transform=ax.transAxes,
+                fontsize=6.5, color=PIN, ha="left", va="bottom", zorder=9)
 
 
 def draw_force_elements(ax, scene, frame, w):

@@ -220,7 +220,9 @@ class Study:
                     digest or scene_digest(self.scene), self.mode, case.overrides, case.bounds,
                     int(self.starts), int(self.seed), int(self.warm_starts),
                     tuple(dataclasses.asdict(self.settings).items()),
-                    None if x_warm is None else tuple(x_warm))
+                    None if x_warm is None else tuple(x_warm),
+                    # one parameter axis: each case's overrides are an axis point, validated in _validate
+                    sum(a.kind != "pareto" for a in self.axes) <= 1)
 
     def default_folder(self) -> Path:
         """``optdesign-results/<scene>_study-<axes>-<digest>`` under the current directory: named
