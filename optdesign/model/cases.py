@@ -212,8 +212,8 @@ class CaseAnalysis:
             if pin_peaks is not None:   # the peaks over the continuous stroke, located (certified below)
                 sampled = dict(columns, **{_motor_key(name): columns["motor_load_torque"] + J * columns["motor_acceleration"]
                                            for name, J in self.motor_inertias.items()})
-                for key, (value, at, _) in pin_peaks(nodes, p_case, sampled, certify=False).items():
-                    sampled_pins[key], peaks[key], peak_at[key] = peaks[key], value, at
+                for key, (value, where, _) in pin_peaks(nodes, p_case, sampled, certify=False).items():
+                    sampled_pins[key], peaks[key], peak_at[key] = peaks[key], value, where
                     certificates[f"peak |{key}|"] = {"bound": None, "note": LOCATED}
                 to_certify[cm.name] = (pin_peaks, nodes, p_case, sampled)
             motors = {name: {"peak": peaks.pop(_motor_key(name)), "at": peak_at.pop(_motor_key(name)),
