@@ -134,7 +134,7 @@ def test_a_maximum_at_a_jump_of_an_if_else_is_certified():
     assert top.value == pytest.approx(1.5337, abs=2e-9) and top.value <= top.bound
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=60, deadline=None)
 @given(st.lists(st.tuples(FINITE, st.floats(0, 1e3), FINITE, st.floats(0, 1e3)), min_size=1, max_size=20))
 def test_products_and_quotients_hold_mpmaths_intervals(boxes):
     """[a, b] * [c, d] and [a, b] / [c, d] (kinematics/intervals: the quotient as the quotients of

@@ -93,3 +93,24 @@ def test_shipped_optimum_is_the_numpy_peak_and_holds_every_constraint():
     v = ref.violation(x, "servo 400 W")
     assert min(v.values()) >= -1e-9, v
     assert v["speed"] == pytest.approx(0, abs=1e-6)          # the motor's speed limit is active
+
+
+def test_an_equality_met_to_tolerance_is_ok_and_a_miss_shows_its_digits():
+    """The swing equality at the shipped optimum reads ok and states the tolerance it was judged
+    in; a design 0.0008 deg off it reads VIOLATED with the value in the digits that show the
+    miss (it read '60 deg ... VIOLATED' before)."""
+    from optdesign.report.checks import summary_lines
+
+    design = shipped()["design"]
+    at = summary_lines(optdesign.analyse(optdesign.load(ref.SCENE).with_parameters(**design)))
+    line = next(x for x in at if x.startswith("rocker swing:"))
+    assert line.startswith("rocker swing: 60 deg (min 60 deg and max 60 deg): ok (an equality: met within 6e-05 deg")
+    off = dict(design, c=design["c"] + 1.2e-5)
+    miss = math.degrees(ref.swing(off["r"], off["c"], off["xQ"])) - 60
+    assert 5e-4 < abs(miss) < 1e-3
+    lines = summary_lines(optdesign.analyse(optdesign.load(ref.SCENE).with_parameters(**off)))
+    line = next(x for x in lines if x.startswith("rocker swing:"))
+    shown = float(line.split(":")[1].split("deg")[0])
+    assert "VIOLATED" in line and shown != 60 and shown == pytest.approx(60 + miss, abs=1e-3)
+    assert any(x.startswith("  violated: rocker swing: ") and f"({line.split(': ')[1].split(' (')[0]} over" in x
+               for x in lines)
