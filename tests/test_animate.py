@@ -106,8 +106,8 @@ def test_mp4_where_ffmpeg_is_available(tmp_path):
 def test_pin_forces_drawn_in_the_governing_case(tmp_path):
     """The animation draws the pin forces (issue 30) of the case with the largest pin force:
     the jib with a 'rated' and a 'test load' case (mC 500 and 625 kg) draws those of 'test
-    load', the forces analyse gives that case at its samples, and names it in the caption; a
-    still shows arrows in the pins' colour, a scene without a drive none."""
+    load', the forces analyse gives that case at its samples, and names it in a note; a still
+    shows arrows in the pins' colour, a scene without a drive none."""
     import sys
 
     from optdesign.report.joint_arrows import PIN, governing_pin_forces

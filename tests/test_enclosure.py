@@ -3,17 +3,25 @@ and bound that certifies a maximum over the continuous stroke with it (kinematic
 
 References: dense samples of the same CasADi Function (an enclosure must hold every value the
 function takes on the interval), closed forms (the bump of issue 27: v(s) = -0.2 s +
-5 exp(-((s - 1.4)/0.3)^2) has its maximum where v' = 0, found here by scipy's brentq)."""
+5 exp(-((s - 1.4)/0.3)^2) has its maximum where v' = 0, found here by scipy's brentq), mpmath's
+interval arithmetic (mpmath.iv) for single operations."""
 from __future__ import annotations
 
 import casadi as ca
+import mpmath
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.optimize import brentq
 
 from optdesign.errors import ResultError
 from optdesign.kinematics.enclosure import Enclosure, Enclosures, interval_program
+from optdesign.kinematics.intervals import _div, _mul
 from optdesign.kinematics.peaks import CERTIFY_TOL, Extremum, Request, _check_invariant, continuous_maxima_rows
+
+
+FINITE = st.floats(-1e6, 1e6).filter(lambda x: x == 0 or abs(x) > 1e-200)   # (quotients that overflow: not here)
 
 
 def function(expr_of):
@@ -124,3 +132,25 @@ def test_a_maximum_at_a_jump_of_an_if_else_is_certified():
                                  enclosure=Enclosures(f).at([0.0, 0.0]))[0][0]
     assert top.note == "" and top.bound == pytest.approx(1.5337, abs=2e-9)
     assert top.value == pytest.approx(1.5337, abs=2e-9) and top.value <= top.bound
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(FINITE, st.floats(0, 1e3), FINITE, st.floats(0, 1e3)), min_size=1, max_size=20))
+def test_products_and_quotients_hold_mpmaths_intervals(boxes):
+    """[a, b] * [c, d] and [a, b] / [c, d] (kinematics/intervals: the quotient as the quotients of
+    the ends, one rounding) hold mpmath's interval result (iv, outward rounded) and are no wider
+    than it by more than a few units in the last place; a divisor interval holding 0 gives the
+    whole line."""
+    a, w1, c, w2 = (np.array(x, float) for x in zip(*boxes))
+    b, d = a + w1, c + w2
+    with np.errstate(all="ignore"):
+        products, quotients = _mul(a, b, c, d), _div(a, b, c, d)
+    for k in range(len(a)):
+        x, y = mpmath.iv.mpf([a[k], b[k]]), mpmath.iv.mpf([c[k], d[k]])
+        for (lo, hi), exact in ((products, x * y), (quotients, None if c[k] <= 0 <= d[k] else x / y)):
+            if exact is None:
+                assert lo[k] == -np.inf and hi[k] == np.inf
+                continue
+            e_lo, e_hi = float(exact.a), float(exact.b)
+            assert lo[k] <= e_lo and e_hi <= hi[k], (a[k], b[k], c[k], d[k], lo[k], hi[k], e_lo, e_hi)
+            assert (hi[k] - lo[k]) - (e_hi - e_lo) <= 1e-14 * max(abs(e_lo), abs(e_hi)) + 1e-290

@@ -314,13 +314,9 @@ free_length = 0.1
 [drive]""")
 
 
-def test_slider_crank_against_newton_euler():
-    """Massless crank S-A and rod A-C (a two-force member, tension f), the piston at C on its
-    vertical guide (normal force N along the line's left normal, -x; moment M), its mass, the gas
-    force and a spring from H to C: the piston's balance gives f and N, the crank's the torque."""
-    scene = optdesign.loads(SLIDER_CRANK)
-    n = 181
-    out, s = tool(scene, n)
+def slider_crank_newton_euler(scene, n):
+    """The slider-crank with its spring at n samples: the rod's tension f, the guide's normal
+    force N, the crank torque T, and (u = unit C->A, the spring's force on C, A, C, S)."""
     kin = kinematics(scene, n)
     S, _, _ = _v(kin.points["S"])
     A, _, _ = _v(kin.points["A"])
@@ -335,6 +331,17 @@ def test_slider_crank_against_newton_euler():
     f = (rest[0] * normal[1] - rest[1] * normal[0]) / det
     N = (u[0] * rest[1] - u[1] * rest[0]) / det
     T = -_cross(A - S, f * _unit(A, C))   # the massless crank: T + (A - S) x (f u_AC) = 0
+    return f, N, T, (u, spring, A, C)
+
+
+def test_slider_crank_against_newton_euler():
+    """Massless crank S-A and rod A-C (a two-force member, tension f), the piston at C on its
+    vertical guide (normal force N along the line's left normal, -x; moment M), its mass, the gas
+    force and a spring from H to C: the piston's balance gives f and N, the crank's the torque."""
+    scene = optdesign.loads(SLIDER_CRANK)
+    n = 181
+    out, s = tool(scene, n)
+    f, N, T, (u, spring, A, C) = slider_crank_newton_euler(scene, n)
     scale = np.max(np.abs(f))
     _agree(out["drive"].ravel(), T, np.max(np.abs(T)))
     _agree(out["slider C"][0], N, scale)
@@ -343,6 +350,24 @@ def test_slider_crank_against_newton_euler():
     _agree(out["pin S"], f * _unit(A, C), scale)   # on the ground
     # the pin C: on the piston, from the rod and the spring's node load
     _agree(out["pin C"], f * u + spring, scale)
+
+
+def test_slider_normal_force_peak_is_certified():
+    """The guide's normal force's peak over the continuous stroke (analyse --joints at 31
+    samples) is not below Newton-Euler's largest on 20,001 samples and is the vertex of the
+    parabola through it and its neighbours (to 1e-9), below its enclosure's bound; the samples'
+    own largest is below the dense one (old code certified none)."""
+    scene = optdesign.loads(SLIDER_CRANK)
+    an = optdesign.analyse(scene, samples=31, joints=True)
+    _, N, _, _ = slider_crank_newton_euler(scene, 20001)
+    a = np.abs(N)
+    i = int(np.argmax(a))
+    dense = a[i]
+    top = a[i] + (a[i + 1] - a[i - 1])**2 / (8 * (2 * a[i] - a[i - 1] - a[i + 1]))   # the parabola's vertex: O(h^3)
+    peak, bound = an.peaks["slider_normal(C)"], an.certificates["peak |slider_normal(C)|"]["bound"]
+    assert dense <= peak * (1 + 1e-12) and abs(peak - top) <= 1e-9 * peak, (peak, dense, top)
+    assert peak <= bound <= peak * (1 + 1e-8)
+    assert an.peaks_sampled["slider_normal(C)"] < dense * (1 - 1e-7)
 
 
 def _shipped():
@@ -530,3 +555,46 @@ def test_pin_force_peaks_per_case_are_certified():
             assert dense[p] <= peak * (1 + 1e-12) and peak <= dense[p] * (1 + 1e-8), (name, p, peak, dense[p])
             assert peak <= bound <= peak * (1 + 1e-8)
         assert case.peaks_sampled["pin_force(D)"] < dense["D"] * (1 - 1e-7)   # the samples alone miss it (8.6e-7)
+
+
+QUANTITY = (ROOT / "problems" / "seed1_jib.toml").read_text().replace("[drive]", """[quantities]
+bearing = { expr = "pin_force(A) / 1000", unit = "kN" }
+twice = "2*bearing"
+
+[drive]""", 1).replace("[objective]", """[[constraints]]
+name = "bearing limit"
+expr = "twice"
+max = 100
+
+[objective]""")
+
+
+def test_joint_forces_in_quantities():
+    """A [quantities] entry of the joint forces (it failed: "unknown name 'pin_force(A)'"): its
+    column in analyse, a constraint through a later quantity, and the objective peak(bearing),
+    each the jib's pivot force by Newton-Euler (in kN); the optimum of peak(bearing) is the
+    certified peak of the pivot force at its design."""
+    scene = optdesign.loads(QUANTITY)
+    an = optdesign.analyse(scene, samples=41, joints=True)
+    pivot, _, _ = jib_newton_euler(scene, 41, spring=False)
+    force = np.hypot(*pivot) / 1000
+    assert np.max(np.abs(an.quantities["bearing"] - force)) <= 1e-10 * np.max(force)
+    assert np.max(np.abs(an.constraints["bearing limit"] - 2 * force)) <= 1e-10 * np.max(force)
+    result = optdesign.optimise(optdesign.loads(QUANTITY.replace('minimise = "peak(drive)"', 'minimise = "peak(bearing)"')),
+                                starts=1)
+    at = optdesign.analyse(scene.with_parameters(**result.design), joints=True)
+    assert result.objective == pytest.approx(at.peaks["pin_force(A)"] / 1000, rel=1e-9)
+
+
+def test_analyse_plots_the_joint_forces(tmp_path):
+    """analyse's figures (--plot DIR) with the joint forces hold joints.png (each pin force and
+    slider normal force over the sweep, peaks marked)."""
+    from PIL import Image
+
+    from figure_checks import _ink
+    from optdesign.report.analysis import analysis_figures
+
+    scene = optdesign.load(ROOT / "problems" / "seed1_slider_crank.toml")
+    written = analysis_figures(optdesign.analyse(scene, samples=41, joints=True, certify=False), tmp_path)
+    assert tmp_path / "joints.png" in [type(tmp_path)(p) for p in written]
+    _ink(np.asarray(Image.open(tmp_path / "joints.png").convert("RGB"), int), "joints.png", 0.02, 8)

@@ -101,13 +101,15 @@ def _cross(a, b):
     return a[0] * b[1] - a[1] * b[0]
 
 
-def newton_euler(v, phis, spring=None):
+def newton_euler(v, phis, spring=None, ram_com=(0.0, 0.0)):
     """The press's joint forces by Newton-Euler: {name: (2, n) or (n,)}.  Unknowns
     x = [R_S, R_A, R_F, R_KU, R_KL, R_C, N, M, T]: the ground on the crank at S, the crank on
     the rod at A, the ground on the upper link at F, the pin K on the upper and on the lower
     link (on the rod: the spring's pull at K less these two), the lower link on the ram at C,
     the guide's normal force (along +x, the line's left normal) and moment on the ram, the
-    crank torque.  ``spring``: (rate, free length) of a spring from H to K."""
+    crank torque.  ``spring``: (rate, free length) of a spring from H to K; ``ram_com``: the
+    ram's centre of mass (a, b) in its frame C->U (x up, y towards -x), where its weight, its
+    d'Alembert force and the blanking force act."""
     P, ang, yBDC = kinematics(v, phis)
     n = len(phis)
     pos = {k: P[k][0] for k in P}
@@ -130,7 +132,8 @@ def newton_euler(v, phis, spring=None):
         f = m * (g[:, None] - aG)
         known[name] = (f, _cross(Gc - pos[p], f) - m * length**2 / 12 * ang[name][2])
     f = v["m_ram"] * (g[:, None] - P["C"][2]) + np.array([np.zeros(n), blank])
-    known["ram"] = (f, 0 * blank)
+    rho = np.array([-ram_com[1], ram_com[0]])[:, None] + 0 * f   # from C to the ram's centre (it does not turn)
+    known["ram"] = (f, _cross(rho, f))
     known["crank"] = (np.zeros((2, n)), np.zeros(n))
     # the unknown forces on each part: (part, point, column, sign, extra known force at the point)
     on = {"crank": [("S", 0, 1), ("A", 2, -1)],
@@ -306,3 +309,15 @@ def test_pin_force_on_a_party_in_constraints():
     with pytest.raises(optdesign.errors.SceneError, match=r"no party at pin K reaches 'U' \(its parties: upper link, "
                                                           r"lower link, connecting rod\)"):
         optdesign.analyse(optdesign.loads(bad), samples=5, certify=False)
+
+
+def test_knuckle_press_guide_moment_with_an_offset_ram():
+    """The ram's centre of mass 40 mm beside and 50 mm above its pin C: its weight, inertia and
+    the blanking force there turn it against the guide, which holds it with a moment (zero in
+    the scene): the guide's normal force and moment, and every pin force, against Newton-Euler."""
+    phis = _stroke()
+    text = SCENE.read_text().replace("com = [0, 0]", "com = [0.05, 0.04]", 1)
+    assert text != SCENE.read_text()
+    ours = newton_euler(NOMINAL, phis, ram_com=(0.05, 0.04))
+    scale = _compare(_tool(optdesign.loads(text), phis), ours)
+    assert np.max(np.abs(ours["moment C"])) > 1e-3 * scale   # the moment is not zero

@@ -235,3 +235,39 @@ def test_a_cycle_that_turns_back_inside_the_stroke_is_refused():
         with pytest.raises(SceneError) as info:
             optdesign.loads(cycle_text().replace(old, new), "cycle.toml")
         assert message in str(info.value), str(info.value)
+
+
+def reference_psi(name, t):
+    """The rocker angle of a case's segments at times t from its start (numpy laws)."""
+    out = np.full(len(t), np.nan)
+    t0 = 0.0
+    for seg in CASES[name][1]:
+        inside = (t >= t0) & (t <= t0 + seg[3])
+        out[inside] = state(seg, (t[inside] - t0) / seg[3])[0]
+        t0 += seg[3]
+    return out
+
+
+def test_simulate_tracks_the_segments():
+    """simulate's phases (the scene's speed controller with a position loop tracking each case's
+    profile, then the motor holding the rest) follow the segments, stops and dwells included,
+    to the controller's tracking error (the stroke is 0.52 rad)."""
+    result = optdesign.simulate(optdesign.loads(scene_text().replace("t_end = 3.0", "t_end = 3.5"), "sim.toml"))
+    assert [p["name"] for p in result.phases] == ["squeeze", "return", "rest"]
+    t, psi = result.t, result.columns["s"]
+    want = np.where(t <= 1.2, reference_psi("squeeze", np.clip(t, 0, 1.2)),
+                    np.where(t <= 2.3, reference_psi("return", np.clip(t - 1.2, 0, 1.1)), PSI_LO))
+    assert np.max(np.abs(psi - want)) < 1e-3
+
+
+def test_the_motion_figure_draws_each_dwell_as_a_rest(analysed, tmp_path):
+    from optdesign.report.cases import cases_figures
+    from optdesign.report.output_motion import _with_dwells
+
+    case = analysed.cases.cases["squeeze"]
+    assert case.rests == ((0.5, pytest.approx(0.8, abs=1e-15), pytest.approx(115 * DEG, abs=1e-15)),)
+    t, cols = _with_dwells(case)
+    i = int(np.flatnonzero(np.isclose(t, 0.8, rtol=0, atol=1e-12))[0])
+    assert t[i - 1] == 0.5 and cols["s"][i] == cols["s"][i - 1] and cols["sd"][i] == 0 and cols["sdd"][i] == 0
+    assert np.all(np.diff(t) >= 0)
+    assert tmp_path / "motion.png" in cases_figures(analysed, tmp_path)

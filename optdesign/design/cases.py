@@ -14,7 +14,7 @@ non-negative coefficients, each
 
 e.g. ``"peak(drive)"``, ``"rms_time(motor_torque)"``, ``"peak(motor_torque) + 2*rms_time(motor_torque)"``.
 NAME is a column of a case: drive, power, static_load, motor_torque (with one motor),
-motor_load_torque, motor_speed, rod_buckling.
+motor_load_torque, motor_speed, rod_buckling, or a [quantities] name.
 
 Constraints added by the drive train, for every case at every sample (certified over the
 continuous stroke like the scene's own): with one motor, ``motor peak torque`` |T_m| <=
@@ -48,10 +48,11 @@ _TERM = re.compile(r"^\s*(?:(\d+\.?\d*(?:[eE][+-]?\d+)?|\.\d+)\s*\*\s*)?(peak|rm
 NAMES = ("drive", "power", "static_load", "motor_torque", "motor_load_torque", "motor_speed", "rod_buckling")
 
 
-def parse_objective(text, case_names, path="<python>"):
+def parse_objective(text, case_names, path="<python>", quantities=()):
     """The terms of a cases objective: [(coefficient, 'peak'|'rms_time', NAME, case or None)],
     or None when ``text`` is not of that form (a stroke expression then); errors name the
-    scene's ``path``."""
+    scene's ``path``.  NAME is a case's column (:data:`NAMES`) or one of the scene's
+    ``quantities`` ([quantities] names)."""
     terms = []
     parts = _split(text)
     odd = [part.strip() for part in parts if not _TERM.match(part)]
@@ -78,9 +79,9 @@ def parse_objective(text, case_names, path="<python>"):
             return None
         coef = float(m.group(1)) if m.group(1) else 1.0
         case = m.group(4) or m.group(5) or (m.group(6).strip() if m.group(6) else None)
-        if m.group(3) not in NAMES:
+        if m.group(3) not in NAMES + tuple(quantities):
             raise SceneError(f"{path}: [objective] minimise = {text!r}: {m.group(3)!r} is not a column of a load case; "
-                             f"expected one of {', '.join(NAMES)}")
+                             f"expected one of {', '.join(NAMES + tuple(quantities))}")
         if case is not None and case not in case_names:
             raise SceneError(f"{path}: [objective] minimise = {text!r}: no case {case!r}; cases: {', '.join(case_names)}")
         if case is not None and m.group(2) == "rms_time":
@@ -133,6 +134,7 @@ def case_outputs(pb, cm) -> dict:
     if motor is not None:
         out["motor_torque"] = out["motor_load_torque"] + motor["inertia"] * out["motor_acceleration"]
     out["hold_load"] = cm.static_load() + 0 * pb.mech.s
+    out.update({name: q + 0 * pb.mech.s for name, q in pb.mech.quantities.items()})   # [quantities], in the case
     names = list(out)
     p = pb.mech.p
     exprs = ca.substitute([out[k] for k in names], [p], [cm.case_parameters(p)]) if cm.case.overrides else \
@@ -162,7 +164,7 @@ def case_objective_rows(pb, rows, Block, k_ref) -> bool:
     (one per case), case_peaks (the other cases' epigraph rows), time_terms.  ``Block`` is
     :class:`.rows.Block`, ``k_ref()`` the scale of k = dq/ds (:mod:`.rows` passes both)."""
     names = [c.name for c in pb.scene.cases]
-    terms = parse_objective(pb.objective_text, names, pb.scene.path)
+    terms = parse_objective(pb.objective_text, names, pb.scene.path, [q.name for q in pb.scene.quantities])
     if terms is None:
         return False
     models = case_models(pb)
@@ -377,9 +379,15 @@ def cycle_integrals(pb, p, quantities):
             w, durations[name] = ca.DM(weights).T, speed_or_T
         values[name] = {k: ca.sum2(w * Q[rows[k], :] ** 2) for k in quantities}
         values[name]["hold"] = Q[rows["hold_load"], 0], Q[rows["hold_load"], -1]
+        values[name]["ends"] = {k: (Q[rows[k], 0], Q[rows[k], -1]) for k in quantities}   # a [quantities] name at a hold
     T, sums = 0, {k: 0 for k in quantities}
     models = {cm.name: cm for cm in case_models(pb)}
     cycle = _cycle(pb)
+    named = [k for k in quantities if k in pb.mech.quantities]
+    if named and any(st.kind == "dwell" for st in cycle.steps):
+        raise SceneError(f"{pb.scene.path}: [objective] minimise = {pb.objective_text!r}: the RMS over time of "
+                         f"[quantities] {named[0]} needs its value at every moment of the cycle, and a dwell (idle) "
+                         "has no position; hold there instead ({ hold = SECONDS, case = NAME }) or use peak(...)")
     for st in cycle.steps:
         if st.kind == "case":
             n = cycle.count(st)
@@ -393,12 +401,15 @@ def cycle_integrals(pb, p, quantities):
             cm = models[st.case]
             begin_first = cm.begins_at(pb.k_sign) == pb.mech.resolved.start   # the nodes run from [sweep] from
             first, last = values[st.case]["hold"]
-            load = (last if begin_first else first) if st.at == "end" else (first if begin_first else last)
+            end = (st.at == "end") == begin_first   # the hold at the nodes' last
+            load = last if end else first
             eta = cm.model.eta if cm.model.uses_efficiency else 1.0
             load = load * (1 / eta if st.efficiency == "driving" else eta)
             for k in quantities:
                 if k == "drive":
                     sums[k] = sums[k] + load**2 * duration
+                elif k in named:
+                    sums[k] = sums[k] + values[st.case]["ends"][k][1 if end else 0] ** 2 * duration
                 elif k in ("motor_torque", "motor_load_torque"):
                     ratio = evaluate(pb.scene.gearbox.ratio, pb.mech.resolved.environment(p), {}, "[gearbox] ratio")
                     sums[k] = sums[k] + (gear_factor_at_rest(pb.mech, st.efficiency) * load / ratio) ** 2 * duration

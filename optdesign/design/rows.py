@@ -160,7 +160,8 @@ _WHY_MISSING = {
 def _missing_output(pb, what, outputs) -> str | None:
     """Why peak(NAME)'s NAME is none of this scene's model columns, with what exists; None when
     NAME is not a plain name, or names a parameter (an expression: evaluated as such)."""
-    if not re.fullmatch(r"[A-Za-z_]\w*", what) or what in pb.mech.resolved.values or what == pb.scene.sweep.name:
+    if (not re.fullmatch(r"[A-Za-z_]\w*", what) or what in pb.mech.resolved.values or what == pb.scene.sweep.name
+            or any(q.name == what for q in pb.scene.quantities)):   # a quantity (of the joint forces, too)
         return None
     columns = ", ".join(sorted(outputs))
     why = _WHY_MISSING.get(what)

@@ -56,6 +56,8 @@ def _hull(*xs):
 
 def _mul(a, b, c, d):
     """[a, b] * [c, d], 0 * inf taken as 0."""
+    if np.ndim(a) == 0 and a == b and np.ndim(c) != 0:   # a point times an interval array
+        a, b, c, d = c, d, a, b
     if np.ndim(c) == 0 and c == d:   # by a point (a constant or a parameter): two products
         return _out(a * c, b * c) if c >= 0 else _out(b * c, a * c)
     p1, p2, p3, p4 = a * c, a * d, b * c, b * d
@@ -63,9 +65,12 @@ def _mul(a, b, c, d):
 
 
 def _div(a, b, c, d):
+    """[a, b] / [c, d]: where 0 is outside [c, d], between the quotients of the ends (each
+    correctly rounded: one rounding, as a product's); the whole line where it is inside."""
     if np.ndim(c) == 0 and c == d and c != 0:
         return _out(a / c, b / c) if c > 0 else _out(b / c, a / c)
-    lo, hi = _mul(a, b, *_out(1.0 / d, 1.0 / c))   # 1/[c, d] when 0 is outside it
+    q1, q2, q3, q4 = a / c, a / d, b / c, b / d
+    lo, hi = _out(np.fmin(np.fmin(q1, q2), np.fmin(q3, q4)), np.fmax(np.fmax(q1, q2), np.fmax(q3, q4)))
     zero = (c <= 0) & (d >= 0)
     if np.any(zero):
         lo, hi = np.where(zero, -INF, lo), np.where(zero, INF, hi)

@@ -16,6 +16,7 @@ from . import constructions as geo
 from .assembly import LOCKUP_MARGIN, AssemblyCheck, fmt_s as _fmt_s  # noqa: F401  (re-exported)
 from ..scene import Attach, Dyad, Fixed, Loop, Polar, ResolvedScene, Scene, Slider
 from ..scene.arguments import scene_argument
+from ..scene.cases import uses_joint_forces
 from ..scene.expressions import evaluate
 from .loops import LoopGraph
 
@@ -65,8 +66,10 @@ class Mechanism:
         self.loops: list[LoopGraph] = []
         for c in scene.points:
             self._construct(c)
-        # [quantities] by name, for text read after the scene (the objective): scene/quantities.py
-        self.quantities = {q.name: self.value(q.expr, f"[quantities] {q.name}") for q in scene.quantities}
+        # [quantities] by name, for text read after the scene (the objective): scene/quantities.py;
+        # those of the joint forces are the model's (model/quantities.py)
+        self.quantities = {q.name: self.value(q.expr, f"[quantities] {q.name}") for q in scene.quantities
+                           if not uses_joint_forces(q.expr)}
         env.update(self.quantities)
         self.body_angle = {}
         self.body_com = {}

@@ -14,6 +14,7 @@ from ..scene.expressions import evaluate
 from .certified import PEAKS, CertifiedExtremes
 from .mapped import MappedFunction
 from .joint_structure import JointStructureError
+from .joints import PEAKED
 from .quantities import environment, joint_calls, joint_forces, model_value
 from ..scene.cases import is_case_constraint
 from .cases import CaseAnalysis
@@ -113,9 +114,11 @@ class Analysis:
         except JointStructureError as exc:
             self.joints_note = str(exc)
         outs.update(self.joints)
-        self.peak_names = [k for k in PEAKS if k in outs] + [k for k in self.joints if k.startswith("pin_force(")]
-        for name, expr in self.mech.quantities.items():
-            outs[f"quantity:{name}"] = expr + 0 * self.mech.s
+        self.peak_names = [k for k in PEAKS if k in outs] + [k for k in self.joints if k.startswith(PEAKED)]
+        for q in scene.quantities:   # those of the joint forces from the model (model/quantities.py)
+            expr = self.mech.quantities.get(q.name)
+            expr = model_value(self.model, q.expr, f"[quantities] {q.name}") if expr is None else expr
+            outs[f"quantity:{q.name}"] = expr + 0 * self.mech.s
         self.names = list(outs)
         self.function = self.mech.function("reduced_model", outs)
         self.mapped = self.function.map(len(self.s_values))

@@ -21,7 +21,9 @@ Over the cycle, with T the cycle time (every step's duration: a case's stroke ti
 count, holds and dwells):
 
     RMS over time     sqrt(1/T * (sum of int T_S^2 dt over the cases' strokes + sum of
-                      T_hold^2 * hold time)),   dwells adding time only
+                      T_hold^2 * hold time)),   dwells adding time only; of a [quantities]
+                      name likewise, a hold at its value there (none with a dwell: idle,
+                      the mechanism has no known position)
     energy per cycle  sum of int P dt (P = T_S qd; negative where power flows back)
     mean power        energy per cycle / T
 
@@ -96,7 +98,7 @@ def time_weights(nodes, t, profile=None) -> np.ndarray:
     dt = np.abs(np.diff(t))
     w = np.zeros(len(nodes))
     if profile is not None and profile.shape.motion_law is not None:
-        return law_weights(nodes, t, profile)
+        return law_weights(nodes, profile)
     if profile is None:
         np.add.at(w, np.arange(len(dt)), dt / 2)
         np.add.at(w, np.arange(1, len(dt) + 1), dt / 2)
@@ -140,7 +142,7 @@ def work_weights(nodes, t, profile, speed) -> np.ndarray:
     P is smooth in time but not in s, the quadratic rule in time on P (the weight times V)."""
     nodes = np.asarray(nodes, float)
     if profile.shape.motion_law is not None:
-        return law_weights(nodes, t, profile) * np.asarray(speed, float)
+        return law_weights(nodes, profile) * np.asarray(speed, float)
     ds = np.abs(np.diff(nodes))
     mid = 0.5 * (nodes[:-1] + nodes[1:])
     taken = np.zeros(len(ds), bool)
@@ -157,7 +159,7 @@ def work_weights(nodes, t, profile, speed) -> np.ndarray:
     return w
 
 
-def law_weights(nodes, t, profile) -> np.ndarray:
+def law_weights(nodes, profile) -> np.ndarray:
     """A law in time: Boole's rule in time on its nodes evenly spaced in time
     (:meth:`~.profiles.MotionProfile.law_nodes`, within each piece, where the integrand is
     smooth in time), as Richardson's (16 S_h - S_2h)/15 of Simpson's rule on them and on every
@@ -228,15 +230,18 @@ def _lagrange_integrals(nodes, a, b):
     return out if b >= a else -out
 
 
-def case_integrals(times: CaseTimes, columns: dict, sigma: float = 1.0) -> dict:
+def case_integrals(times: CaseTimes, columns: dict, sigma: float = 1.0, quantities=()) -> dict:
     """Integrals of a case over its stroke's time: drive_squared (int T_S^2 dt), energy (int P
     dt; ``sigma`` the direction of the profile's sweep), energy_driving (int max(P, 0) dt), rms_time (sqrt(drive_squared / duration)), and with
     a gearbox the motor's three (load torque^2, load torque * acceleration, acceleration^2) from
-    which any rotor inertia's RMS follows."""
+    which any rotor inertia's RMS follows; and ``squared:NAME`` of each of the ``quantities``
+    ([quantities] names, columns of the case)."""
     if times.weights is None:
         return {}
     with np.errstate(over="ignore", invalid="ignore"):   # a load beyond 1e154 squared: named by finite.check_cases
-        return _integrals(times, columns, sigma)
+        out = _integrals(times, columns, sigma)
+        out.update({f"squared:{q}": times.integral(columns[q] ** 2) for q in quantities})
+        return out
 
 
 def _integrals(times, columns, sigma):
@@ -288,6 +293,9 @@ class DutyCycle:
                              "motor_acceleration_squared"), 0.0)   # the quadrature's error estimates
         mech = mech or next(iter(self.cases.values())).mech
         ratio = self._ratio(mech, p_values)
+        # [quantities]: int q^2 dt over the cases, q^2 times a hold's time at its position (a dwell has none)
+        squares = dict.fromkeys(k for r in results.values() for k in r.integrals if k.startswith("squared:"))
+        squares = {k: [0.0, 0.0] for k in squares}   # value, error
         for st in self.steps:
             if st.kind == "case":
                 r = results[st.case]
@@ -302,6 +310,9 @@ class DutyCycle:
                 for k, e in r.integrals.get("errors", {}).items():
                     if k in err:
                         err[k] += n * e
+                for k, pair in squares.items():
+                    pair[0] += n * r.integrals[k]
+                    pair[1] += n * r.integrals.get("errors", {}).get(k, 0.0)
                 steps.append({"kind": "case", "case": st.case, "repeat": int(n) if n == int(n) else n,
                               "time": n * r.duration})
                 continue
@@ -315,6 +326,8 @@ class DutyCycle:
                 load = c * float(evaluated[st.case]["hold"][st.at])
                 drive_sq += load * load * duration   # (a product: inf, named by finite.check_cases; ** raised)
                 step.update(case=st.case, at=st.at, load=load)
+                for k, pair in squares.items():
+                    pair[0] += float(evaluated[st.case]["quantities"][k.split(":", 1)[1]][st.at]) ** 2 * duration
                 if ratio is not None:
                     motor_load = gear_factor_at_rest(mech, st.efficiency) * load / ratio
                     motor[0] += motor_load * motor_load * duration
@@ -323,8 +336,14 @@ class DutyCycle:
         out = {"cycle_time": T, "steps": steps, "rms_time": {"drive": math.sqrt(drive_sq / T)},
                "energy": energy, "energy_driving": driving, "mean_power": energy / T,
                "integrals": {"drive_squared": drive_sq}}
+        if not any(st.kind == "dwell" for st in self.steps):   # (idle somewhere: a quantity's value unknown)
+            for k, (value, error) in squares.items():
+                out["rms_time"][k.split(":", 1)[1]] = math.sqrt(value / T)
         out["errors"] = {"rms_time": {"drive": rms_error(drive_sq, err["drive_squared"], T, err["time"])},
                          "energy": err["energy"], "mean_power": err["energy"] / T + abs(energy) * err["time"] / T**2}
+        for k, (value, error) in squares.items():
+            if k.split(":", 1)[1] in out["rms_time"]:
+                out["errors"]["rms_time"][k.split(":", 1)[1]] = rms_error(value, error, T, err["time"])
         if ratio is not None:
             out["rms_time"]["motor_load_torque"] = math.sqrt(motor[0] / T)
             out["errors"]["rms_time"]["motor_load_torque"] = rms_error(motor[0], err["motor_load_squared"], T, err["time"])
@@ -344,7 +363,8 @@ class DutyCycle:
 
 def motor_report(scene, values, results, duty, ratio) -> dict:
     """Each motor of [[motors]] against the cases and the cycle: its peak torque (largest |T_g +
-    J_r eps_m| over the cases' samples), RMS torque over the cycle, peak speed, whether it fits
+    J_r eps_m| over the cases, over the continuous stroke where they certified it; ``peak_sampled``
+    over their samples), RMS torque over the cycle, peak speed, whether it fits
     (peak <= peak_torque, RMS <= rated_torque, speed <= max_speed), its inertia ratio J_load /
     (i^2 J_r) and the classical optimal ratio sqrt(J_load / J_r), J_load the largest reduced
     inertia (I_zS / c) over the cases; and the smallest motor (by rated torque) that fits."""
@@ -360,9 +380,11 @@ def motor_report(scene, values, results, duty, ratio) -> dict:
     for m in scene.motors:
         num = motor_numbers(m, values)
         J = num["inertia"]
-        peak = max(float(np.max(np.abs(r.columns["motor_load_torque"] + J * r.columns["motor_acceleration"])))
-                   for r in results.values())
-        entry = {**num, "peak": peak, "peak_speed": speed, "inertia_ratio": j_load / (ratio**2 * J) if J > 0 else math.inf,
+        sampled = max(float(np.max(np.abs(r.columns["motor_load_torque"] + J * r.columns["motor_acceleration"])))
+                      for r in results.values())
+        # over the continuous stroke where the cases certified it (model/cases.py), else the samples'
+        peak = max(max(r.motors[m.name]["peak"] for r in results.values()), sampled)
+        entry = {**num, "peak": peak, "peak_sampled": sampled, "peak_speed": speed, "inertia_ratio": j_load / (ratio**2 * J) if J > 0 else math.inf,
                  "optimal_ratio": math.sqrt(j_load / J) if J > 0 else math.inf, "ratio": ratio, "load_inertia": j_load}
         if duty and "integrals" in duty:
             a, b, c2 = (duty["integrals"][k] for k in ("motor_load_squared", "motor_load_acceleration",

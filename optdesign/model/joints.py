@@ -43,6 +43,10 @@ from ..errors import SceneError
 from .joint_structure import JointStructureError, derive
 
 
+# the joint forces whose peaks over the stroke are reported and certified (analyse, each case)
+PEAKED = ("pin_force(", "slider_normal(", "slider_moment(")
+
+
 def _cross(a, b):
     return a[0] * b[1] - a[1] * b[0]
 

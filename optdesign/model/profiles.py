@@ -215,7 +215,7 @@ class MotionProfile:
                 out.append((s_lo, s_hi, self.s_begin + self.sigma * np.asarray(inner)))
         return out
 
-    LAW_NODES = 96   # nodes evenly spaced in time over a law in time
+    LAW_NODES = 96   # nodes evenly spaced in time over a law in time (segments: about this many per law)
 
     def law_nodes(self) -> np.ndarray:
         """A law in time's nodes, in the motion's order: each piece's ends and a multiple of 4
@@ -228,10 +228,12 @@ class MotionProfile:
         return self.shape.time * self._law_taus()
 
     def _law_taus(self) -> np.ndarray:
-        edges = (0.0,) + self.shape.motion_law.breaks + (1.0,)
+        law = self.shape.motion_law
+        edges = (0.0,) + law.breaks + (1.0,)
+        per_law = self.LAW_NODES * max(1, len(getattr(law, "segments", ())))   # segments: about LAW_NODES each
         tau = [0.0]
         for a, b in zip(edges[:-1], edges[1:]):
-            n = 4 * max(1, math.ceil(self.LAW_NODES * (b - a) / 4))
+            n = 4 * max(1, math.ceil(per_law * (b - a) / 4))
             tau += list(np.linspace(a, b, n + 1)[1:])
         return np.array(tau)
 

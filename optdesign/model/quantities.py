@@ -14,7 +14,7 @@ from __future__ import annotations
 import casadi as ca
 
 from ..errors import SceneError
-from ..scene.cases import JOINT_FUNCTIONS, MODEL_COLUMNS
+from ..scene.cases import JOINT_FUNCTIONS, MODEL_COLUMNS, uses_joint_forces
 from ..scene.expressions import Call, evaluate
 from .joints import JointForces
 
@@ -51,6 +51,10 @@ def environment(model, expr=None) -> dict:
     for name, column in model.outputs().items():
         if name in MODEL_COLUMNS and name not in env:
             env[name] = column
+    if expr is not None:   # a [quantities] entry of the joint forces: the model's (the mechanism has none)
+        for q in model.scene.quantities:
+            if q.name in expr.names() and q.name not in env and uses_joint_forces(q.expr):
+                env[q.name] = model_value(model, q.expr, f"[quantities] {q.name}")
     calls = joint_calls(expr) if expr is not None else set()
     if calls:
         outputs = joint_forces(model).outputs()

@@ -48,15 +48,16 @@ def columns_at(function, names, p_case):
     return run
 
 
-def certified_integrals(cm, columns, nodes, sigma, tol=TOLERANCE) -> dict:
+def certified_integrals(cm, columns, nodes, sigma, tol=TOLERANCE, quantities=()) -> dict:
     """The case's integrals over its stroke's time (keys as :func:`.duty.case_integrals`'s, with
     ``errors``: each one's error estimate, and ``converged``), from ``columns(s)`` -> {name: array}
-    (:func:`columns_at`); ``nodes``: the case's samples (the quadrature's first intervals)."""
+    (:func:`columns_at`); ``nodes``: the case's samples (the quadrature's first intervals);
+    ``quantities``: [quantities] columns whose squares are integrated too (``squared:NAME``)."""
     nodes = np.asarray(nodes, float)
     lo, hi = float(np.min(nodes)), float(np.max(nodes))
     profile = cm.profile
     if profile is not None and profile.shape.motion_law is not None:
-        return _in_time(profile, columns, tol)
+        return _in_time(profile, columns, tol, quantities)
     if profile is None:
         speed = abs(cm.speed)
         V, breaks, m_lo, m_hi = None, np.zeros(0), 1.0, 1.0
@@ -104,17 +105,17 @@ def certified_integrals(cm, columns, nodes, sigma, tol=TOLERANCE) -> dict:
         if motor:
             tg, acc = c["motor_load_torque"], c["motor_acceleration"]
             rows += [tg**2 * w, tg * acc * w, acc**2 * w]
-        return np.vstack(rows + [w])
+        return np.vstack(rows + [c[q] ** 2 * w for q in quantities] + [w])
 
     result = integrate(f, pieces, starts, tol)
     closed = profile is not None and profile.law_speed is None
-    return _report(result, motor, profile.duration if closed else None, exact_time=closed)
+    return _report(result, motor, profile.duration if closed else None, exact_time=closed, quantities=quantities)
 
 
-def _report(result, motor, duration, exact_time) -> dict:
+def _report(result, motor, duration, exact_time, quantities=()) -> dict:
     """The integrals' dict from the quadrature's ``result`` (``duration``: the stroke's time in
     closed form, else the quadrature's)."""
-    keys = [k for k in KEYS if motor or not k.startswith("motor")]
+    keys = [k for k in KEYS[:-1] if motor or not k.startswith("motor")] + [f"squared:{q}" for q in quantities] + ["time"]
     values = dict(zip(keys, (float(v) for v in result.values)))
     errors = dict(zip(keys, (float(v) for v in result.errors)))
     bad = [k for k, ok in zip(keys, result.converged) if not ok]
@@ -133,7 +134,7 @@ def _report(result, motor, duration, exact_time) -> dict:
     return out
 
 
-def _in_time(profile, columns, tol) -> dict:
+def _in_time(profile, columns, tol, quantities=()) -> dict:
     """A law in time (s = s_begin + sigma L f(tau), t = T tau): the integrals in tau on each of
     its pieces, dt = T dtau (no weight to invert: the law's inverse is exact only to 2^-16 of
     tau next to a rest), P dt = T_S qd T dtau."""
@@ -152,8 +153,8 @@ def _in_time(profile, columns, tol) -> dict:
         if motor:
             tg, acc = c["motor_load_torque"], c["motor_acceleration"]
             rows += [tg**2 * T, tg * acc * T, acc**2 * T]
-        return np.vstack(rows + [np.full(len(tau), T)])
-    return _report(integrate(f, pieces, starts, tol), motor, T, exact_time=True)
+        return np.vstack(rows + [c[q] ** 2 * T for q in quantities] + [np.full(len(tau), T)])
+    return _report(integrate(f, pieces, starts, tol), motor, T, exact_time=True, quantities=quantities)
 
 
 def rms_error(squared, squared_error, duration, duration_error) -> float:

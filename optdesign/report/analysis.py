@@ -171,7 +171,7 @@ def analysis_peaks_chunks(result, case_samples: bool = True):
     yield cases_table(result, case_samples)   # with [[cases]] (report/cases.py)
 
 
-FIGURES = ("drive.png", "reduced_inertia.png", "constraints.png", "quantities.png") + CASE_FIGURES
+FIGURES = ("drive.png", "reduced_inertia.png", "constraints.png", "quantities.png", "joints.png") + CASE_FIGURES
 
 
 def analysis_figures(result, folder, label="folder") -> list:
@@ -185,7 +185,7 @@ def analysis_figures(result, folder, label="folder") -> list:
 def _analysis_figures(result, folder) -> list:
     """drive.png, reduced_inertia.png and constraints.png over the sweep in the scene's units, bounds
     shaded and violations red (report/stroke_plots.py), and the cases' figures."""
-    from .stroke_plots import inertia_figure, quantities_figure, stroke_figure
+    from .stroke_plots import inertia_figure, joints_figure, quantities_figure, stroke_figure
 
     folder = Path(folder)
     written = [stroke_figure([("", result)], folder / "drive.png", components=True, constraints=False,
@@ -197,4 +197,6 @@ def _analysis_figures(result, folder) -> list:
                                      title=f"{result.scene.title}\nconstraints over the stroke"))
     if result.quantities:   # [quantities]
         written.append(quantities_figure(result, folder / "quantities.png"))
+    if any(k.startswith("pin_force(") for k in result.columns):   # analyse --joints
+        written.append(joints_figure(result, folder / "joints.png"))
     return written + cases_figures(result, folder)

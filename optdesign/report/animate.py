@@ -19,7 +19,7 @@ import numpy as np
 from .drawing import context, draw_mechanism, draw_paths, frame_view, limits
 from .files import place, temporary_for, write_file
 from .geometry import Geometry
-from .joint_arrows import arrow_scale, draw_pin_arrows, governing_pin_forces
+from .joint_arrows import PIN, arrow_scale, draw_pin_arrows, governing_pin_forces
 from .layout import animation_layout
 from .topology import topology
 from .plots import bound_lines, headroom, mark_peak
@@ -165,6 +165,9 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None, 
     # what never moves (ground, fixed guides) is part of the background, drawn once
     draw_mechanism(mech_ax, top, shots.at(0), ctx, labels=None, loads=False, masses=False, scene=scene,
                    parts="static")
+    if pin_case is not None:   # (report/joint_arrows.py: the case with the largest pin force)
+        mech_ax.text(0.01, 0.01, f"pin forces: case '{pin_case}' (the largest pin force)", transform=mech_ax.transAxes,
+                     fontsize=6.5, color=PIN, ha="left", va="bottom", zorder=9)
     canvas = fig.canvas
     animation_layout(fig, mech_ax, fig.axes[1:], head.count("\n") + 1)
     canvas.draw()                       # every static artist, once
@@ -192,8 +195,6 @@ def animate(scene, paths, frames=36, fps=12, dpi=80, title=None, analysis=None, 
             text += f"   {name.split(',')[0]} {caption_value(markers[0][2][i], peak):.4g} {shown}"
         if trans is not None:
             text += f"   transmission {trans[1][i]:.3g} {trans[2]}"
-        if pin_case is not None:
-            text += f"   pin forces: case '{pin_case}'"
         if not shots.assembled[i]:
             text += f"   (does not assemble: [points] {shots.failed[i]})"
         caption.set_text(text)

@@ -90,7 +90,7 @@ def violation_text(result, item) -> str:
     side = "below its min" if item["bound"] == "min" else "above its max"
     u = f" {unit}" if unit else ""
     text = (f"{item['name']}: {side} {number(item['limit'] * f)}{u} by {number(item['by'] * f, 3)}{u} "
-            f"({number(item['worst'] * f)}{u}")
+            f"({_beside(item['worst'], item['limit'], f, True)}{u}")
     if item["at"] is not None:
         su_ = f" {su}" if su else ""
         text += f" at {name} = {number(item['at'] * sf)}{su_}; violated for {name} = {number(item['from'] * sf)} .. " \
@@ -110,6 +110,15 @@ def column_display(result, key):
         return 1 / DEG, "deg"
     unit = SI[kind].get(key, "")
     return scaled(result.columns[key], unit) if key in result.columns else (1.0, unit)
+
+
+def _beside(value, bound, factor, violated) -> str:
+    """``value`` shown in 4 digits, or in as many as it takes to differ from ``bound`` when it
+    violates it (a miss of 0.0006 deg on 60 deg reads 60.0006, not 60)."""
+    digits = 4
+    while violated and bound is not None and digits < 15 and number(value * factor, digits) == number(bound * factor, digits):
+        digits += 1
+    return number(value * factor, digits)
 
 
 def summary_lines(result) -> list:
@@ -138,13 +147,17 @@ def summary_lines(result) -> list:
             continue
         f, unit = constraint_scale(c)
         u = f" {unit}" if unit else ""
+        state = "VIOLATED" if (name, "min") in bad or (name, "max") in bad else "ok"
         if np.ndim(value):
             e = extremes.get(name, {"min": float(np.min(value)), "max": float(np.max(value))})
             shown = f"{number(e['min'] * f)} .. {number(e['max'] * f)}{u}"
         else:
-            shown = f"{number(value * f)}{u}"
+            shown = f"{_beside(value, lo if lo is not None else hi, f, state == 'VIOLATED')}{u}"
         limits = " and ".join(f"{b} {number(x * f)}{u}" for b, x in (("min", lo), ("max", hi)) if x is not None)
-        state = "VIOLATED" if (name, "min") in bad or (name, "max") in bad else "ok"
+        if lo is not None and lo == hi:   # an equality: say how closely it counts as met
+            tol = _tolerance(lo, [value] if not np.ndim(value) else value)
+            state += f" (an equality: met within {number(tol * f, 2)}{u}, 1e-6 of its size; optimise holds its " \
+                     "constraints to 1e-7 of theirs)"
         lines.append(f"{name}: {shown} ({limits}): {state}")
     for item in violations(result):
         lines.append("  violated: " + violation_text(result, item))

@@ -3,7 +3,8 @@ output, where the motion is stated on it) over one duty cycle against time, its 
 speed, acceleration and jerk, beside the motor's torque and speed (the drive's without a
 motor).  Case steps are drawn from each case's samples in time order, holds as the rest they
 are (the position held, no speed, the hold's torque), dwells idle; the jerk is shown where the
-case's profile is a motion law in time (its closed form)."""
+case's profile is a motion law in time (its closed form); a segments profile's dwell as the
+rest it is."""
 from __future__ import annotations
 
 import math
@@ -32,14 +33,14 @@ def motion_figure(result, cr, path):
     for step in cr.duty["steps"]:
         if step["kind"] == "case":
             c = cr.cases[step["case"]]
-            order = np.argsort(c.columns["t"], kind="stable")
+            times, columns = _with_dwells(c)
             for _ in range(math.ceil(step["repeat"])):
-                t = t0 + c.columns["t"][order]
+                t = t0 + times
                 for ax, (key, _) in zip(axes, rows):
-                    if key in c.columns:
-                        ax.plot(t, c.columns[key][order] * factor, color="C0")
-                axes[-2].plot(t, c.columns[torque_key][order], color="C0")
-                axes[-1].plot(t, c.columns[speed_key][order], color="C0")
+                    if key in columns:
+                        ax.plot(t, columns[key] * factor, color="C0")
+                axes[-2].plot(t, columns[torque_key], color="C0")
+                axes[-1].plot(t, columns[speed_key], color="C0")
                 t0 += c.duration
             continue
         t = np.array([t0, t0 + step["time"]])
@@ -74,3 +75,18 @@ def motion_figure(result, cr, path):
                       f"{'motor' if motor else 'drive'} (cases blue, holds orange, dwells green)", fontsize=9)
     save_figure(fig, path)
     return path
+
+
+def _with_dwells(c):
+    """A case's times and columns in time order, each dwell of its segments profile drawn as
+    the rest it is: its stop's sample again at the dwell's end (the sample holds the arrival)."""
+    order = np.argsort(c.columns["t"], kind="stable")
+    t = c.columns["t"][order]
+    columns = {k: np.asarray(v)[order] for k, v in c.columns.items() if np.ndim(v) == 1 and len(v) == len(order)}
+    for start, end, stop in c.rests:
+        i = np.flatnonzero((columns["s"] == stop) & (np.abs(t - start) <= 1e-9 * max(end, 1.0)))
+        if i.size:
+            j = int(i[0])
+            t = np.insert(t, j + 1, end)
+            columns = {k: np.insert(v, j + 1, v[j]) for k, v in columns.items()}
+    return t, columns

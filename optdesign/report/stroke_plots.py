@@ -138,3 +138,28 @@ def quantities_figure(result, path):
     axes[0, 0].set_title(textwrap.shorten(f"{scene.title}: quantities", 90))
     save_figure(fig, path)
     return path
+
+
+def joints_figure(result, path):
+    """The force at each pin (``pin_force(P)``, the first party's) and each slider's normal force
+    over the sweep (analyse --joints), on one axis in the scene's force unit, each peak over the
+    continuous stroke marked where it lies."""
+    scene = result.scene
+    sf, su = sweep_scale(scene)
+    names = [k for k in result.columns if k.startswith(("pin_force(", "slider_normal(")) and ", " not in k]
+    top = max(float(np.max(np.abs(result.columns[k]))) for k in names)
+    k, unit = scaled(np.array([top]), "N")
+    fig, ax = new_figure(figsize=(7.5, 4))
+    x = result.columns["s"] * sf
+    for name in names:
+        (line,) = ax.plot(x, result.columns[name] * k, label=name)
+        at = result.peak_at.get(name)
+        if at is not None:
+            ax.plot([at["s"] * sf], [at["value"] * k], "v", color=line.get_color(), ms=6)
+    ax.set_xlabel(f"{scene.sweep.name} [{su}]" if su else scene.sweep.name)
+    ax.set_ylabel(f"force [{unit}]")
+    ax.set_title(textwrap.shorten(f"joint forces (peaks marked): {scene.title}", 90), fontsize=10)
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
+    save_figure(fig, path)
+    return path

@@ -10,7 +10,8 @@ A quantity is an expression of the parameters, the sweep variable, the points (`
 Wherever a body's load, a constraint or the objective names it, its expression stands in its
 place: the scene's items are rewritten once, as the scene is made (:func:`expanded_items`:
 the syntax trees with the quantity's tree for its name, the user's text kept for messages),
-so the validation, the design problem and every check see the expression itself; the
+so the validation, the design problem and every check see the expression itself (a law
+profile's speed too, which may use a quantity of the sweep and parameters alone); the
 objective, read later as text, finds the quantities among the mechanism's names
 (:class:`optdesign.kinematics.mechanism.Mechanism`).  ``analyse`` reports each quantity per
 sample (the CSV's columns, the JSON's ``quantities`` with ``quantity_units``).
@@ -84,7 +85,7 @@ def _substitute(node, trees):
 def expanded_items(scene) -> dict:
     """The scene's fields that hold expressions using quantities, rewritten (see the module's
     docstring): the quantities themselves (each with the earlier ones put in), the bodies'
-    loads and the constraints.  {} when the scene has no quantities."""
+    loads, the constraints and the law profiles' speeds.  {} when the scene has no quantities."""
     if not scene.quantities:
         return {}
     trees, quantities = {}, []
@@ -104,4 +105,28 @@ def expanded_items(scene) -> dict:
         bodies.append(dataclasses.replace(b, **changes))
     constraints = [dataclasses.replace(c, expr=expand(c.expr, trees)) if dataclasses.is_dataclass(c) else c
                    for c in scene.constraints]
-    return {"quantities": tuple(quantities), "bodies": tuple(bodies), "constraints": tuple(constraints)}
+    profiles = [_law_expanded(p, trees) for p in scene.profiles]   # a law's speed (inline in a case too)
+    cases = [dataclasses.replace(c, profile=_law_expanded(c.profile, trees))
+             if dataclasses.is_dataclass(c) and dataclasses.is_dataclass(c.profile) else c for c in scene.cases]
+    return {"quantities": tuple(quantities), "bodies": tuple(bodies), "constraints": tuple(constraints),
+            "profiles": tuple(profiles), "cases": tuple(cases)}
+
+
+def uses_points(expr) -> bool:
+    """True when ``expr`` calls length, angle, x or y of points."""
+    def walk(node):
+        if isinstance(node, Call):
+            return node.func in ("length", "angle", "x", "y") or any(walk(a) for a in node.args)
+        if isinstance(node, Neg):
+            return walk(node.operand)
+        if isinstance(node, BinOp):
+            return walk(node.left) or walk(node.right)
+        return False
+    return walk(expr.tree)
+
+
+def _law_expanded(profile, trees):
+    """A profile of kind 'law' with the quantities in its speed expression put in."""
+    if getattr(profile, "kind", None) != "law" or getattr(profile, "speed", None) is None:
+        return profile
+    return dataclasses.replace(profile, speed=expand(profile.speed, trees))

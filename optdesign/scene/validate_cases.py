@@ -12,8 +12,9 @@ from __future__ import annotations
 
 from .cases import CASE_COLUMNS, MODEL_COLUMNS, Case, Duty, case_values, is_case_constraint
 from .cycles import ways_of
-from .expressions import constant_value
+from .expressions import constant_value, parse
 from .profiles import CYCLE, Profile, profile_shape
+from .quantities import uses_points
 from .segments import segment_ends
 from .train import MOTOR_UNITS, Cylinder, Gearbox, Motor
 from .values import outside_meaningful
@@ -98,6 +99,11 @@ class DriveSizingValidator:
         exprs = [(p.where(key), getattr(p, key)) for key in p.keys]
         exprs += [(seg.where.at(f"{seg.where.key}.{key}"), getattr(seg, key)) for seg in p.segments or ()
                   for key in ("to", "time", "speed", "acceleration", "dwell") if getattr(seg, key) is not None]
+        if p.kind == "law" and uses_points(p.speed):
+            used = sorted(parse(p.speed.source, str(p.where("speed"))).names() & {q.name for q in self.scene.quantities})
+            self.fail(p.where("speed"), f"{p.speed.source!r} uses the mechanism's points"
+                      + (f" (through [quantities] {', '.join(used)})" if used else "") + ": a law's speed is an "
+                      "expression of the sweep and the parameters (and quantities of them alone)")
         for where, expr in exprs:
             self.v._check_expression(where, expr, names, [])
             name = self.depends_on_design(expr)
