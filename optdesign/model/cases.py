@@ -137,10 +137,13 @@ class CaseResult:
     integrals: dict = field(default_factory=dict)
     on_samples: np.ndarray | None = None   # which of the case's samples are the scene's
     constraints: dict = field(default_factory=dict)   # name -> values of the constraints per case
-    # the pin forces' peaks are certified over the continuous stroke (``peaks``, ``peak_at``):
-    # their samples' largest values and the enclosures' certificates {bound, note}
+    # the peaks are certified over the continuous stroke (``peaks``, ``peak_at``): their
+    # samples' largest values and the enclosures' certificates {bound, note}
     peaks_sampled: dict = field(default_factory=dict)
     certificates: dict = field(default_factory=dict)
+    # each motor's peak torque |T_g + J_r eps_m| in this case: name -> {peak, at {s, value},
+    # peak_sampled, certificate} (the peak certified as the others' unless certify is False)
+    motors: dict = field(default_factory=dict)
     rests: tuple = ()   # a segments profile's dwells: (time from, time to, sweep value) each
 
 
@@ -155,17 +158,23 @@ class CaseAnalysis:
         self.cases = [CaseModel(mech, c) for c in mech.scene.cases]
         self.functions, self.pin_peaks = [], []   # pin_peaks: each case's pin forces (CertifiedPeaks), or None
         motor = motor_numbers(mech.scene.motors[0], mech.resolved.values) if len(mech.scene.motors) == 1 else None
+        self.motor_inertias = ({m.name: motor_numbers(m, mech.resolved.values)["inertia"] for m in mech.scene.motors}
+                               if mech.scene.gearbox is not None else {})
         for cm in self.cases:
             outs = cm.outputs()
             if motor is not None:
                 outs["motor_torque"] = outs["motor_load_torque"] + motor["inertia"] * outs["motor_acceleration"]
             for name, expr in cm.constraints(outs).items():
                 outs[f"constraint:{name}"] = expr + 0 * mech.s
-            pins = {}
             if joints:
                 outs.update(_joint_outputs(cm, mech))
-                pins = {k: v for k, v in outs.items() if k.startswith(PEAKED)}
-            self.pin_peaks.append(CertifiedPeaks(mech, pins) if pins and certify else None)
+            # the peaks over the continuous stroke, certified: seed 1's quantities, the drive
+            # train's, each motor's torque T_g + J_r eps_m (whether it fits) and the pins' forces
+            rows = {k: outs[k] for k in PEAK_KEYS if k in outs and not (k == "motor_torque" and self.motor_inertias)}
+            rows.update({_motor_key(name): outs["motor_load_torque"] + J * outs["motor_acceleration"]
+                         for name, J in self.motor_inertias.items()})
+            rows.update({k: v for k, v in outs.items() if k.startswith(PEAKED)})
+            self.pin_peaks.append(CertifiedPeaks(mech, rows) if rows and certify else None)
             outs["q"], outs["k"] = mech.q, mech.ds(mech.q)
             outs["hold_load"] = cm.static_load() + 0 * mech.s
             self.quantities = tuple(k for k in mech.quantities if k not in outs)   # [quantities], as columns
@@ -176,7 +185,7 @@ class CaseAnalysis:
     def run(self, p_values) -> "CasesResult":
         """Every case, the governing case of each peak, the duty cycle and the drive train at
         the parameter vector ``p_values``."""
-        results, evaluated = {}, {}
+        results, evaluated, to_certify = {}, {}, {}
         for cm, (names, function), pin_peaks in zip(self.cases, self.functions, self.pin_peaks):
             p_case = cm.case_parameters(np.asarray(p_values, float))
             nodes, on_sample = case_nodes(self.s_values, cm.profile)
@@ -195,10 +204,22 @@ class CaseAnalysis:
                     peaks[key] = float(abs(columns[key][i]))
                     peak_at[key] = {"s": float(nodes[i]), "value": float(columns[key][i])}
             sampled_pins, certificates = {}, {}
-            if pin_peaks is not None:   # the pin forces' peaks over the continuous stroke, certified
-                for key, (value, at, certificate) in pin_peaks(nodes, p_case, columns).items():
-                    sampled_pins[key], peaks[key], peak_at[key] = peaks[key], value, at
-                    certificates[f"peak |{key}|"] = certificate
+            for name, J in self.motor_inertias.items():   # each motor's torque, sampled
+                torque = columns["motor_load_torque"] + J * columns["motor_acceleration"]
+                i = int(np.argmax(np.abs(torque)))
+                peaks[_motor_key(name)] = float(abs(torque[i]))
+                peak_at[_motor_key(name)] = {"s": float(nodes[i]), "value": float(torque[i])}
+            if pin_peaks is not None:   # the peaks over the continuous stroke, located (certified below)
+                sampled = dict(columns, **{_motor_key(name): columns["motor_load_torque"] + J * columns["motor_acceleration"]
+                                           for name, J in self.motor_inertias.items()})
+                for key, (value, where, _) in pin_peaks(nodes, p_case, sampled, certify=False).items():
+                    sampled_pins[key], peaks[key], peak_at[key] = peaks[key], value, where
+                    certificates[f"peak |{key}|"] = {"bound": None, "note": LOCATED}
+                to_certify[cm.name] = (pin_peaks, nodes, p_case, sampled)
+            motors = {name: {"peak": peaks.pop(_motor_key(name)), "at": peak_at.pop(_motor_key(name)),
+                             "peak_sampled": sampled_pins.pop(_motor_key(name), None),
+                             "certificate": certificates.pop(f"peak |{_motor_key(name)}|", None)}
+                      for name in self.motor_inertias}
             sigma = cm.profile.sigma if cm.profile is not None else 1.0
             integrals = case_integrals(times, columns, sigma, self.quantities)
             if integrals:
@@ -208,9 +229,10 @@ class CaseAnalysis:
             results[cm.name] = CaseResult(cm.name, cm.case.direction, profile, cm.case.efficiency,
                                           {k: cm.values[k] for k in cm.case.overrides}, columns, peaks, peak_at,
                                           integrals.get("duration", times.duration), integrals, on_sample, constraints,
-                                          sampled_pins, certificates, _rests(cm.profile))
+                                          sampled_pins, certificates, motors, _rests(cm.profile))
             evaluated[cm.name] = {"hold": ends, "on_sample": on_sample,   # the quantities at a hold too
                                   "quantities": {q: {k: columns[q][i] for k, i in at.items()} for q in self.quantities}}
+        _certify_governing(results, to_certify)
         duty = self.duty.evaluate(results, evaluated, p_values, self.mech)
         env = self.mech.resolved.environment(np.asarray(p_values, float))
         values = {k: float(v) for k, v in env.items()}
@@ -221,7 +243,7 @@ class CaseAnalysis:
             if train.get("motors"):
                 chosen = train["smallest_fitting"] or next(iter(train["motors"]))
                 train["shown"] = chosen
-                add_motor_torque(results, duty, train["motors"][chosen])
+                add_motor_torque(results, duty, train["motors"][chosen], chosen)
         if self.mech.scene.cylinder is not None:
             train = cylinder_report(self.mech.scene, values, results)
         result = CasesResult(results, governing_cases(results), duty, train)
@@ -335,16 +357,58 @@ def cylinder_report(scene, values, results) -> dict:
     return cylinder_sizing(number, push, pull, length, max(extend, 0.0), max(retract, 0.0))
 
 
-def add_motor_torque(results, duty, motor):
-    """The torque of ``motor`` (its rotor inertia J_r) as a column of every case, its peak, and
-    its RMS over the cycle: T_m = T_g + J_r eps_m."""
+LOCATED = "located, not certified: another case governs this peak"
+
+
+def _certify_governing(results, to_certify):
+    """Certify, in each case, the peaks it governs (the largest located one over the cases of
+    each quantity and of each motor's torque) and its pins' forces: each a bound over the
+    continuous stroke (:class:`.certified.CertifiedPeaks`, the enclosure of the same rows),
+    the case's located value raised to the certified one.  The other cases' peaks stay located
+    (refined between the samples) with the note ``LOCATED``: the enclosure's cost is one
+    program evaluation per pass and case, whatever the rows."""
+    governs = {}
+    keys = {k for r in results.values() for k in list(r.peaks) + [_motor_key(m) for m in r.motors]}
+    for key in keys:
+        have = [(_peak(r, key), name) for name, r in results.items() if _peak(r, key) is not None]
+        if have:
+            governs.setdefault(max(have)[1], set()).add(key)
+    for name, (peaks, nodes, p_case, sampled) in to_certify.items():
+        r = results[name]
+        wanted = governs.get(name, set()) | {k for k in r.peaks if k.startswith(PEAKED)}
+        for key, (value, at, certificate) in peaks(nodes, p_case, sampled, names=wanted).items():
+            motor = key[len("motor_torque["):-1] if key.startswith("motor_torque[") else None
+            if motor is not None:
+                r.motors[motor].update(peak=value, at=at, certificate=certificate)
+            else:
+                r.peaks[key], r.peak_at[key] = value, at
+                r.certificates[f"peak |{key}|"] = certificate
+
+
+def _peak(r, key):
+    if key.startswith("motor_torque["):
+        own = r.motors.get(key[len("motor_torque["):-1])
+        return None if own is None else own["peak"]
+    return r.peaks.get(key)
+
+
+def _motor_key(name) -> str:
+    """The key of a motor's torque among a case's peaks."""
+    return f"motor_torque[{name}]"
+
+
+def add_motor_torque(results, duty, motor, name):
+    """The torque of ``motor`` named ``name`` (its rotor inertia J_r) as a column of every
+    case, its peak (over the continuous stroke, as :class:`CaseAnalysis` certified it), and its
+    RMS over the cycle: T_m = T_g + J_r eps_m."""
     J = motor["inertia"]
     for r in results.values():
-        torque = r.columns["motor_load_torque"] + J * r.columns["motor_acceleration"]
-        r.columns["motor_torque"] = torque
-        i = int(np.argmax(np.abs(torque)))
-        r.peaks["motor_torque"] = float(abs(torque[i]))
-        r.peak_at["motor_torque"] = {"s": float(r.columns["s"][i]), "value": float(torque[i])}
+        r.columns["motor_torque"] = r.columns["motor_load_torque"] + J * r.columns["motor_acceleration"]
+        own = r.motors[name]
+        r.peaks["motor_torque"], r.peak_at["motor_torque"] = own["peak"], own["at"]
+        if own["peak_sampled"] is not None:
+            r.peaks_sampled["motor_torque"] = own["peak_sampled"]
+            r.certificates["peak |motor_torque|"] = own["certificate"]
     if "rms" in motor:
         duty["rms_time"]["motor_torque"] = motor["rms"]
         if "rms_error" in motor and "errors" in duty:

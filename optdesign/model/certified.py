@@ -137,18 +137,24 @@ class CertifiedPeaks:
         self.derivatives = MappedFunction(mech.function("peaks_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)}))
         self.enclosures = Enclosures(self.derivatives.func)
 
-    def __call__(self, s_values, p, columns) -> dict:
+    def __call__(self, s_values, p, columns, names=None, certify=True) -> dict:
         """name -> (|peak|, {s, value}, certificate {bound, note}) at parameters ``p``, from the
-        sampled ``columns`` on ``s_values`` (ascending or descending)."""
+        sampled ``columns`` on ``s_values`` (ascending or descending), for the rows ``names``
+        (all by default); without ``certify`` located only (the refined sample maxima, no
+        enclosure: certificate None)."""
         s_values = np.asarray(s_values, float)
         V = np.array([columns[name] for name in self.names], float)
         if len(s_values) > 1 and s_values[-1] < s_values[0]:
             s_values, V = s_values[::-1], V[:, ::-1]
-        requests = [Request(i, "abs", ends=True) for i in range(len(self.names))]
+        chosen = [n for n in self.names if names is None or n in names]
+        if not chosen:
+            return {}
+        requests = [Request(self.names.index(n), "abs", ends=True) for n in chosen]
         found = continuous_maxima_rows(lambda s: self.derivatives(s, p), s_values, V, requests,
-                                       enclosure=self.enclosures.at(p))
-        return {name: (abs(ext[0].value), {"s": ext[0].s, "value": ext[0].value}, _certificate(ext[0]))
-                for name, ext in zip(self.names, found)}
+                                       enclosure=self.enclosures.at(p) if certify else None)
+        return {name: (abs(ext[0].value), {"s": ext[0].s, "value": ext[0].value},
+                       _certificate(ext[0]) if certify else None)
+                for name, ext in zip(chosen, found)}
 
 
 def _certificate(e, sign=1.0) -> dict:

@@ -363,7 +363,8 @@ class DutyCycle:
 
 def motor_report(scene, values, results, duty, ratio) -> dict:
     """Each motor of [[motors]] against the cases and the cycle: its peak torque (largest |T_g +
-    J_r eps_m| over the cases' samples), RMS torque over the cycle, peak speed, whether it fits
+    J_r eps_m| over the cases, over the continuous stroke where they certified it; ``peak_sampled``
+    over their samples), RMS torque over the cycle, peak speed, whether it fits
     (peak <= peak_torque, RMS <= rated_torque, speed <= max_speed), its inertia ratio J_load /
     (i^2 J_r) and the classical optimal ratio sqrt(J_load / J_r), J_load the largest reduced
     inertia (I_zS / c) over the cases; and the smallest motor (by rated torque) that fits."""
@@ -379,9 +380,11 @@ def motor_report(scene, values, results, duty, ratio) -> dict:
     for m in scene.motors:
         num = motor_numbers(m, values)
         J = num["inertia"]
-        peak = max(float(np.max(np.abs(r.columns["motor_load_torque"] + J * r.columns["motor_acceleration"])))
-                   for r in results.values())
-        entry = {**num, "peak": peak, "peak_speed": speed, "inertia_ratio": j_load / (ratio**2 * J) if J > 0 else math.inf,
+        sampled = max(float(np.max(np.abs(r.columns["motor_load_torque"] + J * r.columns["motor_acceleration"])))
+                      for r in results.values())
+        # over the continuous stroke where the cases certified it (model/cases.py), else the samples'
+        peak = max(max(r.motors[m.name]["peak"] for r in results.values()), sampled)
+        entry = {**num, "peak": peak, "peak_sampled": sampled, "peak_speed": speed, "inertia_ratio": j_load / (ratio**2 * J) if J > 0 else math.inf,
                  "optimal_ratio": math.sqrt(j_load / J) if J > 0 else math.inf, "ratio": ratio, "load_inertia": j_load}
         if duty and "integrals" in duty:
             a, b, c2 = (duty["integrals"][k] for k in ("motor_load_squared", "motor_load_acceleration",

@@ -51,8 +51,9 @@ def cases_json(result) -> dict:
         cases[name] = {
             "direction": c.direction, "profile": c.profile, "efficiency": c.efficiency, "set": c.overrides,
             "duration": c.duration, "peaks": c.peaks, "peak_at": c.peak_at,
-            # the pin forces' peaks are certified: their samples' largest and the enclosures' bounds
+            # the peaks are certified: their samples' largest and the enclosures' bounds
             "peaks_sampled": c.peaks_sampled, "certificates": c.certificates,
+            "motors": c.motors,   # each motor's peak torque in this case, certified as the peaks
             "integrals": {k: v for k, v in c.integrals.items() if not k.startswith("motor_")},
             "samples": [{k: c.columns[k][i] for k in names} | {"scene_sample": bool(c.on_samples[i])}
                         | ({"constraints": {k: v[i] for k, v in c.constraints.items()}} if c.constraints else {})

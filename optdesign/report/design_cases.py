@@ -39,9 +39,13 @@ def governing(result, cases) -> dict:
     m = re.match(r"^\s*(?:[\d.eE+-]+\s*\*\s*)?peak\s*\(\s*(\w+)", result.scene.objective.minimise)
     if m and m.group(1) in cases.governing:
         out["peak"] = dict(cases.governing[m.group(1)], quantity=m.group(1))
+        governing_case = cases.cases[out["peak"]["case"]]
+        sampled = governing_case.peaks_sampled.get(m.group(1))
+        if sampled is not None:   # the analysis's case peaks are certified; the samples' own beside them
+            out["peak"]["value_sampled"] = sampled
         if result.objective_kind == "peak" and result.peak_certified is not None:
-            # the optimiser's certified peak over the cases (the analysis's case peaks are the samples')
-            out["peak"].update(value=result.peak_certified, value_sampled=out["peak"]["value"])
+            # the optimiser's certified peak over the cases, at its design
+            out["peak"]["value"] = result.peak_certified
     for name, c in result.constraints.items():
         hit = _IN_CASE.match(name)
         if not hit or not c.get("active"):
