@@ -229,7 +229,9 @@ def test_a_t_end_far_beyond_the_motion_is_named_as_the_cause():
     # energy conserved at every sample: (I + J) qd^2 / 2 + m g L sin(q), I = m L^2 = 1, J = 0.01
     energy = 0.5 * 1.01 * qd**2 + 9.81 * np.sin(q)
     assert swing.stop == "t_end" and max(abs(energy - 9.81 * math.sin(-1.0))) < 1e-5
-    assert min(q) < -2.1 and max(q) == -1.0   # it swings to the mirror image -(pi - 1) and back
+    # it swings to the mirror image -(pi - 1) and back to -1 (simulate's located turning points
+    # are samples too, each within the integration's error: 1.5e-7 measured)
+    assert min(q) < -2.1 and abs(max(q) + 1.0) < 1e-6
     from optdesign.errors import SolverError
 
     with pytest.raises(SolverError) as caught:
