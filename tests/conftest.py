@@ -13,7 +13,7 @@ os.environ.setdefault("OPTDESIGN_NO_COMPILE", "1")
 # runs those; `-m ""` runs everything.  Whole files whose tests optimise with many starts, run
 # studies, kill processes or draw whole results folders are slow; so are the single tests that
 # took more than about 8 s in the lead's timed runs (SLOW_TESTS, and tests/slow_tests.txt with
-# the measured seconds).  Each slow test has faster siblings in the default suite.
+# the measured seconds; each of its files keeps faster tests in the default suite).
 from pathlib import Path  # noqa: E402
 
 import pytest  # noqa: E402
