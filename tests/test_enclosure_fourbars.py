@@ -160,7 +160,7 @@ def check(params):
     return peak, ref, cert, result.peaks_sampled["drive"]
 
 
-def _run(points):
+def check_family(points):
     wrong, missed = [], 0
     for params in points:
         peak, ref, cert, sampled = check(params)
@@ -176,11 +176,11 @@ def test_a_few_four_bars_with_a_narrow_torque_bump():
     """The fast sibling: 3 generated four-bars."""
     points = designs(8, seed=4)[:3]
     assert len(points) == 3
-    _run(points)
+    check_family(points)
 
 
 @pytest.mark.slow
 def test_a_family_of_four_bars_with_a_narrow_torque_bump():
     points = designs(32, seed=44)
     assert len(points) >= 12
-    _run(points)
+    check_family(points)

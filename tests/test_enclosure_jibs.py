@@ -114,7 +114,7 @@ def check(params):
     return result.peaks["drive"], reference_peak(params), result.certificates["peak |drive|"], result.peaks_sampled["drive"]
 
 
-def _run(points):
+def check_family(points):
     wrong, missed = [], 0
     for params in points:
         peak, ref, cert, sampled = check(params)
@@ -128,9 +128,9 @@ def _run(points):
 
 def test_a_few_jibs_with_a_narrow_torque_bump():
     """The fast sibling: 3 generated jibs."""
-    _run(designs(4, seed=5)[:3])
+    check_family(designs(4, seed=5)[:3])
 
 
 @pytest.mark.slow
 def test_a_family_of_jibs_with_a_narrow_torque_bump():
-    _run(designs(32, seed=55))
+    check_family(designs(32, seed=55))

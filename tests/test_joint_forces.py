@@ -62,7 +62,7 @@ def _unit(a, b):
     return d / np.hypot(d[0], d[1])
 
 
-def _agree(ours, theirs, scale):
+def check_agree(ours, theirs, scale):
     assert np.max(np.abs(ours - theirs)) <= REL * scale, (np.max(np.abs(ours - theirs)) / scale)
 
 
@@ -112,10 +112,10 @@ def test_seed_jib_pins_against_newton_euler():
     out, s = tool(scene, n)
     pivot, push, u = jib_newton_euler(scene, n)
     scale = np.max(np.abs(push))
-    _agree(out["drive"].ravel(), push, scale)
-    _agree(out["pin A"], -pivot, scale)          # on the ground
-    _agree(out["pin D"], -push * u, scale)       # on the ground: the cylinder pushes D away from B
-    _agree(out["pin B"], push * u, scale)        # on the jib
+    check_agree(out["drive"].ravel(), push, scale)
+    check_agree(out["pin A"], -pivot, scale)          # on the ground
+    check_agree(out["pin D"], -push * u, scale)       # on the ground: the cylinder pushes D away from B
+    check_agree(out["pin B"], push * u, scale)        # on the jib
     np.testing.assert_allclose(out["u"].ravel(), push, rtol=0, atol=1e-12 * scale)
 
 
@@ -286,18 +286,18 @@ def test_fourbar_three_massive_links_against_newton_euler():
     x = np.array(rows).T
     RA, RB, RC, RD, T = x[0:2], x[2:4], x[4:6], x[6:8], x[8]
     scale = max(np.max(np.hypot(*R)) for R in (RA, RB, RC, RD))
-    _agree(out["pin A"], ext["A"] - RA, scale)   # on the ground
-    _agree(out["pin B"], ext["B"] - RB, scale)   # on the crank
-    _agree(out["pin C"], ext["C"] - RC, scale)   # on the coupler
-    _agree(out["pin D"], ext["D"] - RD, scale)   # on the ground
+    check_agree(out["pin A"], ext["A"] - RA, scale)   # on the ground
+    check_agree(out["pin B"], ext["B"] - RB, scale)   # on the crank
+    check_agree(out["pin C"], ext["C"] - RC, scale)   # on the coupler
+    check_agree(out["pin D"], ext["D"] - RD, scale)   # on the ground
     # the force elements act on the pins A, B, C, D: each pin's force on each of its two parties
     parties = {"A": {"ground": ext["A"] - RA, "crank": RA}, "B": {"crank": ext["B"] - RB, "coupler": RB},
                "C": {"coupler": ext["C"] - RC, "rocker": RC}, "D": {"ground": ext["D"] - RD, "rocker": RD}}
     assert {k for k in out if k.startswith("party ")} == {f"party {p} {q}" for p in parties for q in parties[p]}
     for p, on in parties.items():
         for party, force in on.items():
-            _agree(out[f"party {p} {party}"], force, scale)
-    _agree(out["drive"].ravel(), T, np.max(np.abs(T)))
+            check_agree(out[f"party {p} {party}"], force, scale)
+    check_agree(out["drive"].ravel(), T, np.max(np.abs(T)))
     np.testing.assert_allclose(out["u"].ravel(), T, rtol=0, atol=1e-12 * np.max(np.abs(T)))
 
 
@@ -343,13 +343,13 @@ def test_slider_crank_against_newton_euler():
     out, s = tool(scene, n)
     f, N, T, (u, spring, A, C) = slider_crank_newton_euler(scene, n)
     scale = np.max(np.abs(f))
-    _agree(out["drive"].ravel(), T, np.max(np.abs(T)))
-    _agree(out["slider C"][0], N, scale)
-    _agree(out["slider C"][1], 0 * N, scale)       # the piston's forces all act at C: no moment
-    _agree(out["pin A"], f * _unit(A, C), scale)   # on the crank (the rod pulls A towards C)
-    _agree(out["pin S"], f * _unit(A, C), scale)   # on the ground
+    check_agree(out["drive"].ravel(), T, np.max(np.abs(T)))
+    check_agree(out["slider C"][0], N, scale)
+    check_agree(out["slider C"][1], 0 * N, scale)       # the piston's forces all act at C: no moment
+    check_agree(out["pin A"], f * _unit(A, C), scale)   # on the crank (the rod pulls A towards C)
+    check_agree(out["pin S"], f * _unit(A, C), scale)   # on the ground
     # the pin C: on the piston, from the rod and the spring's node load
-    _agree(out["pin C"], f * u + spring, scale)
+    check_agree(out["pin C"], f * u + spring, scale)
 
 
 def test_slider_normal_force_peak_is_certified():

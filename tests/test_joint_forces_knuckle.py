@@ -189,7 +189,7 @@ def _stroke():
     return np.sort(np.r_[np.linspace(-np.pi, np.pi, 121), np.radians(np.linspace(-20, -8, 41))])
 
 
-def _compare(tool, ours):
+def check_against_newton_euler(tool, ours):
     pins = {k for k in tool if k.startswith("pin ")}
     assert pins == {"pin S", "pin A", "pin F", "pin K", "pin C"}
     scale = max(np.max(np.hypot(*ours[k])) for k in pins)
@@ -212,7 +212,7 @@ def test_knuckle_press_pin_forces_against_newton_euler():
     largest pin force is hundreds of kN, and every component agrees to 1e-10 of it."""
     phis = _stroke()
     ours = newton_euler(NOMINAL, phis)
-    scale = _compare(_tool(optdesign.load(SCENE), phis), ours)
+    scale = check_against_newton_euler(_tool(optdesign.load(SCENE), phis), ours)
     assert scale > 3e5          # the blanking force is carried (a sanity check of the reference)
 
 
@@ -232,7 +232,7 @@ free_length = 0.15
 def test_knuckle_press_with_a_spring_at_the_three_party_pin():
     """A spring from H to the knuckle K, where three parts meet: its pull acts on the pin."""
     phis = _stroke()
-    _compare(_tool(optdesign.loads(SPRING), phis), newton_euler(NOMINAL, phis, spring=(2.0e5, 0.15)))
+    check_against_newton_euler(_tool(optdesign.loads(SPRING), phis), newton_euler(NOMINAL, phis, spring=(2.0e5, 0.15)))
 
 
 CASES = SPRING.replace("[objective]", """[[cases]]
@@ -319,5 +319,5 @@ def test_knuckle_press_guide_moment_with_an_offset_ram():
     text = SCENE.read_text().replace("com = [0, 0]", "com = [0.05, 0.04]", 1)
     assert text != SCENE.read_text()
     ours = newton_euler(NOMINAL, phis, ram_com=(0.05, 0.04))
-    scale = _compare(_tool(optdesign.loads(text), phis), ours)
+    scale = check_against_newton_euler(_tool(optdesign.loads(text), phis), ours)
     assert np.max(np.abs(ours["moment C"])) > 1e-3 * scale   # the moment is not zero
