@@ -100,16 +100,23 @@ def certified_integrals(cm, columns, nodes, sigma, tol=TOLERANCE, quantities=())
             with np.errstate(divide="ignore"):
                 w = 1.0 / V(x, y)
             e = c["drive"] * c["k"] * sigma
-        rows = [c["drive"] ** 2 * w, e, np.maximum(e, 0.0)]
         motor = "motor_load_torque" in c
-        if motor:
-            tg, acc = c["motor_load_torque"], c["motor_acceleration"]
-            rows += [tg**2 * w, tg * acc * w, acc**2 * w]
-        return np.vstack(rows + [c[q] ** 2 * w for q in quantities] + [w])
+        return _rows(c, e, w, quantities)
 
     result = integrate(f, pieces, starts, tol)
     closed = profile is not None and profile.law_speed is None
     return _report(result, motor, profile.duration if closed else None, exact_time=closed, quantities=quantities)
+
+
+def _rows(c, e, w, quantities):
+    """The integrands at the columns ``c``, in the order of KEYS: drive^2 w, the power e (and
+    its driving part), with a motor its load torque^2 w, load torque x acceleration w and
+    acceleration^2 w, each quantity^2 w, and the weight w (dt per unit of the variable)."""
+    rows = [c["drive"] ** 2 * w, e, np.maximum(e, 0.0)]
+    if "motor_load_torque" in c:
+        tg, acc = c["motor_load_torque"], c["motor_acceleration"]
+        rows += [tg**2 * w, tg * acc * w, acc**2 * w]
+    return np.vstack(rows + [c[q] ** 2 * w for q in quantities] + [w])
 
 
 def _report(result, motor, duration, exact_time, quantities=()) -> dict:
@@ -147,13 +154,8 @@ def _in_time(profile, columns, tol, quantities=()) -> dict:
     def f(tau, d, piece):
         nonlocal motor
         c = columns(profile.law_sweep(tau))
-        e = c["drive"] * c["drive_speed"] * T
-        rows = [c["drive"] ** 2 * T, e, np.maximum(e, 0.0)]
         motor = "motor_load_torque" in c
-        if motor:
-            tg, acc = c["motor_load_torque"], c["motor_acceleration"]
-            rows += [tg**2 * T, tg * acc * T, acc**2 * T]
-        return np.vstack(rows + [c[q] ** 2 * T for q in quantities] + [np.full(len(tau), T)])
+        return _rows(c, c["drive"] * c["drive_speed"] * T, np.full(len(tau), T), quantities)
     return _report(integrate(f, pieces, starts, tol), motor, T, exact_time=True, quantities=quantities)
 
 
