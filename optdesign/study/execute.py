@@ -196,6 +196,16 @@ def case_table(study, rows, shown=30) -> list:
     return out
 
 
+LOCKSTEP = 32   # analyse cases per batch at most, run in lockstep (study.batched): on the truck
+#                 crane 8 cases 24 ms per case, 32 21 ms, 128 21 ms (44-60 ms one by one)
+
+
+def _lockstep_size(executor, remaining) -> int:
+    """Cases per batch of an analyse study: LOCKSTEP, or fewer so that every batch the executor
+    keeps in flight (its window) has some while few are left."""
+    return max(1, min(LOCKSTEP, -(-remaining // getattr(executor, "window", 1))))
+
+
 # --- the scheduling loop -------------------------------------------------------------------
 class _CtrlC:
     """Ctrl-C during a study.  The first press asks to stop once the running case(s) finish
@@ -266,7 +276,8 @@ def _schedule(study, chains, journal, executor, progress, done, total, ctrl_c, c
     def feed():
         while waiting and executor.room():
             if grouped:
-                batch = [waiting.popleft()[0] for _ in range(min(executor.batch_size(len(waiting)), len(waiting)))]
+                size = max(executor.batch_size(len(waiting)), _lockstep_size(executor, len(waiting)))
+                batch = [waiting.popleft()[0] for _ in range(min(size, len(waiting)))]
                 send(batch, [study.task(case, None, blob, digest) for case in batch], None, None)
             else:
                 submit(waiting.popleft(), 0)
