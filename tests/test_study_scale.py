@@ -156,6 +156,7 @@ def test_the_memory_check_budgets_at_least_what_a_finished_study_costs_per_case(
     assert abs(study.columns_estimate() - columns) <= 3, (study.columns_estimate(), columns)
     budget = CASE_BYTES + COLUMN_BYTES * study.columns_estimate()
     assert peak / n <= budget, f"{peak / n:.0f} bytes per case measured, {budget} budgeted"
+    assert peak / n >= budget / 3, f"{peak / n:.0f} bytes per case measured, {budget} budgeted: a check too lax"
 
 
 # --- a case as a vector of parameter values -----------------------------------------------------------

@@ -139,7 +139,7 @@ def run(args):
 
         print(to_json({"schema": "optdesign/1", "kind": "study", "folder": str(result.folder),
                        "complete": result.complete, "computed": result.computed, "reused": result.reused,
-                       "wall_s": result.wall_s, "files": [str(p) for p in result.paths], "rows": result.rows}))
+                       "wall_s": result.wall_s, "files": [str(p) for p in result.paths], "rows": list(result.rows)}))
     else:
         sys.stdout.write((result.folder / "summary.txt").read_text())
 

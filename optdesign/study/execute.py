@@ -23,6 +23,7 @@ from ..report import study as study_figures
 from . import journal as study_journal
 from . import table as study_table
 from .results import ClusterLost, StudyInterrupted, StudyResult
+from .rows import Rows
 from ..report.folder import NoHardLinks, inspect, replace_folder
 from ..report.files import write_file
 from .executors import _executor, _Inline, record  # noqa: F401  (_Inline: the tests' stand-in executors)
@@ -152,7 +153,8 @@ def definition(study, cases) -> dict:
 
 def write_summary(result, where) -> Path:
     rows = result.rows
-    ok = sum(1 for r in rows if r.get("success"))
+    success = rows.column("success") == 1
+    ok = int(success.sum())
     lines = [f"{result.study.scene.title}",
              f"{result.study.mode} study of {math.prod(len(a) for a in result.study.axes)} cases: {len(rows)} finished "
              f"({ok} successful, {len(rows) - ok} failed), {'complete' if result.complete else 'INCOMPLETE: run again to resume'}",
@@ -160,8 +162,8 @@ def write_summary(result, where) -> Path:
              f"{result.wall_s:.2f} s wall ({where})"]
     if result.computed:
         lines.append(f"cases per second (this run): {result.computed / result.wall_s:.3g}")
-    bad = [r for r in rows if not r.get("success")]
-    for r in bad[:20]:
+    for i in (~success).nonzero()[0][:20]:
+        r = rows[i]
         lines.append(f"  case {r['case']} failed: {r.get('status')}")
     if result.study.mode == "analyse" and result.study.scene.cases:
         lines.append("columns: peak:*, rms:* and constraint:* are the nominal state's (at the [drive] speed and "
@@ -180,10 +182,11 @@ def case_table(study, rows, shown=30) -> list:
     with the design for an optimisation), the first ``shown`` of them."""
     if not rows:
         return []
+    rows = rows if isinstance(rows, Rows) else Rows(rows)
     keys = [c for a in study.axes for c in a.columns] + (
         ["objective"] + [k for k in rows[0] if k.startswith("design:")] if study.mode == "optimise"
         else [k for k in ("peak:drive", "case_peak:drive", "cycle_rms:drive") if k in rows[0]])
-    keys = list(dict.fromkeys(k for k in keys if any(k in r for r in rows)))
+    keys = list(dict.fromkeys(k for k in keys if rows.has(k)))
 
     def cell(v):
         return "-" if v is None else f"{v:.6g}" if isinstance(v, float) else str(v)

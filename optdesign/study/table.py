@@ -8,6 +8,7 @@ import os
 from pathlib import Path
 
 from ..report.files import write_file
+from .rows import Rows
 
 CSV = "cases.csv"
 PARTIAL = f".{CSV}.partial.tmp"   # cases.csv while the study runs (a produced file's temporary name)
@@ -46,7 +47,8 @@ class CsvWriter:
     is appended once every case before it has finished (case order, whatever order they finish
     in), so that the file is the same, byte for byte, however the cases were run, and it is not
     rebuilt at the end.  ``finished(case)`` gives a finished case's merged row, else None; the
-    rows written are kept in ``rows`` (the study's result), each taken from the journal once.
+    rows written are kept in ``rows`` (the study's result: a :class:`~optdesign.study.rows.Rows`,
+    column by column), each taken from the journal once.
     The columns are those of the rows written so far (:func:`columns`); a row bringing a new
     column (the first successful case after failed ones) has the file rewritten once with it, so
     the end result is the table of every finished row whatever came first.  A write that fails
@@ -56,7 +58,7 @@ class CsvWriter:
     def __init__(self, folder, input_names, cases, finished):
         self.path = Path(folder) / PARTIAL
         self.inputs, self.cases, self.finished = list(input_names), cases, finished
-        self.seen, self.cols, self.next, self.rows, self.error = {}, None, 0, [], None
+        self.seen, self.cols, self.next, self.rows, self.error = {}, None, 0, Rows(), None
         self.fh = self.writer = None
         self._write(lambda: self._open("w"))
 
@@ -69,7 +71,7 @@ class CsvWriter:
             self._add(row)
             self.next += 1
 
-    def finish(self) -> list:
+    def finish(self) -> Rows:
         """Append the finished cases after the first unfinished one too, and close the file;
         returns the rows (once finished, it stays so)."""
         if self.fh is not None and self.fh.closed:
