@@ -67,11 +67,11 @@ def test_cases_csv_written_as_cases_finish_in_any_order_is_the_whole_table(tmp_p
     for c in order:                          # the cases come back in any order
         done[c.id] = rows[c.id]
         writer.advance()
-    path = study_table.write_csv(folder, writer)
+    path = study_table.write_tables(folder, writer)[0]
     expected = [rows[c.id] for c in cases if c.id in rows]
     assert path.read_text() == reference_csv(expected, ["mC"])
     assert writer.rows == expected
-    assert sorted(p.name for p in folder.iterdir()) == ["cases.csv"]   # no temporary left
+    assert sorted(p.name for p in folder.iterdir()) == ["cases.csv", "cases.parquet"]   # no temporary left
 
 
 def test_a_study_whose_first_cases_fail_writes_the_same_csv_serially_and_on_the_pool(tmp_path):

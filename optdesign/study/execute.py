@@ -31,7 +31,7 @@ from .tasks import scene_digest
 
 
 # the files a study derives from its journal (replaced at the end; a restart drops them)
-DERIVED = (study_table.CSV, "pareto.csv", "study.png", "pareto.png", "study.json", "summary.txt")
+DERIVED = (study_table.CSV, study_table.PARQUET, "pareto.csv", "study.png", "pareto.png", "study.json", "summary.txt")
 COMMIT_S = 0.1   # the journal is made durable (fsync) at least this often while cases come back
 FRESH = 10_000   # rows kept for cases.csv while an earlier case runs (more are read back from the journal)
 
@@ -84,13 +84,12 @@ def execute(study, folder: Path, workers, scheduler, progress, restart, figures)
             rows = table.finish()
             try:
                 result = write_folder(study, cases, folder, rows, table, figures, computed, reused, t0, where,
-                                      journal.notes)
+                                      [f"journal: {note}" for note in journal.notes])
             except OptdesignError as exc:
                 raise OptdesignError(f"{exc}; the {len(rows)} finished cases are kept in {journal.path}: run the "
                                      "same study again with the same folder to write them") from None
         finally:
-            table.close()
-            table.path.unlink(missing_ok=True)   # moved into the folder, or not to be left there
+            table.discard()   # its files moved into the folder, or not to be left there
     if lost is not None:
         raise ClusterLost(
             f"{lost}: {len(rows)} of {len(cases)} cases are finished and kept in {folder / study_journal.JOURNAL}; "
@@ -114,14 +113,14 @@ def write_folder(study, cases, folder, rows, table, figures, computed, reused, t
 
     def write(tmp) -> list:
         paths = [write_file(tmp / "study.json", json.dumps(definition(study, cases), indent=1) + "\n"),
-                 study_table.write_csv(tmp, table)]
+                 *study_table.write_tables(tmp, table)]
         pareto = bool(study.axes) and study.axes[-1].kind == "pareto"
         if complete and figures:
             paths += study_figures.figures(study, rows, tmp, study_table.front(study, rows) if pareto else None)
         if complete and pareto:   # a table, not a figure: --no-figures keeps it
             paths.append(study_table.pareto_csv(study, rows, tmp))
         result = StudyResult(study, tmp, rows, complete, computed, reused, time.perf_counter() - t0, paths,
-                             tuple(notes))
+                             (*notes, *([table.parquet.note] if table.parquet.note else [])))
         paths.append(write_summary(result, where))
         made.append(result)
         return paths
@@ -169,7 +168,7 @@ def write_summary(result, where) -> Path:
         lines.append("columns: peak:*, rms:* and constraint:* are the nominal state's (at the [drive] speed and "
                      "acceleration); the load cases' are case_peak:* (with the governing case), cycle_rms:*, cycle:*, "
                      "motor_fits:*, smallest_motor and cylinder:*")
-    lines += [f"journal: {note}" for note in result.notes]
+    lines += list(result.notes)
     lines += case_table(result.study, rows)
     lines.append(f"files: {', '.join(p.name for p in result.paths)}")
     path = result.folder / "summary.txt"

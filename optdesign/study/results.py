@@ -41,7 +41,7 @@ class StudyResult:
     reused: int              # finished cases found in the journal
     wall_s: float
     paths: list
-    notes: tuple = ()        # what opening the journal found and did (a torn last line cut, damaged lines moved)
+    notes: tuple = ()        # what opening the journal found and did (a torn last line cut, damaged lines moved), files not written
 
     def __post_init__(self):
         if not isinstance(self.rows, Rows):

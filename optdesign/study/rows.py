@@ -156,6 +156,16 @@ class Rows(collections.abc.Sequence):
         """Whether any row has the column ``name``."""
         return any(name in keys for keys in self._keys)
 
+    def values(self, name, start=0, stop=None) -> list:
+        """The values of column ``name`` in rows ``start`` to ``stop`` (None where a row has none)."""
+        stop = len(self) if stop is None else stop
+        col = self._cols.get(name)
+        if col is None:
+            return [None] * (stop - start)
+        has = [name in keys for keys in self._keys]
+        shape = self._shape
+        return [col.get(i) if has[shape[i]] else None for i in range(start, stop)]
+
     def column(self, name):
         """The column ``name`` as a float array, one value per row (missing, None and values that
         are not numbers as nan; true and false as 1 and 0)."""

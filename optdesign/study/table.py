@@ -8,6 +8,7 @@ import os
 from pathlib import Path
 
 from ..report.files import write_file
+from .parquet import PARQUET, ParquetWriter
 from .rows import Rows
 
 CSV = "cases.csv"
@@ -52,8 +53,9 @@ class CsvWriter:
     The columns are those of the rows written so far (:func:`columns`); a row bringing a new
     column (the first successful case after failed ones) has the file rewritten once with it, so
     the end result is the table of every finished row whatever came first.  A write that fails
-    (a full disk) stops the writing; :func:`write_csv` raises it at the end, when the results are
-    written (the journal keeps every case)."""
+    (a full disk) stops the writing; :func:`write_tables` raises it at the end, when the results
+    are written (the journal keeps every case).  The same rows go to cases.parquet
+    (:class:`~optdesign.study.parquet.ParquetWriter`), in row groups as they are written."""
 
     def __init__(self, folder, input_names, cases, finished):
         self.path = Path(folder) / PARTIAL
@@ -61,6 +63,7 @@ class CsvWriter:
         self.seen, self.cols, self.next, self.rows, self.error = {}, None, 0, Rows(), None
         self.fh = self.writer = None
         self._write(lambda: self._open("w"))
+        self.parquet = ParquetWriter(folder, self.rows)
 
     def advance(self):
         """Append the rows from the first case not written up to the first unfinished one."""
@@ -83,12 +86,20 @@ class CsvWriter:
         self.next = len(self.cases)
         if self.cols is None:
             self._write(lambda: self.writer.writerow(columns(self.inputs, [])))
+        self.parquet.finish(self.cols or columns(self.inputs, []))
         self.close()
         return self.rows
 
     def close(self):
         if self.fh is not None and not self.fh.closed:
             self._write(self.fh.close)
+        self.parquet.close()
+
+    def discard(self):
+        """The files in progress removed (moved into the folder already, or not to be left there)."""
+        self.close()
+        self.path.unlink(missing_ok=True)
+        self.parquet.path.unlink(missing_ok=True)
 
     def _open(self, mode):
         self.fh = open(self.path, mode, newline="")
@@ -103,6 +114,7 @@ class CsvWriter:
             if cols != self.cols:
                 self._write(lambda: self._rewrite(cols))
         self._write(lambda: self.writer.writerow([cell(row.get(k)) for k in self.cols]))
+        self.parquet.add(self.cols)
 
     def _write(self, action):
         if self.error is None:
@@ -132,14 +144,19 @@ class CsvWriter:
         self._open("a")
 
 
-def write_csv(folder, writer: CsvWriter) -> Path:
-    """cases.csv in ``folder``: the study's :class:`CsvWriter` finished and its file moved there."""
+def write_tables(folder, writer: CsvWriter) -> list:
+    """cases.csv (and cases.parquet, where pyarrow is installed) in ``folder``: the study's
+    :class:`CsvWriter` finished and its files moved there."""
     writer.finish()
-    if writer.error is not None:
-        raise writer.error
-    path = Path(folder) / CSV
-    os.replace(writer.path, path)
-    return path
+    for error in (writer.error, writer.parquet.error):
+        if error is not None:
+            raise error
+    paths = [Path(folder) / CSV]
+    os.replace(writer.path, paths[0])
+    if writer.parquet.note is None:
+        paths.append(Path(folder) / PARQUET)
+        os.replace(writer.parquet.path, paths[1])
+    return paths
 
 
 def read_csv(path) -> list:
