@@ -39,7 +39,8 @@ class IntervalProgram:
     """An SX Function (s, p) -> outputs (column vectors), evaluated over intervals of s.
 
     Build it with :func:`interval_program`.  Calling it with arrays ``lo``, ``hi`` (the
-    intervals) and the parameter vector ``p`` gives, per output, (lo, hi) arrays (output rows x
+    intervals) and the parameter vector ``p`` (or one row of parameters per interval: an array
+    intervals x parameters) gives, per output, (lo, hi) arrays (output rows x
     intervals) and ``jump`` (output rows x intervals, bool): where a jump of that output's
     dependencies may lie inside the interval."""
 
@@ -115,8 +116,8 @@ class IntervalProgram:
 
     def _fixed_work(self, p):
         """The values that do not depend on s, at parameters p (point intervals), cached."""
-        p = np.asarray(p, float).ravel()
-        key = p.tobytes()
+        p = _parameters(p)
+        key = p.tobytes() + bytes(str(p.shape), "ascii")
         if key != self._p_key:
             work = [None] * self.n_store
             self._branches = {}
@@ -131,7 +132,7 @@ class IntervalProgram:
                     self._store.append((i, work[ins[0]]))
                     continue
                 if op == ca.OP_INPUT:
-                    work[out] = s if i[0] == 0 else (p[i[1]], p[i[1]])
+                    work[out] = s if i[0] == 0 else (p[..., i[1]], p[..., i[1]])
                     continue
                 if op == ca.OP_CONST:
                     work[out] = (const, const)
@@ -175,6 +176,12 @@ class IntervalProgram:
                 deps >>= 1
                 bit += 1
         return out
+
+
+def _parameters(p):
+    """The parameters as one vector, or as rows (one per interval: intervals x parameters)."""
+    p = np.asarray(p, float)
+    return p if p.ndim == 2 else p.ravel()
 
 
 def _select(k1, k2, condition, negation):
@@ -233,14 +240,15 @@ class Enclosure:
     v''([lo, hi]) (s - m)^2 / 2 (where no jump of v or v' may lie inside), m the midpoint."""
 
     def __init__(self, program: IntervalProgram, p):
-        self.program, self.p = program, np.asarray(p, float).ravel()
+        self.program, self.p = program, _parameters(p)
 
     def bounds(self, lo, hi, rows=None):
         lo, hi = np.asarray(lo, float), np.asarray(hi, float)
         n = len(lo)
         m = 0.5 * (lo + hi)
         r = _up(np.maximum(hi - m, m - lo))
-        (v_lo, v_hi, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(np.r_[lo, m], np.r_[hi, m], self.p, rows)
+        p = self.p if self.p.ndim == 1 else np.r_[self.p, self.p]   # a row per interval: the midpoints' too
+        (v_lo, v_hi, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(np.r_[lo, m], np.r_[hi, m], p, rows)
         whole, mid = slice(0, n), slice(n, 2 * n)
         L, U = v_lo[:, whole], v_hi[:, whole]
         vm_lo, vm_hi = v_lo[:, mid], v_hi[:, mid]
@@ -273,10 +281,14 @@ class Unavailable:
 
 class Enclosures:
     """The interval program of one Function (s, p) -> (v, dv/ds, d2v/ds2), built once; ``at(p)``
-    gives its :class:`Enclosure` at parameters p, or :class:`Unavailable` with the reason."""
+    gives its :class:`Enclosure` at parameters p, or :class:`Unavailable` with the reason.
+    ``compile``: a function that returns the program's compiled twin (called as the program is:
+    :func:`optdesign.model.intervals_compiled.compile_program`), or the program itself."""
 
-    def __init__(self, func):
+    def __init__(self, func, compile=None):
         self.program, self.reason = interval_program(func)
+        if compile is not None and self.program is not None:
+            self.program = compile(self.program)
 
     def at(self, p):
         return Unavailable(self.reason) if self.program is None else Enclosure(self.program, p)
