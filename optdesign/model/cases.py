@@ -34,12 +34,16 @@ class CaseModel:
     """One load case of a scene: its motion, its reduced model and drive train as CasADi
     expressions of (s, p), p the mechanism's parameter vector read as the case's parameters."""
 
-    def __init__(self, mech, case: Case, efficiency_smoothing: float = 0.0):
+    def __init__(self, mech, case: Case, efficiency_smoothing: float = 0.0, time=None):
+        """``time``: a symbol tau for a law in time's fraction of its duration, used in place of
+        the law's inverse at s (:meth:`.profiles.MotionProfile.graphs`): the graphs then hold
+        both s and tau, and s = profile.sweep_at(tau) makes them graphs of tau alone."""
         r = mech.resolved
-        self.mech, self.case, self.name = mech, case, case.name
+        self.mech, self.case, self.name, self.time = mech, case, case.name, time
         self.values = case_values(mech.scene, case, r.values)
         self.profile = case_profile(mech.scene, case, r.start, r.stop, r.values)
-        motion = self.profile.motion(mech) if self.profile is not None else constant_motion(mech, case)
+        motion = (self.profile.motion(mech, time=time) if self.profile is not None
+                  else constant_motion(mech, case))
         self.model = ReducedModel(mech, efficiency_smoothing, motion=motion, flow=case.efficiency)
         self.smoothing = efficiency_smoothing
         if self.profile is None:
@@ -52,10 +56,10 @@ class CaseModel:
         m, mech = self.model, self.mech
         out = {}
         if self.profile is not None:
-            sd, sdd, _, t = self.profile.graphs(mech.s, lambda e: mech.value(e, "[profiles] speed"))
+            sd, sdd, _, t = self.profile.graphs(mech.s, lambda e: mech.value(e, "[profiles] speed"), self.time)
             out["sd"], out["sdd"] = sd, sdd + 0 * mech.s
             if self.profile.shape.motion_law is not None:   # a law in time: its jerk in closed form
-                out["jerk"] = self.profile.jerk(mech.s)
+                out["jerk"] = self.profile.jerk(mech.s, self.time)
             if t is not None:
                 out["t"] = t
         out["drive_speed"] = m.qd + 0 * mech.s
@@ -161,26 +165,44 @@ class CaseAnalysis:
         self.motor_inertias = ({m.name: motor_numbers(m, mech.resolved.values)["inertia"] for m in mech.scene.motors}
                                if mech.scene.gearbox is not None else {})
         for cm in self.cases:
-            outs = cm.outputs()
-            if motor is not None:
-                outs["motor_torque"] = outs["motor_load_torque"] + motor["inertia"] * outs["motor_acceleration"]
-            for name, expr in cm.constraints(outs).items():
-                outs[f"constraint:{name}"] = expr + 0 * mech.s
-            if joints:
-                outs.update(_joint_outputs(cm, mech))
+            outs = self._outputs(cm, motor, joints)
             # the peaks over the continuous stroke, certified: seed 1's quantities, the drive
-            # train's, each motor's torque T_g + J_r eps_m (whether it fits) and the pins' forces
-            rows = {k: outs[k] for k in PEAK_KEYS if k in outs and not (k == "motor_torque" and self.motor_inertias)}
-            rows.update({_motor_key(name): outs["motor_load_torque"] + J * outs["motor_acceleration"]
-                         for name, J in self.motor_inertias.items()})
-            rows.update({k: v for k, v in outs.items() if k.startswith(PEAKED)})
-            self.pin_peaks.append(CertifiedPeaks(mech, rows) if rows and certify else None)
+            # train's, each motor's torque T_g + J_r eps_m (whether it fits) and the pins' forces;
+            # along a law in time as graphs of its time tau (smooth at a rest, where its
+            # inverse tau(s), in the graphs of s, is not: the ventilator's enclosure never closed)
+            if certify and cm.profile is not None and cm.profile.in_time:
+                tau = mech.sym.sym("tau")
+                rows = self._peak_rows(self._outputs(CaseModel(mech, cm.case, time=tau), motor, joints))
+                self.pin_peaks.append(CertifiedPeaks(mech, rows, time=(tau, cm.profile)) if rows else None)
+            else:
+                rows = self._peak_rows(outs)
+                self.pin_peaks.append(CertifiedPeaks(mech, rows) if rows and certify else None)
             outs["q"], outs["k"] = mech.q, mech.ds(mech.q)
             outs["hold_load"] = cm.static_load() + 0 * mech.s
             self.quantities = tuple(k for k in mech.quantities if k not in outs)   # [quantities], as columns
             outs.update({k: mech.quantities[k] + 0 * mech.s for k in self.quantities})
             self.functions.append((list(outs), MappedFunction(mech.function(f"case_{len(self.functions)}", outs))))
         self.duty = DutyCycle(mech.scene, self.cases)
+
+    def _outputs(self, cm, motor, joints) -> dict:
+        """Case ``cm``'s columns as graphs: its outputs, the one motor's torque, its constraints
+        and (``joints``) its joint forces."""
+        outs = cm.outputs()
+        if motor is not None:
+            outs["motor_torque"] = outs["motor_load_torque"] + motor["inertia"] * outs["motor_acceleration"]
+        for name, expr in cm.constraints(outs).items():
+            outs[f"constraint:{name}"] = expr + 0 * self.mech.s
+        if joints:
+            outs.update(_joint_outputs(cm, self.mech))
+        return outs
+
+    def _peak_rows(self, outs) -> dict:
+        """The rows whose peaks are certified, from a case's columns ``outs``."""
+        rows = {k: outs[k] for k in PEAK_KEYS if k in outs and not (k == "motor_torque" and self.motor_inertias)}
+        rows.update({_motor_key(name): outs["motor_load_torque"] + J * outs["motor_acceleration"]
+                     for name, J in self.motor_inertias.items()})
+        rows.update({k: v for k, v in outs.items() if k.startswith(PEAKED)})
+        return rows
 
     def run(self, p_values) -> "CasesResult":
         """Every case, the governing case of each peak, the duty cycle and the drive train at
