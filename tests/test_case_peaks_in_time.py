@@ -44,12 +44,14 @@ def analysed():
 
 
 @pytest.mark.parametrize("name, key", [("squeeze", "drive"), ("squeeze", "power"), ("squeeze", "motor_torque"),
-                                       ("return", "motor_speed")])
-def test_governing_case_peaks_at_a_rest_are_certified(analysed, name, key):
-    """The governing case's peaks of the ventilator (the ones that did not close): certified, the
-    located value and the bound within [reference, reference (1 + 1e-8)]."""
+                                       ("return", "motor_speed"), ("squeeze", "motor_speed"), ("return", "drive"),
+                                       ("return", "power"), ("return", "motor_torque")])
+def test_case_peaks_at_a_rest_are_certified(analysed, name, key):
+    """Every case's peaks of the ventilator (the first four govern and did not close; the others
+    were "located, not certified: another case governs this peak"): certified, the located
+    value and the bound within [reference, reference (1 + 1e-8)] (the located value to 1e-12
+    below it: the reference's own rounding)."""
     case = analysed.cases.cases[name]
-    assert analysed.cases.governing[key]["case"] == name
     ref = reference_peak(name, key)
     certificate = case.certificates[f"peak |{key}|"]
     assert certificate["note"] == ""

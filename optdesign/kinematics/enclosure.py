@@ -121,12 +121,12 @@ class IntervalProgram:
 
     def _fixed_work(self, p):
         """The values that do not depend on s, at parameters p (point intervals), cached; p of
-        shape (parameters, intervals): each interval's own parameters (not cached)."""
+        shape (intervals, parameters): each interval's own parameters (not cached)."""
         p = np.asarray(p, float)
         if p.ndim == 2:
             work = [None] * self.n_store
             self._branches = {}
-            self._run(self.fixed, work, None, p, None)
+            self._run(self.fixed, work, None, np.ascontiguousarray(p.T), None)   # a parameter: p[i]
             return work
         p = p.ravel()
         key = p.tobytes()
@@ -171,7 +171,7 @@ class IntervalProgram:
     def __call__(self, lo, hi, p, rows=None):
         """Every output over the intervals [lo, hi]; ``rows``: only those rows of the outputs
         (the others NaN), with only the instructions they need.  ``p``: the parameter vector, or
-        an array (parameters x intervals) of each interval's own (point intervals per interval:
+        an array (intervals x parameters) of each interval's own (point intervals per interval:
         many parameter vectors in one call, :mod:`optdesign.study.batched`)."""
         lo, hi = np.asarray(lo, float).ravel(), np.asarray(hi, float).ravel()
         n = len(lo)
@@ -248,7 +248,7 @@ class Enclosure:
     v''([lo, hi]) (s - m)^2 / 2 (where no jump of v or v' may lie inside), m the midpoint."""
 
     def __init__(self, program: IntervalProgram, p):
-        """``p``: the parameter vector, or (parameters x intervals) each interval's own."""
+        """``p``: the parameter vector, or (intervals x parameters) each interval's own."""
         p = np.asarray(p, float)
         self.program, self.p = program, p if p.ndim == 2 else p.ravel()
 
@@ -260,7 +260,7 @@ class Enclosure:
         n = len(lo)
         m = 0.5 * (lo + hi)
         r = _up(np.maximum(hi - m, m - lo))
-        p = self.p if self.p.ndim == 1 else np.c_[self.p, self.p]   # for [lo, m]
+        p = self.p if self.p.ndim == 1 else np.r_[self.p, self.p]   # for [lo, m]
         (v_lo, v_hi, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(np.r_[lo, m], np.r_[hi, m], p, rows)
         whole, mid = slice(0, n), slice(n, 2 * n)
         L, U = v_lo[:, whole], v_hi[:, whole]

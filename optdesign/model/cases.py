@@ -207,7 +207,7 @@ class CaseAnalysis:
     def run(self, p_values) -> "CasesResult":
         """Every case, the governing case of each peak, the duty cycle and the drive train at
         the parameter vector ``p_values``."""
-        results, evaluated, to_certify = {}, {}, {}
+        results, evaluated = {}, {}
         for cm, (names, function), pin_peaks in zip(self.cases, self.functions, self.pin_peaks):
             p_case = cm.case_parameters(np.asarray(p_values, float))
             nodes, on_sample = case_nodes(self.s_values, cm.profile)
@@ -231,13 +231,12 @@ class CaseAnalysis:
                 i = int(np.argmax(np.abs(torque)))
                 peaks[_motor_key(name)] = float(abs(torque[i]))
                 peak_at[_motor_key(name)] = {"s": float(nodes[i]), "value": float(torque[i])}
-            if pin_peaks is not None:   # the peaks over the continuous stroke, located (certified below)
+            if pin_peaks is not None:   # every peak over the continuous stroke, located and certified
                 sampled = dict(columns, **{_motor_key(name): columns["motor_load_torque"] + J * columns["motor_acceleration"]
                                            for name, J in self.motor_inertias.items()})
-                for key, (value, where, _) in pin_peaks(nodes, p_case, sampled, certify=False).items():
+                for key, (value, where, certificate) in pin_peaks(nodes, p_case, sampled).items():
                     sampled_pins[key], peaks[key], peak_at[key] = peaks[key], value, where
-                    certificates[f"peak |{key}|"] = {"bound": None, "note": LOCATED}
-                to_certify[cm.name] = (pin_peaks, nodes, p_case, sampled)
+                    certificates[f"peak |{key}|"] = certificate
             motors = {name: {"peak": peaks.pop(_motor_key(name)), "at": peak_at.pop(_motor_key(name)),
                              "peak_sampled": sampled_pins.pop(_motor_key(name), None),
                              "certificate": certificates.pop(f"peak |{_motor_key(name)}|", None)}
@@ -254,7 +253,6 @@ class CaseAnalysis:
                                           sampled_pins, certificates, motors, _rests(cm.profile))
             evaluated[cm.name] = {"hold": ends, "on_sample": on_sample,   # the quantities at a hold too
                                   "quantities": {q: {k: columns[q][i] for k, i in at.items()} for q in self.quantities}}
-        _certify_governing(results, to_certify)
         duty = self.duty.evaluate(results, evaluated, p_values, self.mech)
         env = self.mech.resolved.environment(np.asarray(p_values, float))
         values = {k: float(v) for k, v in env.items()}
@@ -377,41 +375,6 @@ def cylinder_report(scene, values, results) -> dict:
     extend = max(float(np.max(c["drive_speed"])) for c in cols)
     retract = max(float(np.max(-c["drive_speed"])) for c in cols)
     return cylinder_sizing(number, push, pull, length, max(extend, 0.0), max(retract, 0.0))
-
-
-LOCATED = "located, not certified: another case governs this peak"
-
-
-def _certify_governing(results, to_certify):
-    """Certify, in each case, the peaks it governs (the largest located one over the cases of
-    each quantity and of each motor's torque) and its pins' forces: each a bound over the
-    continuous stroke (:class:`.certified.CertifiedPeaks`, the enclosure of the same rows),
-    the case's located value raised to the certified one.  The other cases' peaks stay located
-    (refined between the samples) with the note ``LOCATED``: the enclosure's cost is one
-    program evaluation per pass and case, whatever the rows."""
-    governs = {}
-    keys = {k for r in results.values() for k in list(r.peaks) + [_motor_key(m) for m in r.motors]}
-    for key in keys:
-        have = [(_peak(r, key), name) for name, r in results.items() if _peak(r, key) is not None]
-        if have:
-            governs.setdefault(max(have)[1], set()).add(key)
-    for name, (peaks, nodes, p_case, sampled) in to_certify.items():
-        r = results[name]
-        wanted = governs.get(name, set()) | {k for k in r.peaks if k.startswith(PEAKED)}
-        for key, (value, at, certificate) in peaks(nodes, p_case, sampled, names=wanted).items():
-            motor = key[len("motor_torque["):-1] if key.startswith("motor_torque[") else None
-            if motor is not None:
-                r.motors[motor].update(peak=value, at=at, certificate=certificate)
-            else:
-                r.peaks[key], r.peak_at[key] = value, at
-                r.certificates[f"peak |{key}|"] = certificate
-
-
-def _peak(r, key):
-    if key.startswith("motor_torque["):
-        own = r.motors.get(key[len("motor_torque["):-1])
-        return None if own is None else own["peak"]
-    return r.peaks.get(key)
 
 
 def _motor_key(name) -> str:
