@@ -21,10 +21,16 @@ not available, never pretends one.
 """
 from __future__ import annotations
 
+import threading
+
 import casadi as ca
 import numpy as np
 
 from .intervals import INF, JUMPS, PERIODIC, _binary, _down, _op, _out, _unary, _up  # noqa: F401
+
+# per thread: ``GATHER.bounds(enclosure, lo, hi, rows)``, when set, answers Enclosure.bounds (the
+# calls of many cases' analyses gathered into one: optdesign.study.batched)
+GATHER = threading.local()
 
 _BINARY_OPS = {_op(n) for n in ("OP_ADD", "OP_SUB", "OP_MUL", "OP_DIV", "OP_POW", "OP_CONSTPOW", "OP_ATAN2",
                                 "OP_FMIN", "OP_FMAX", "OP_HYPOT", "OP_LT", "OP_LE", "OP_EQ", "OP_NE",
@@ -115,9 +121,16 @@ class IntervalProgram:
         return self._subsets[key]
 
     def _fixed_work(self, p):
-        """The values that do not depend on s, at parameters p (point intervals), cached."""
-        p = _parameters(p)
-        key = p.tobytes() + bytes(str(p.shape), "ascii")
+        """The values that do not depend on s, at parameters p (point intervals), cached; p of
+        shape (intervals, parameters): each interval's own parameters (not cached)."""
+        p = np.asarray(p, float)
+        if p.ndim == 2:
+            work = [None] * self.n_store
+            self._branches = {}
+            self._run(self.fixed, work, None, np.ascontiguousarray(p.T), None)   # a parameter: p[i]
+            return work
+        p = p.ravel()
+        key = p.tobytes()
         if key != self._p_key:
             work = [None] * self.n_store
             self._branches = {}
@@ -132,7 +145,7 @@ class IntervalProgram:
                     self._store.append((i, work[ins[0]]))
                     continue
                 if op == ca.OP_INPUT:
-                    work[out] = s if i[0] == 0 else (p[..., i[1]], p[..., i[1]])
+                    work[out] = s if i[0] == 0 else (p[i[1]], p[i[1]])
                     continue
                 if op == ca.OP_CONST:
                     work[out] = (const, const)
@@ -158,7 +171,9 @@ class IntervalProgram:
 
     def __call__(self, lo, hi, p, rows=None):
         """Every output over the intervals [lo, hi]; ``rows``: only those rows of the outputs
-        (the others NaN), with only the instructions they need."""
+        (the others NaN), with only the instructions they need.  ``p``: the parameter vector, or
+        an array (intervals x parameters) of each interval's own (point intervals per interval:
+        many parameter vectors in one call, :mod:`optdesign.study.batched`)."""
         lo, hi = np.asarray(lo, float).ravel(), np.asarray(hi, float).ravel()
         n = len(lo)
         work = list(self._fixed_work(p))
@@ -176,12 +191,6 @@ class IntervalProgram:
                 deps >>= 1
                 bit += 1
         return out
-
-
-def _parameters(p):
-    """The parameters as one vector, or as rows (one per interval: intervals x parameters)."""
-    p = np.asarray(p, float)
-    return p if p.ndim == 2 else p.ravel()
 
 
 def _select(k1, k2, condition, negation):
@@ -240,14 +249,19 @@ class Enclosure:
     v''([lo, hi]) (s - m)^2 / 2 (where no jump of v or v' may lie inside), m the midpoint."""
 
     def __init__(self, program: IntervalProgram, p):
-        self.program, self.p = program, _parameters(p)
+        """``p``: the parameter vector, or (intervals x parameters) each interval's own."""
+        p = np.asarray(p, float)
+        self.program, self.p = program, p if p.ndim == 2 else p.ravel()
 
     def bounds(self, lo, hi, rows=None):
+        gather = getattr(GATHER, "bounds", None)
+        if gather is not None:   # this thread's calls are gathered with other cases' (study.batched)
+            return gather(self, lo, hi, rows)
         lo, hi = np.asarray(lo, float), np.asarray(hi, float)
         n = len(lo)
         m = 0.5 * (lo + hi)
         r = _up(np.maximum(hi - m, m - lo))
-        p = self.p if self.p.ndim == 1 else np.r_[self.p, self.p]   # a row per interval: the midpoints' too
+        p = self.p if self.p.ndim == 1 else np.r_[self.p, self.p]   # for [lo, m]
         (v_lo, v_hi, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(np.r_[lo, m], np.r_[hi, m], p, rows)
         whole, mid = slice(0, n), slice(n, 2 * n)
         L, U = v_lo[:, whole], v_hi[:, whole]

@@ -42,7 +42,7 @@ MODES = ("optimise", "analyse")
 
 
 # --- cases ------------------------------------------------------------------------------------
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, slots=True)
 class Case:
     """One case: its place in the study, its content and its id (a digest of the content and,
     for a warm-started case, of the previous case of its chain)."""
@@ -195,16 +195,18 @@ class Study:
                 chain, prev = chain + 1, None
             overrides, bounds, inputs = [], [], []
             for axis, i in zip(self.axes, idx):
-                for col, v in axis.points[i]:
-                    inputs.append((col, v))
+                for pair in axis.points[i]:   # the axis's (column, value) pairs, shared by every case (memory)
+                    inputs.append(pair)
                     if axis.kind == "pareto":
-                        bounds.append((axis.constraint, axis.side, v))
+                        bounds.append((axis.constraint, axis.side, pair[1]))
                     else:
-                        overrides.append((col, v))
+                        overrides.append(pair)
             content = {"scene": digest, "mode": self.mode, "overrides": overrides, "bounds": bounds,
                        "run": run, "prev": prev}
             cid = hashlib.sha256(json.dumps(content, sort_keys=True).encode()).hexdigest()[:16]
-            out.append(Case(index, chain, link, tuple(overrides), tuple(bounds), tuple(inputs), cid))
+            overrides = tuple(overrides)
+            out.append(Case(index, chain, link, overrides, tuple(bounds) if bounds else (),
+                            overrides if not bounds else tuple(inputs), cid))
             prev = cid if chained else None
         return out
 
