@@ -126,7 +126,8 @@ def test_the_bounds_with_compiled_programs_hold_every_value(programs):
     both = np.isfinite(Ln) & np.isfinite(Un)
     assert np.array_equal(both, np.isfinite(Lc) & np.isfinite(Uc))
     scale = 1e-12 * (np.abs(Ln) + np.abs(Un) + 1.0)
-    assert np.all(np.abs(Lc - Ln)[both] <= scale[both]) and np.all(np.abs(Uc - Un)[both] <= scale[both])
+    with np.errstate(invalid="ignore"):   # (inf - inf where an end is unbounded)
+        assert np.all(np.abs(Lc - Ln)[both] <= scale[both]) and np.all(np.abs(Uc - Un)[both] <= scale[both])
     t = np.linspace(0, 1, 201)
     x = np.clip(lo[:, None] + (hi - lo)[:, None] * t, lo[:, None], hi[:, None]).ravel()
     v = np.asarray(f.map(len(x))(x[None, :], p)[0]).reshape(len(EXPRESSIONS), len(lo), len(t))
@@ -209,11 +210,10 @@ def _same_figures(scene_file, monkeypatch):
     return theirs
 
 
-@pytest.mark.parametrize("scene_file", ["problems/seed1_slider_crank.toml", "problems/crank_press_peak.toml"])
-def test_certified_figures_are_the_same_with_the_compiled_programs(cache, monkeypatch, scene_file):
+def test_certified_figures_are_the_same_with_the_compiled_programs(cache, monkeypatch):
     """analyse's certified peaks, their places, bounds and notes: the same (within 1e-12) with
-    the interval programs compiled as with numpy's."""
-    figures = _same_figures(scene_file, monkeypatch)
+    the interval programs compiled as with numpy's (every shipped scene: the slow test below)."""
+    figures = _same_figures("problems/seed1_slider_crank.toml", monkeypatch)
     assert any("peaks" in k for k in figures)
 
 
