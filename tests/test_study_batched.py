@@ -108,3 +108,27 @@ def test_lockstep_hands_back_each_jobs_exception_and_leaves_no_thread_behind(mon
     with pytest.raises(KeyboardInterrupt):
         run_batch(tasks)
     assert threading.active_count() == before
+
+
+def test_an_enclosure_with_a_parameter_row_per_interval_bounds_each_as_its_own_vector():
+    """The array interface batching relies on (kinematics/enclosure.py): parameters of shape
+    intervals x parameters give each interval exactly the bounds of its own vector."""
+    from optdesign.model.analysis import Analysis
+    from optdesign.scene.resolved import ResolvedScene
+
+    scene = optdesign.load(ROOT / "problems" / "truck_crane.toml")
+    analysis = Analysis(ResolvedScene(scene, variable=["mB", "mP", "b"]))
+    names, base = analysis.mech.parameter_names, np.asarray(analysis.mech.parameter_values, float)
+    rng = np.random.default_rng(5)
+    ps = np.repeat(base[None, :], 3, axis=0)
+    for k, (name, lo, hi) in enumerate((("mB", 300, 900), ("mP", 0, 3000), ("b", 0.6, 2.5))):
+        ps[:, names.index(name)] = rng.uniform(lo, hi, 3)
+    s0, s1 = sorted((analysis.s_values[0], analysis.s_values[-1]))
+    edges = np.sort(rng.uniform(s0, s1, (3, 41)), axis=1)
+    lo, hi = edges[:, :-1], edges[:, 1:]
+    enclosures = analysis.certified.enclosures
+    alone = [enclosures.at(p).bounds(a, b) for p, a, b in zip(ps, lo, hi)]
+    together_ = enclosures.at(np.repeat(ps, 40, axis=0)).bounds(lo.ravel(), hi.ravel())
+    for k, one in enumerate(alone):
+        for x, y in zip(one, together_):
+            np.testing.assert_array_equal(x, y[:, 40 * k:40 * (k + 1)])

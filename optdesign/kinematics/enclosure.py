@@ -45,7 +45,8 @@ class IntervalProgram:
     """An SX Function (s, p) -> outputs (column vectors), evaluated over intervals of s.
 
     Build it with :func:`interval_program`.  Calling it with arrays ``lo``, ``hi`` (the
-    intervals) and the parameter vector ``p`` gives, per output, (lo, hi) arrays (output rows x
+    intervals) and the parameter vector ``p`` (or one row of parameters per interval: an array
+    intervals x parameters) gives, per output, (lo, hi) arrays (output rows x
     intervals) and ``jump`` (output rows x intervals, bool): where a jump of that output's
     dependencies may lie inside the interval."""
 
@@ -121,12 +122,12 @@ class IntervalProgram:
 
     def _fixed_work(self, p):
         """The values that do not depend on s, at parameters p (point intervals), cached; p of
-        shape (parameters, intervals): each interval's own parameters (not cached)."""
+        shape (intervals, parameters): each interval's own parameters (not cached)."""
         p = np.asarray(p, float)
         if p.ndim == 2:
             work = [None] * self.n_store
             self._branches = {}
-            self._run(self.fixed, work, None, p, None)
+            self._run(self.fixed, work, None, np.ascontiguousarray(p.T), None)   # a parameter: p[i]
             return work
         p = p.ravel()
         key = p.tobytes()
@@ -171,7 +172,7 @@ class IntervalProgram:
     def __call__(self, lo, hi, p, rows=None):
         """Every output over the intervals [lo, hi]; ``rows``: only those rows of the outputs
         (the others NaN), with only the instructions they need.  ``p``: the parameter vector, or
-        an array (parameters x intervals) of each interval's own (point intervals per interval:
+        an array (intervals x parameters) of each interval's own (point intervals per interval:
         many parameter vectors in one call, :mod:`optdesign.study.batched`)."""
         lo, hi = np.asarray(lo, float).ravel(), np.asarray(hi, float).ravel()
         n = len(lo)
@@ -248,7 +249,7 @@ class Enclosure:
     v''([lo, hi]) (s - m)^2 / 2 (where no jump of v or v' may lie inside), m the midpoint."""
 
     def __init__(self, program: IntervalProgram, p):
-        """``p``: the parameter vector, or (parameters x intervals) each interval's own."""
+        """``p``: the parameter vector, or (intervals x parameters) each interval's own."""
         p = np.asarray(p, float)
         self.program, self.p = program, p if p.ndim == 2 else p.ravel()
 
@@ -260,7 +261,7 @@ class Enclosure:
         n = len(lo)
         m = 0.5 * (lo + hi)
         r = _up(np.maximum(hi - m, m - lo))
-        p = self.p if self.p.ndim == 1 else np.c_[self.p, self.p]   # for [lo, m]
+        p = self.p if self.p.ndim == 1 else np.r_[self.p, self.p]   # for [lo, m]
         (v_lo, v_hi, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(np.r_[lo, m], np.r_[hi, m], p, rows)
         whole, mid = slice(0, n), slice(n, 2 * n)
         L, U = v_lo[:, whole], v_hi[:, whole]
@@ -294,10 +295,14 @@ class Unavailable:
 
 class Enclosures:
     """The interval program of one Function (s, p) -> (v, dv/ds, d2v/ds2), built once; ``at(p)``
-    gives its :class:`Enclosure` at parameters p, or :class:`Unavailable` with the reason."""
+    gives its :class:`Enclosure` at parameters p, or :class:`Unavailable` with the reason.
+    ``compile``: a function that returns the program's compiled twin (called as the program is:
+    :func:`optdesign.model.intervals_compiled.compile_program`), or the program itself."""
 
-    def __init__(self, func):
+    def __init__(self, func, compile=None):
         self.program, self.reason = interval_program(func)
+        if compile is not None and self.program is not None:
+            self.program = compile(self.program)
 
     def at(self, p):
         return Unavailable(self.reason) if self.program is None else Enclosure(self.program, p)

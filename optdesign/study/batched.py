@@ -123,8 +123,8 @@ def _answer_together(cases):
     sizes = [len(c.asked[1]) for c in cases]
     lo = np.concatenate([c.asked[1] for c in cases])
     hi = np.concatenate([c.asked[2] for c in cases])
-    p = np.concatenate([np.repeat(np.asarray(c.asked[0].p, float).reshape(-1, 1), n, axis=1)
-                        for c, n in zip(cases, sizes)], axis=1)
+    p = np.concatenate([np.repeat(np.asarray(c.asked[0].p, float).reshape(1, -1), n, axis=0)
+                        for c, n in zip(cases, sizes)])   # intervals x parameters
     asked = [c.asked[3] for c in cases]
     rows = None if any(r is None for r in asked) else np.unique(np.concatenate([np.asarray(r, int) for r in asked]))
     L, U, m_lo, m_hi = _enclosure.Enclosure(program, p).bounds(lo, hi, rows)
