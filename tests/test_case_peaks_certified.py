@@ -88,3 +88,24 @@ def test_governing_values_are_the_certified_case_peaks(pair):
     for key, g in coarse.governing.items():
         assert g["value"] == coarse.cases[g["case"]].peaks[key]
         assert g["value"] == max(c.peaks[key] for c in coarse.cases.values() if key in c.peaks)
+
+
+def test_profile_figures_take_the_certified_motor_peaks(pair):
+    """simulate's comparison figures from analyse (report/cycle.py, each followed case's motor
+    peak torque and speed) are the cases' certified peaks, not their samples' maxima: the
+    samples alone lie below the dense grid's (the press's forming stroke: 320.7607 against
+    320.7781 N m), the figures never."""
+    from optdesign.report.cycle import _case_figures
+
+    coarse, dense = pair
+    for motor, entry in coarse.train.get("motors", {}).items():
+        for name, case in coarse.cases.items():
+            figures = _case_figures(case, motor, entry["inertia"])
+            own = case.motors[motor]
+            assert figures["peak_motor_torque"] == own["peak"] and own["certificate"]["note"] == ""
+            assert dense.cases[name].motors[motor]["peak"] * (1 - 1e-12) <= figures["peak_motor_torque"] <= own["certificate"]["bound"]
+            assert figures["peak_motor_speed"] == case.peaks["motor_speed"]
+            assert case.certificates["peak |motor_speed|"]["note"] == ""
+    forming = coarse.cases[next(iter(coarse.cases))]
+    motor = next(iter(coarse.train["motors"]))
+    assert forming.motors[motor]["peak_sampled"] < dense.cases[forming.name].motors[motor]["peak"] * (1 - 1e-6)
