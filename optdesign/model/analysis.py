@@ -20,6 +20,7 @@ from .quantities import environment, joint_calls, joint_forces, model_value
 from ..scene.cases import is_case_constraint
 from .cases import CaseAnalysis
 from .finite import check_columns, check_values
+from .intervals_compiled import compile_program
 from .blocked import stroke_evaluator
 from .quadrature import integrate
 from .reduction import ReducedModel
@@ -94,6 +95,7 @@ class Analysis:
                  certify: bool = True, joints: bool = False):
         t0 = time.perf_counter()
         self.mech = Mechanism(scene_argument("analyse", scene, ResolvedScene))
+        self.mech.interval_compile = compile_program
         self.resolved = self.mech.resolved
         self.scene = scene = self.mech.scene
         self.model = ReducedModel(self.mech, efficiency_smoothing)
