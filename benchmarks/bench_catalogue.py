@@ -32,10 +32,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from benchfile import ROOT, SCALING_MD, cpu_model, git_state, write_section  # noqa: E402
 
 
-def run(tree: Path, scene: str, out: Path, env: dict):
+def run(tree: Path, scene: str, out: Path, env: dict, starts: int):
     """(wall, child CPU, answer) of ``optdesign optimise`` with the code of ``tree``."""
     env = dict(env, PYTHONPATH=str(tree), MPLBACKEND="Agg")
-    cmd = [sys.executable, "-m", "optdesign", "optimise", str(ROOT / scene), "--out", str(out), "--no-animation", "-q"]
+    cmd = [sys.executable, "-m", "optdesign", "optimise", str(ROOT / scene), "--out", str(out), "--no-animation", "-q",
+           "--starts", str(starts)]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, cwd=tree, env=env, capture_output=True, text=True)
@@ -54,6 +55,8 @@ def main(argv=None):
     ap.add_argument("--old", required=True, help="a checkout of the older code")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--scene", default="problems/crane_luffing_drive.toml")
+    ap.add_argument("--starts", type=int, default=20)
+    ap.add_argument("--no-warm", action="store_true", help="skip the warm-up runs (the cache is known to be warm)")
     args = ap.parse_args(argv)
     old, new = Path(args.old).resolve(), ROOT
     git, load0 = git_state(), os.getloadavg()
@@ -63,12 +66,12 @@ def main(argv=None):
     times = {"old": [], "new": []}
     answers = {"old": [], "new": []}
     with tempfile.TemporaryDirectory() as tmp:
-        for name, tree in (("old", old), ("new", new)):   # warm: compiled libraries in the cache
+        for name, tree in () if args.no_warm else (("old", old), ("new", new)):   # compiled libraries in the cache
             print(f"warm-up {name} ...", flush=True)
-            run(tree, args.scene, Path(tmp) / f"warm_{name}", dict(env, OPTDESIGN_COMPILE="wait"))
+            run(tree, args.scene, Path(tmp) / f"warm_{name}", dict(env, OPTDESIGN_COMPILE="wait"), args.starts)
         for r in range(args.repeats):
             for name, tree in (("old", old), ("new", new)):
-                wall, cpu, answer = run(tree, args.scene, Path(tmp) / f"{name}_{r}", env)
+                wall, cpu, answer = run(tree, args.scene, Path(tmp) / f"{name}_{r}", env, args.starts)
                 times[name].append((wall, cpu))
                 answers[name].append(answer)
                 print(f"round {r + 1} {name}: {wall:.1f} s wall, {cpu:.1f} s CPU, {answer}", flush=True)
@@ -81,10 +84,11 @@ def main(argv=None):
     lines = [
         "# catalogue",
         "",
-        f"`python benchmarks/bench_catalogue.py --old {args.old} --repeats {args.repeats} --scene {args.scene}` "
+        f"`python benchmarks/bench_catalogue.py --old {args.old} --repeats {args.repeats} --scene {args.scene} "
+        f"--starts {args.starts}{' --no-warm' if args.no_warm else ''}` "
         f"({time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; {cpu_model()}, {os.cpu_count()} cores; "
-        f"load {load0[0]:.1f} -> {load1[0]:.1f}): `optdesign optimise {args.scene} --no-animation` with the "
-        f"default starts (20) and workers (the machine's cores), warm compile cache; old = {old_commit}, "
+        f"load {load0[0]:.1f} -> {load1[0]:.1f}): `optdesign optimise {args.scene} --no-animation --starts "
+        f"{args.starts}` with the default workers (the machine's cores), warm compile cache; old = {old_commit}, "
         f"new = {git}; rounds interleaved (old, new).",
         "",
         "| round | old wall s | new wall s | old CPU s | new CPU s |",
