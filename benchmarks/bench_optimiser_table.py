@@ -115,8 +115,13 @@ def cell(d) -> str:
 
 def both(args, scene):
     """The old and the new run of one scene, one after the other (so that both see about the same
-    load of the machine)."""
-    return scene, {"old": run(args.old, scene, not args.no_warm), "new": run(args.new, scene, not args.no_warm)}
+    load of the machine); the old one taken from --old-runs where given, the new one left out with
+    --old-only."""
+    if args.old_runs is not None and scene.stem in args.old_runs:
+        old = args.old_runs[scene.stem]
+    else:
+        old = run(args.old, scene, not args.no_warm)
+    return scene, {"old": old, "new": old if args.old_only else run(args.new, scene, not args.no_warm)}
 
 
 def main():
@@ -129,11 +134,20 @@ def main():
     ap.add_argument("--scenes", nargs="*", help="only these scene names")
     ap.add_argument("--parallel", type=int, default=1, help="scenes run at once (each: old, then new)")
     ap.add_argument("--no-warm", action="store_true", help="no one-start run before the timed one (a warm cache)")
+    ap.add_argument("--old-runs", type=Path, help="the old runs of an earlier table's .json (its 'runs'), not rerun")
+    ap.add_argument("--old-only", action="store_true", help="run the old code only (to be reused by --old-runs)")
     args = ap.parse_args()
+    if args.old_runs is not None:
+        earlier = json.loads(args.old_runs.read_text())
+        if earlier.get("old") != subprocess.run(["git", "-C", str(args.old), "rev-parse", "--short", "HEAD"],
+                                                capture_output=True, text=True).stdout.strip():
+            ap.error(f"--old-runs {args.old_runs} was run on {earlier.get('old')}, not on --old's HEAD")
+        args.old_runs = {k: v["runs"]["old"] for k, v in earlier["scenes"].items() if "runs" in v}
+    old_when = earlier["when"] if args.old_runs is not None else None
     refs = references()
     heads = {k: subprocess.run(["git", "-C", str(getattr(args, k)), "rev-parse", "--short", "HEAD"], capture_output=True,
                                text=True).stdout.strip() for k in ("old", "new")}
-    data = {**heads, "when": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "scenes": {}}
+    data = {**heads, "when": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "old_when": old_when, "scenes": {}}
     todo = [p for p in scenes() if not args.scenes or p.stem in args.scenes]
     t0 = time.perf_counter()
     rows = {}
@@ -145,7 +159,8 @@ def main():
                 values = [r["objective"] for r in runs.values() if r.get("objective") is not None and r.get("success")]
                 target, marked = (min(values) if values else None), " (best of the two runs)"
             out = {k: summary(r, target) for k, r in runs.items()}
-            data["scenes"][scene.stem] = {"known_optimum": target, "source": "runs" if marked else "reference", **out}
+            data["scenes"][scene.stem] = {"known_optimum": target, "source": "runs" if marked else "reference", **out,
+                                          "runs": runs}
             where = "" if scene.parent.name == "problems" else " (issue 27)"
             known = "-" if target is None else f"{target:.10g}{marked}"
             rows[scene] = f"| {scene.stem}{where} | {known} | {cell(out['old'])} | {cell(out['new'])} |"
@@ -160,7 +175,8 @@ def write(args, data, rows, total, seconds):
         "# The optimiser, old against new (issue 27)",
         "",
         f"`python benchmarks/bench_optimiser_table.py --old /tmp/old --new /tmp/new"
-        f"{' --parallel %d' % args.parallel if args.parallel > 1 else ''}{' --no-warm' if args.no_warm else ''}` "
+        f"{' --parallel %d' % args.parallel if args.parallel > 1 else ''}{' --no-warm' if args.no_warm else ''}"
+        f"{' --old-runs OLD.json (the old runs of ' + data['old_when'] + ')' if data.get('old_when') else ''}` "
         f"({data['when']}, {seconds:.0f} s): old = {data['old']}, new = {data['new']}; every optimisation scene in "
         f"problems/ and issue 27's two scenes, `optimise(scene, {STARTS}, {SEED})` with the default settings, "
         "workers=1 (a motor catalogue motor by motor, as the command does), each version in its own process, "

@@ -6,6 +6,11 @@ size, on the local pool of 2 processes and on a Dask LocalCluster of 2 worker pr
 and the journal's throughput with group commit against one fsync per case.
 
     python benchmarks/bench_study_scale.py [--sizes 2000,20000]
+    python benchmarks/bench_study_scale.py --batched 400 [--repeats 3]
+
+``--batched N``: one study of N cases one case at a time and in lockstep batches in one process,
+on the pool and on Dask (2 processes each), interleaved, medians of cases/s, and whether the
+cases.csv files are identical (section study_batched).
 
 Each study runs in a fresh Python process (``optdesign.study`` from a script) that reports its
 wall time and its peak resident memory (``ru_maxrss``: imports included, so the growth between
@@ -48,6 +53,79 @@ print(json.dumps({"wall": wall, "maxrss_kB": resource.getrusage(resource.RUSAGE_
 """
 
 
+BATCHED_CHILD = """
+import hashlib, json, sys, time
+import optdesign
+from optdesign.study import Study, grid
+from optdesign.study import execute
+n, out, where = int(sys.argv[1]), sys.argv[2], sys.argv[3]
+if where == "one by one":
+    execute.LOCKSTEP = 1   # batches of one case: each case's analysis alone (tasks.run_task)
+masses = 10
+study = Study(optdesign.load(sys.argv[4]), [grid("mB", 500, 800, masses), grid("mP", 500, 3000, n // masses)],
+              mode="analyse")
+kw = {"workers": 2} if where == "pool" else {"workers": 1} if where in ("one by one", "lockstep") else {"scheduler": where}
+t0, c0 = time.perf_counter(), time.process_time()
+result = study.run(out=out, restart=True, figures=False, **kw)
+wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+assert result.complete and result.computed == n, result
+digest = hashlib.sha256(open(out + "/cases.csv", "rb").read()).hexdigest()[:16]
+print(json.dumps({"wall": wall, "cpu": cpu, "csv": digest}))
+"""
+
+
+def run_batched(n, where, folder):
+    """One study of ``n`` cases in a fresh process: wall and client CPU seconds, cases.csv's digest."""
+    done = subprocess.run([sys.executable, "-c", BATCHED_CHILD, str(n), str(folder), where,
+                           str(ROOT / "problems" / "truck_crane.toml")],
+                          capture_output=True, text=True, cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    if done.returncode:
+        raise SystemExit(f"study of {n} cases ({where}) failed:\n{done.stderr[-3000:]}")
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def batched_section(n, repeats, tmp) -> str:
+    """Cases/s of one study of ``n`` cases one by one and in lockstep in this process, on the pool
+    and on a Dask LocalCluster (2 processes each), the four interleaved ``repeats`` times
+    (medians), and whether their cases.csv are identical."""
+    import statistics
+
+    import distributed
+
+    load0 = os.getloadavg()
+    runs = {}
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                  dashboard_address=None) as cluster:
+        wheres = {"in process, one case at a time": "one by one", "in process, lockstep batches": "lockstep",
+                  "pool, 2 processes": "pool", "Dask LocalCluster, 2 workers": cluster.scheduler_address}
+        run_batched(min(n, 40), cluster.scheduler_address, Path(tmp) / "warm")   # helpers started
+        for k in range(repeats):
+            for label, where in wheres.items():
+                r = run_batched(n, where, Path(tmp) / f"b{k}-{label[:6]}")
+                runs.setdefault(label, []).append(r)
+                print(n, label, r, flush=True)
+    load1 = os.getloadavg()
+    rate = {label: statistics.median(n / r["wall"] for r in rs) for label, rs in runs.items()}
+    cpu = {label: statistics.median(1e3 * r["cpu"] / n for r in rs) for label, rs in runs.items()}
+    digests = {r["csv"] for rs in runs.values() for r in rs}
+    base = rate["in process, one case at a time"]
+    lines = ["## Analyse cases in lockstep (`python benchmarks/bench_study_scale.py --batched N`)", "",
+             f"Written by `python benchmarks/bench_study_scale.py --batched {n} --repeats {repeats}` on "
+             f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; {git_state()}; machine {cpu_model()}, nproc "
+             f"{os.cpu_count()}; load average {load0[0]:.2f} before, {load1[0]:.2f} after (shared).", "",
+             f"An analyse study of the truck crane ({n:,} cases: 10 boom masses x {n // 10} payloads), each run in a "
+             f"fresh process, the four ways interleaved {repeats} times; medians.  One case at a time is each "
+             "case's own `Analysis.run`; lockstep runs up to 32 cases side by side with their enclosure bounds "
+             "answered by one interval-program call (optdesign/study/batched.py); the pool and Dask run lockstep "
+             "batches.  Client CPU is the study's own process (the pool's and Dask's processes not counted).", "",
+             "| where | cases/s | x one at a time | client CPU per case [ms] |", "|---|---|---|---|"]
+    for label in runs:
+        lines.append(f"| {label} | {rate[label]:.1f} | {rate[label] / base:.2f}x | {cpu[label]:.2f} |")
+    lines += ["", f"cases.csv of all {sum(len(rs) for rs in runs.values())} runs: "
+              + ("byte-identical." if len(digests) == 1 else f"{len(digests)} different files (NOT identical).")]
+    return "\n".join(lines) + "\n"
+
+
 def run_study(n, where, folder):
     done = subprocess.run([sys.executable, "-c", CHILD, str(n), str(folder), where, str(ROOT / "problems" /
                                                                                     "truck_crane.toml")],
@@ -79,7 +157,16 @@ def main():
     ap.add_argument("--sizes", default="2000,20000")
     ap.add_argument("--journal", type=int, default=20000, help="records written per journal run")
     ap.add_argument("--group", type=int, default=50, help="records per fsync with group commit")
+    ap.add_argument("--batched", type=int, default=0,
+                    help="only the lockstep comparison, on a study of this many cases (section study_batched)")
+    ap.add_argument("--repeats", type=int, default=3, help="runs of each way for --batched (medians)")
     args = ap.parse_args()
+    if args.batched:
+        with tempfile.TemporaryDirectory() as tmp:
+            text = batched_section(args.batched, args.repeats, tmp)
+        write_section("study_batched", text, SCALING_MD)
+        print(text)
+        return
     sizes = [int(s) for s in args.sizes.split(",")]
     load0 = os.getloadavg()
     import distributed

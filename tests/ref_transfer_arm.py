@@ -8,8 +8,8 @@ the directed line A -> Q (the two circles' intersection), the rocker angle psi =
 Bodies: the arm (mass mA at La/2 along Q -> B, inertia mA La^2/12), the part (mP at La, a point)
 and the coupler (mC = 2.5 c at the middle of A B, inertia mC c^2/12); gravity -g y.  The ideal
 crank torque by virtual work (d'Alembert): T = sum m r'.(r'' phid^2 + r' phidd) + I th'
-(th'' phid^2 + th' phidd) + m g y', the derivatives d/dphi by eighth-order central differences
-of the positions (step 1e-3 rad).  The drive train: T_S = T/eta_m while the crank drives (T
+(th'' phid^2 + th' phidd) + m g y', the derivatives d/dphi in closed form (the loop closure
+differentiated by hand, smooth in the design to round-off).  The drive train: T_S = T/eta_m while the crank drives (T
 phid > 0), T eta_m while the power flows back; the motor torque T_m = c_g T_S/i + J_r i phidd
 (c_g likewise 1/eta_g or eta_g), the motor speed i phid.
 
@@ -46,9 +46,6 @@ NAMES = ("r", "c", "xQ", "i")
 BOX = {"r": (0.05, 0.2), "c": (0.25, 0.8), "xQ": (0.25, 0.7), "i": (3.0, 60.0)}
 MOTORS = {"servo 400 W": (0.000067, 1.27, 3.8, 314.0), "servo 750 W": (0.00015, 2.39, 7.1, 314.0),
           "servo 1.5 kW": (0.00031, 4.77, 14.3, 314.0)}     # inertia, rated, peak, max speed
-D1 = np.array([1 / 280, -4 / 105, 1 / 5, -4 / 5, 0, 4 / 5, -1 / 5, 4 / 105, -1 / 280])
-D2 = np.array([-1 / 560, 8 / 315, -1 / 5, 8 / 5, -205 / 72, 8 / 5, -1 / 5, 8 / 315, -1 / 560])
-STEP = 1e-3
 
 
 def scene_numbers():
@@ -104,33 +101,35 @@ def positions(r, c, xQ, phi):
 
 
 def ideal_torque(r, c, xQ, phi, phid, phidd):
-    """The crank torque of the ideal mechanism, split as (T without the part, T per kg of part)."""
-    k = np.arange(-4, 5)
-    A, B = positions(r, c, xQ, phi[..., None] + STEP * k)
+    """The crank torque of the ideal mechanism, split as (T without the part, T per kg of part).
+    The derivatives d/dphi in closed form (the dyad's loop closure differentiated by hand): the
+    rocker turns at lam = B'/(i w) with w = B - Q, where u = B - A keeps its length (Re(u* u')
+    = 0) and w its own (B' = i lam w); differentiated once more for the angular acceleration mu.
+    (Finite differences of the positions are not smooth in the design at the 1e-8 level: a
+    search's gradients would be noise there.)"""
+    A, B = positions(r, c, xQ, phi)
     Q = xQ + 1j * YQ
-    if np.ndim(r):
-        Q = np.asarray(Q)[..., None]
-    u_rock = (B - Q) / np.abs(B - Q)
-    u_coup = (B - A) / np.abs(B - A)
+    A1, A2 = 1j * A, -A
+    u, w = B - A, B - Q
+    den = (np.conj(u) * 1j * w).real
+    lam = (np.conj(u) * A1).real / den                      # rocker angle's d/dphi
+    B1 = 1j * lam * w
+    u1 = B1 - A1
+    mu = ((np.conj(u) * (lam ** 2 * w + A2)).real - np.abs(u1) ** 2) / den
+    B2 = 1j * mu * w - lam ** 2 * w
+    u2 = B2 - A2
+    cc = np.abs(u) ** 2
+    th1, th2 = (np.conj(u) * u1).imag / cc, (np.conj(u) * u2).imag / cc   # coupler angle's
     mC = 2.5 * c
-    bodies = [  # (position over the stencil, angle's unit vector, mass, inertia about the centre)
-        (Q + LA / 2 * u_rock, u_rock, MA, MA * LA ** 2 / 12),
-        ((A + B) / 2, u_coup, mC, mC * c ** 2 / 12),
-    ]
 
-    def term(pos, unit, m, inertia):
-        d1 = (pos @ D1) / STEP
-        d2 = (pos @ D2) / STEP ** 2
+    def term(d1, d2, m, inertia=0.0, a1=0.0, a2=0.0):
         acc = d2 * phid ** 2 + d1 * phidd
         t = m * (d1.real * acc.real + d1.imag * acc.imag) + m * G * d1.imag
-        if inertia:
-            ang = np.angle(unit / unit[..., 4:5])
-            a1, a2 = (ang @ D1) / STEP, (ang @ D2) / STEP ** 2
-            t = t + inertia * a1 * (a2 * phid ** 2 + a1 * phidd)
-        return t
+        return t + inertia * a1 * (a2 * phid ** 2 + a1 * phidd)
 
-    base = sum(term(*b) for b in bodies)
-    part = term(Q + LA * u_rock, None, 1.0, 0.0)
+    base = (term(LA / (2 * R) * B1, LA / (2 * R) * B2, MA, MA * LA ** 2 / 12, lam, mu)     # the arm
+            + term((A1 + B1) / 2, (A2 + B2) / 2, mC, mC * c ** 2 / 12, th1, th2))          # the coupler
+    part = term(LA / R * B1, LA / R * B2, 1.0)
     return base, part
 
 
@@ -150,12 +149,12 @@ def case_torques(x, tau_n=41):
     return {name: (base + m * part, phid, phidd) for name, m in CASES}
 
 
-def peak_torque(x, J, tau_n=401, refine=True, within=None):
+def peak_torque(x, J, tau_n=401, refine=True, within=None, cases=CASES):
     """The largest |T_m| over the cases' continuous motion (each local maximum refined in time):
     (value, case, time); with ``within`` a fraction, also every refined local maximum within it
     of the peak, as a 4th item [(value, case, phase index, tau)]."""
     found = []
-    for name, m in CASES:
+    for name, m in cases:
         for j, p in enumerate(phase_starts()):
             tau = np.linspace(0, p[4], tau_n)
             f = np.abs(_tm(x, p, tau, m, J))

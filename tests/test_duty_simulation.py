@@ -254,7 +254,9 @@ def press():
 
 
 def test_stiff_controller_agrees_with_profiles(press):
-    stiff, _, profile = press
+    stiff, _, both = press
+    assert both["same_cycle"]   # the phases are [duty]'s steps: the cycles compare
+    profile = both["cycle"]
     assert stiff["cycle_time"] == pytest.approx(profile["cycle_time"], rel=1e-12)
     assert stiff["rms_motor_torque"] == pytest.approx(profile["rms_motor_torque"], rel=2e-4)
     # analyse's energy on its 161 samples is within 1e-5 of its converged value (5965.2077 J at
@@ -270,7 +272,8 @@ def test_stiff_controller_agrees_with_profiles(press):
 
 
 def test_agreement_comes_from_the_stiffness(press):
-    stiff, soft, profile = press
+    stiff, soft, both = press
+    profile = both["cycle"]
     for key in ("rms_motor_torque", "peak_motor_speed", "peak_motor_torque"):   # the tracking error's figures, ~1/K
         d_stiff = abs(stiff[key] - profile[key])
         d_soft = abs(soft[key] - profile[key])

@@ -17,7 +17,7 @@ from scipy.optimize import brentq
 
 from optdesign.errors import ResultError
 from optdesign.kinematics.enclosure import Enclosure, Enclosures, interval_program
-from optdesign.kinematics.intervals import _div, _mul
+from optdesign.kinematics.intervals import _div, _mul, _unary
 from optdesign.kinematics.peaks import CERTIFY_TOL, Extremum, Request, _check_invariant, continuous_maxima_rows
 
 
@@ -154,3 +154,33 @@ def test_products_and_quotients_hold_mpmaths_intervals(boxes):
             e_lo, e_hi = float(exact.a), float(exact.b)
             assert lo[k] <= e_lo and e_hi <= hi[k], (a[k], b[k], c[k], d[k], lo[k], hi[k], e_lo, e_hi)
             assert (hi[k] - lo[k]) - (e_hi - e_lo) <= 1e-14 * max(abs(e_lo), abs(e_hi)) + 1e-290
+
+
+OVERFLOWING = st.tuples(st.floats(1.0, 1e300), st.floats(1e-320, 1e-300), st.sampled_from([1.0, -1.0]),
+                        st.sampled_from([1.0, -1.0]))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(OVERFLOWING, min_size=1, max_size=20))
+def test_quotients_and_products_that_overflow_hold_mpmaths_intervals(boxes):
+    """A quotient or product whose exact value lies beyond the largest double (1 / 2e-313,
+    1e300 * 1e300) holds mpmath's interval (exact exponents, no overflow), with no NaN: the bound
+    on the overflowing side stays infinite, the other is the largest finite double (the old
+    outward rounding took inf - inf there and gave NaN)."""
+    a, c, sa, sc = (np.array(x, float) for x in zip(*boxes))
+    a, c = sa * a, sc * c
+    with np.errstate(all="ignore"):
+        quotients, products = _div(a, a, c, c), _mul(a, a, 1 / c, 1 / c)
+        powers = _unary(ca.OP_EXP, 1e3 * np.abs(a), 1e3 * np.abs(a))[:2]
+    for k in range(len(a)):
+        x, y = mpmath.iv.mpf(a[k]), mpmath.iv.mpf(c[k])
+        inv_y = mpmath.iv.mpf(1 / c[k]) if np.isfinite(1 / c[k]) else None
+        for (lo, hi), exact in ((quotients, x / y), (products, None if inv_y is None else x * inv_y),
+                                (powers, mpmath.iv.exp(1e3 * abs(x)))):
+            assert not np.isnan(lo[k]) and not np.isnan(hi[k]), (a[k], c[k], lo[k], hi[k])
+            if exact is None:
+                continue
+            assert mpmath.mpf(lo[k]) <= exact.a and exact.b <= mpmath.mpf(hi[k]), (a[k], c[k], lo[k], hi[k], exact)
+            big_side = hi[k] if exact.a > 0 else -lo[k]
+            if abs(exact.a) > np.finfo(float).max:
+                assert big_side == np.inf

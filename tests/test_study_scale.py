@@ -67,11 +67,11 @@ def test_cases_csv_written_as_cases_finish_in_any_order_is_the_whole_table(tmp_p
     for c in order:                          # the cases come back in any order
         done[c.id] = rows[c.id]
         writer.advance()
-    path = study_table.write_csv(folder, writer)
+    path = study_table.write_tables(folder, writer)[0]
     expected = [rows[c.id] for c in cases if c.id in rows]
     assert path.read_text() == reference_csv(expected, ["mC"])
     assert writer.rows == expected
-    assert sorted(p.name for p in folder.iterdir()) == ["cases.csv"]   # no temporary left
+    assert sorted(p.name for p in folder.iterdir()) == ["cases.csv", "cases.parquet"]   # no temporary left
 
 
 def test_a_study_whose_first_cases_fail_writes_the_same_csv_serially_and_on_the_pool(tmp_path):
@@ -156,6 +156,7 @@ def test_the_memory_check_budgets_at_least_what_a_finished_study_costs_per_case(
     assert abs(study.columns_estimate() - columns) <= 3, (study.columns_estimate(), columns)
     budget = CASE_BYTES + COLUMN_BYTES * study.columns_estimate()
     assert peak / n <= budget, f"{peak / n:.0f} bytes per case measured, {budget} budgeted"
+    assert peak / n >= budget / 3, f"{peak / n:.0f} bytes per case measured, {budget} budgeted: a check too lax"
 
 
 # --- a case as a vector of parameter values -----------------------------------------------------------

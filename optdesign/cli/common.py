@@ -6,6 +6,7 @@ import argparse
 import sys
 
 from ..errors import OptdesignError, SceneError
+from .progress import progress_bar  # noqa: F401  (the commands' progress)
 
 
 def overrides(pairs):
@@ -163,17 +164,3 @@ def _discard_stdout(os):
         os.close(devnull)
     except (OSError, ValueError):
         pass
-
-
-def progress_bar(what):
-    """A progress bar on standard error when it is a terminal."""
-    if not sys.stderr.isatty():
-        return None
-
-    def show(done, total):
-        bar = "#" * round(30 * done / total)
-        end = "\n" if done == total else ""
-        sys.stderr.write(f"\r{what} {done:>4}/{total} [{bar:<30}]{end}")
-        sys.stderr.flush()
-
-    return show

@@ -121,17 +121,17 @@ def run(args):
     out = args.out or study.default_folder()
     try:
         result = study.run(out=out, workers=args.workers, scheduler=args.scheduler,
-                           progress=cli.progress_bar("cases"), restart=args.restart, figures=not args.no_figures)
+                           progress=cli.progress_bar("cases", log=True), restart=args.restart, figures=not args.no_figures)
     except ClusterLost as exc:   # one line: what the journal kept and the command that resumes
         raise OptdesignError(f"{str(exc).split('; run the same study')[0]}; resume with: "
                              f"{resume_command(args)}") from None
     except StudyInterrupted as exc:
         for note in exc.result.notes:
-            print(f"optdesign study: journal: {note}", file=sys.stderr)
+            print(f"optdesign study: {note}", file=sys.stderr)
         print(f"\noptdesign study: {exc}", file=sys.stderr)
         raise SystemExit(130) from None
     for note in result.notes:
-        print(f"optdesign study: journal: {note}", file=sys.stderr)
+        print(f"optdesign study: {note}", file=sys.stderr)
     for path in result.paths:
         print(f"wrote {path}", file=sys.stderr)
     if args.json:
@@ -139,7 +139,7 @@ def run(args):
 
         print(to_json({"schema": "optdesign/1", "kind": "study", "folder": str(result.folder),
                        "complete": result.complete, "computed": result.computed, "reused": result.reused,
-                       "wall_s": result.wall_s, "files": [str(p) for p in result.paths], "rows": result.rows}))
+                       "wall_s": result.wall_s, "files": [str(p) for p in result.paths], "rows": list(result.rows)}))
     else:
         sys.stdout.write((result.folder / "summary.txt").read_text())
 

@@ -167,6 +167,8 @@ class PhasedSimulator:
                 piece, record, evs, cnt = self._moving_phase(ph, x, p, t0, t_end, dt, method, tol, scale)
                 events.extend(evs)
                 counts.append(cnt)
+            start = sum(len(pc["t"]) for pc in pieces)
+            record["rows"] = [start, start + len(piece["t"])]   # its samples in the cycle's columns
             pieces.append(piece)
             phases.append(record)
             t0 = record["t_end"]

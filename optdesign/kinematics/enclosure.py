@@ -21,10 +21,16 @@ not available, never pretends one.
 """
 from __future__ import annotations
 
+import threading
+
 import casadi as ca
 import numpy as np
 
 from .intervals import INF, JUMPS, PERIODIC, _binary, _down, _op, _out, _unary, _up  # noqa: F401
+
+# per thread: ``GATHER.bounds(enclosure, lo, hi, rows)``, when set, answers Enclosure.bounds (the
+# calls of many cases' analyses gathered into one: optdesign.study.batched)
+GATHER = threading.local()
 
 _BINARY_OPS = {_op(n) for n in ("OP_ADD", "OP_SUB", "OP_MUL", "OP_DIV", "OP_POW", "OP_CONSTPOW", "OP_ATAN2",
                                 "OP_FMIN", "OP_FMAX", "OP_HYPOT", "OP_LT", "OP_LE", "OP_EQ", "OP_NE",
@@ -39,7 +45,8 @@ class IntervalProgram:
     """An SX Function (s, p) -> outputs (column vectors), evaluated over intervals of s.
 
     Build it with :func:`interval_program`.  Calling it with arrays ``lo``, ``hi`` (the
-    intervals) and the parameter vector ``p`` gives, per output, (lo, hi) arrays (output rows x
+    intervals) and the parameter vector ``p`` (or one row of parameters per interval: an array
+    intervals x parameters) gives, per output, (lo, hi) arrays (output rows x
     intervals) and ``jump`` (output rows x intervals, bool): where a jump of that output's
     dependencies may lie inside the interval."""
 
@@ -114,8 +121,15 @@ class IntervalProgram:
         return self._subsets[key]
 
     def _fixed_work(self, p):
-        """The values that do not depend on s, at parameters p (point intervals), cached."""
-        p = np.asarray(p, float).ravel()
+        """The values that do not depend on s, at parameters p (point intervals), cached; p of
+        shape (intervals, parameters): each interval's own parameters (not cached)."""
+        p = np.asarray(p, float)
+        if p.ndim == 2:
+            work = [None] * self.n_store
+            self._branches = {}
+            self._run(self.fixed, work, None, np.ascontiguousarray(p.T), None)   # a parameter: p[i]
+            return work
+        p = p.ravel()
         key = p.tobytes()
         if key != self._p_key:
             work = [None] * self.n_store
@@ -157,7 +171,9 @@ class IntervalProgram:
 
     def __call__(self, lo, hi, p, rows=None):
         """Every output over the intervals [lo, hi]; ``rows``: only those rows of the outputs
-        (the others NaN), with only the instructions they need."""
+        (the others NaN), with only the instructions they need.  ``p``: the parameter vector, or
+        an array (intervals x parameters) of each interval's own (point intervals per interval:
+        many parameter vectors in one call, :mod:`optdesign.study.batched`)."""
         lo, hi = np.asarray(lo, float).ravel(), np.asarray(hi, float).ravel()
         n = len(lo)
         work = list(self._fixed_work(p))
@@ -233,14 +249,20 @@ class Enclosure:
     v''([lo, hi]) (s - m)^2 / 2 (where no jump of v or v' may lie inside), m the midpoint."""
 
     def __init__(self, program: IntervalProgram, p):
-        self.program, self.p = program, np.asarray(p, float).ravel()
+        """``p``: the parameter vector, or (intervals x parameters) each interval's own."""
+        p = np.asarray(p, float)
+        self.program, self.p = program, p if p.ndim == 2 else p.ravel()
 
     def bounds(self, lo, hi, rows=None):
+        gather = getattr(GATHER, "bounds", None)
+        if gather is not None:   # this thread's calls are gathered with other cases' (study.batched)
+            return gather(self, lo, hi, rows)
         lo, hi = np.asarray(lo, float), np.asarray(hi, float)
         n = len(lo)
         m = 0.5 * (lo + hi)
         r = _up(np.maximum(hi - m, m - lo))
-        (v_lo, v_hi, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(np.r_[lo, m], np.r_[hi, m], self.p, rows)
+        p = self.p if self.p.ndim == 1 else np.r_[self.p, self.p]   # for [lo, m]
+        (v_lo, v_hi, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(np.r_[lo, m], np.r_[hi, m], p, rows)
         whole, mid = slice(0, n), slice(n, 2 * n)
         L, U = v_lo[:, whole], v_hi[:, whole]
         vm_lo, vm_hi = v_lo[:, mid], v_hi[:, mid]
@@ -273,10 +295,14 @@ class Unavailable:
 
 class Enclosures:
     """The interval program of one Function (s, p) -> (v, dv/ds, d2v/ds2), built once; ``at(p)``
-    gives its :class:`Enclosure` at parameters p, or :class:`Unavailable` with the reason."""
+    gives its :class:`Enclosure` at parameters p, or :class:`Unavailable` with the reason.
+    ``compile``: a function that returns the program's compiled twin (called as the program is:
+    :func:`optdesign.model.intervals_compiled.compile_program`), or the program itself."""
 
-    def __init__(self, func):
+    def __init__(self, func, compile=None):
         self.program, self.reason = interval_program(func)
+        if compile is not None and self.program is not None:
+            self.program = compile(self.program)
 
     def at(self, p):
         return Unavailable(self.reason) if self.program is None else Enclosure(self.program, p)

@@ -37,11 +37,19 @@ ROUND_LIB = 2.0 ** -48
 TINY = 1e-300
 
 
+BIG = np.finfo(float).max
+
+
+# A result that overflowed to +inf as a lower bound (1 / 2e-313) stands for a finite value above
+# BIG: BIG is its lower bound (inf - inf would give NaN); -inf as an upper bound likewise.  An
+# infinite bound on its own side (hi = inf, lo = -inf) stays infinite, a NaN stays NaN.
 def _down(x, ulps=1):
+    x = np.minimum(x, BIG)
     return x - (np.abs(x) * (ROUND if ulps == 1 else ROUND_LIB) + TINY)
 
 
 def _up(x, ulps=1):
+    x = np.maximum(x, -BIG)
     return x + (np.abs(x) * (ROUND if ulps == 1 else ROUND_LIB) + TINY)
 
 

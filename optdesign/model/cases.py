@@ -34,12 +34,16 @@ class CaseModel:
     """One load case of a scene: its motion, its reduced model and drive train as CasADi
     expressions of (s, p), p the mechanism's parameter vector read as the case's parameters."""
 
-    def __init__(self, mech, case: Case, efficiency_smoothing: float = 0.0):
+    def __init__(self, mech, case: Case, efficiency_smoothing: float = 0.0, time=None):
+        """``time``: a symbol tau for a law in time's fraction of its duration, used in place of
+        the law's inverse at s (:meth:`.profiles.MotionProfile.graphs`): the graphs then hold
+        both s and tau, and s = profile.sweep_at(tau) makes them graphs of tau alone."""
         r = mech.resolved
-        self.mech, self.case, self.name = mech, case, case.name
+        self.mech, self.case, self.name, self.time = mech, case, case.name, time
         self.values = case_values(mech.scene, case, r.values)
         self.profile = case_profile(mech.scene, case, r.start, r.stop, r.values)
-        motion = self.profile.motion(mech) if self.profile is not None else constant_motion(mech, case)
+        motion = (self.profile.motion(mech, time=time) if self.profile is not None
+                  else constant_motion(mech, case))
         self.model = ReducedModel(mech, efficiency_smoothing, motion=motion, flow=case.efficiency)
         self.smoothing = efficiency_smoothing
         if self.profile is None:
@@ -52,10 +56,10 @@ class CaseModel:
         m, mech = self.model, self.mech
         out = {}
         if self.profile is not None:
-            sd, sdd, _, t = self.profile.graphs(mech.s, lambda e: mech.value(e, "[profiles] speed"))
+            sd, sdd, _, t = self.profile.graphs(mech.s, lambda e: mech.value(e, "[profiles] speed"), self.time)
             out["sd"], out["sdd"] = sd, sdd + 0 * mech.s
             if self.profile.shape.motion_law is not None:   # a law in time: its jerk in closed form
-                out["jerk"] = self.profile.jerk(mech.s)
+                out["jerk"] = self.profile.jerk(mech.s, self.time)
             if t is not None:
                 out["t"] = t
         out["drive_speed"] = m.qd + 0 * mech.s
@@ -145,6 +149,9 @@ class CaseResult:
     # peak_sampled, certificate} (the peak certified as the others' unless certify is False)
     motors: dict = field(default_factory=dict)
     rests: tuple = ()   # a segments profile's dwells: (time from, time to, sweep value) each
+    # with [[motors]]: the load inertia J_load = max |I_zS| (the reduced inertia without the
+    # efficiency) over the continuous stroke: {value, at {s, value}, sampled, certificate}
+    load_inertia: dict | None = None
 
 
 class CaseAnalysis:
@@ -161,20 +168,19 @@ class CaseAnalysis:
         self.motor_inertias = ({m.name: motor_numbers(m, mech.resolved.values)["inertia"] for m in mech.scene.motors}
                                if mech.scene.gearbox is not None else {})
         for cm in self.cases:
-            outs = cm.outputs()
-            if motor is not None:
-                outs["motor_torque"] = outs["motor_load_torque"] + motor["inertia"] * outs["motor_acceleration"]
-            for name, expr in cm.constraints(outs).items():
-                outs[f"constraint:{name}"] = expr + 0 * mech.s
-            if joints:
-                outs.update(_joint_outputs(cm, mech))
+            outs = self._outputs(cm, motor, joints)
             # the peaks over the continuous stroke, certified: seed 1's quantities, the drive
-            # train's, each motor's torque T_g + J_r eps_m (whether it fits) and the pins' forces
-            rows = {k: outs[k] for k in PEAK_KEYS if k in outs and not (k == "motor_torque" and self.motor_inertias)}
-            rows.update({_motor_key(name): outs["motor_load_torque"] + J * outs["motor_acceleration"]
-                         for name, J in self.motor_inertias.items()})
-            rows.update({k: v for k, v in outs.items() if k.startswith(PEAKED)})
-            self.pin_peaks.append(CertifiedPeaks(mech, rows) if rows and certify else None)
+            # train's, each motor's torque T_g + J_r eps_m (whether it fits) and the pins' forces;
+            # along a law in time as graphs of its time tau (smooth at a rest, where its
+            # inverse tau(s), in the graphs of s, is not: the ventilator's enclosure never closed)
+            if certify and cm.profile is not None and cm.profile.in_time:
+                tau = mech.sym.sym("tau")
+                in_time = CaseModel(mech, cm.case, time=tau)
+                rows = self._peak_rows(self._outputs(in_time, motor, joints), in_time.model)
+                self.pin_peaks.append(CertifiedPeaks(mech, rows, time=(tau, cm.profile)) if rows else None)
+            else:
+                rows = self._peak_rows(outs, cm.model)
+                self.pin_peaks.append(CertifiedPeaks(mech, rows) if rows and certify else None)
             outs["q"], outs["k"] = mech.q, mech.ds(mech.q)
             outs["hold_load"] = cm.static_load() + 0 * mech.s
             self.quantities = tuple(k for k in mech.quantities if k not in outs)   # [quantities], as columns
@@ -182,10 +188,33 @@ class CaseAnalysis:
             self.functions.append((list(outs), MappedFunction(mech.function(f"case_{len(self.functions)}", outs))))
         self.duty = DutyCycle(mech.scene, self.cases)
 
+    def _outputs(self, cm, motor, joints) -> dict:
+        """Case ``cm``'s columns as graphs: its outputs, the one motor's torque, its constraints
+        and (``joints``) its joint forces."""
+        outs = cm.outputs()
+        if motor is not None:
+            outs["motor_torque"] = outs["motor_load_torque"] + motor["inertia"] * outs["motor_acceleration"]
+        for name, expr in cm.constraints(outs).items():
+            outs[f"constraint:{name}"] = expr + 0 * self.mech.s
+        if joints:
+            outs.update(_joint_outputs(cm, self.mech))
+        return outs
+
+    def _peak_rows(self, outs, model) -> dict:
+        """The rows whose peaks are certified, from a case's columns ``outs`` and ``model``
+        (with motors, its reduced inertia without the efficiency: the load inertia)."""
+        rows = {k: outs[k] for k in PEAK_KEYS if k in outs and not (k == "motor_torque" and self.motor_inertias)}
+        rows.update({_motor_key(name): outs["motor_load_torque"] + J * outs["motor_acceleration"]
+                     for name, J in self.motor_inertias.items()})
+        rows.update({k: v for k, v in outs.items() if k.startswith(PEAKED)})
+        if self.motor_inertias and "reduced_inertia" in outs:
+            rows[LOAD] = model.M_q + 0 * self.mech.s
+        return rows
+
     def run(self, p_values) -> "CasesResult":
         """Every case, the governing case of each peak, the duty cycle and the drive train at
         the parameter vector ``p_values``."""
-        results, evaluated, to_certify = {}, {}, {}
+        results, evaluated = {}, {}
         for cm, (names, function), pin_peaks in zip(self.cases, self.functions, self.pin_peaks):
             p_case = cm.case_parameters(np.asarray(p_values, float))
             nodes, on_sample = case_nodes(self.s_values, cm.profile)
@@ -209,13 +238,18 @@ class CaseAnalysis:
                 i = int(np.argmax(np.abs(torque)))
                 peaks[_motor_key(name)] = float(abs(torque[i]))
                 peak_at[_motor_key(name)] = {"s": float(nodes[i]), "value": float(torque[i])}
-            if pin_peaks is not None:   # the peaks over the continuous stroke, located (certified below)
+            if pin_peaks is not None:   # every peak over the continuous stroke, located and certified
                 sampled = dict(columns, **{_motor_key(name): columns["motor_load_torque"] + J * columns["motor_acceleration"]
                                            for name, J in self.motor_inertias.items()})
-                for key, (value, where, _) in pin_peaks(nodes, p_case, sampled, certify=False).items():
+                if LOAD in pin_peaks.names:   # sampled as the model's reduced inertia without its efficiency
+                    sampled[LOAD] = columns["reduced_inertia"] / columns.get("efficiency_factor", 1.0)
+                    peaks[LOAD] = float(np.max(np.abs(sampled[LOAD])))
+                for key, (value, where, certificate) in pin_peaks(nodes, p_case, sampled).items():
                     sampled_pins[key], peaks[key], peak_at[key] = peaks[key], value, where
-                    certificates[f"peak |{key}|"] = {"bound": None, "note": LOCATED}
-                to_certify[cm.name] = (pin_peaks, nodes, p_case, sampled)
+                    certificates[f"peak |{key}|"] = certificate
+            load = None if LOAD not in peaks else {
+                "value": peaks.pop(LOAD), "at": peak_at.pop(LOAD), "sampled": sampled_pins.pop(LOAD),
+                "certificate": certificates.pop(f"peak |{LOAD}|")}
             motors = {name: {"peak": peaks.pop(_motor_key(name)), "at": peak_at.pop(_motor_key(name)),
                              "peak_sampled": sampled_pins.pop(_motor_key(name), None),
                              "certificate": certificates.pop(f"peak |{_motor_key(name)}|", None)}
@@ -229,10 +263,9 @@ class CaseAnalysis:
             results[cm.name] = CaseResult(cm.name, cm.case.direction, profile, cm.case.efficiency,
                                           {k: cm.values[k] for k in cm.case.overrides}, columns, peaks, peak_at,
                                           integrals.get("duration", times.duration), integrals, on_sample, constraints,
-                                          sampled_pins, certificates, motors, _rests(cm.profile))
+                                          sampled_pins, certificates, motors, _rests(cm.profile), load)
             evaluated[cm.name] = {"hold": ends, "on_sample": on_sample,   # the quantities at a hold too
                                   "quantities": {q: {k: columns[q][i] for k, i in at.items()} for q in self.quantities}}
-        _certify_governing(results, to_certify)
         duty = self.duty.evaluate(results, evaluated, p_values, self.mech)
         env = self.mech.resolved.environment(np.asarray(p_values, float))
         values = {k: float(v) for k, v in env.items()}
@@ -357,39 +390,7 @@ def cylinder_report(scene, values, results) -> dict:
     return cylinder_sizing(number, push, pull, length, max(extend, 0.0), max(retract, 0.0))
 
 
-LOCATED = "located, not certified: another case governs this peak"
-
-
-def _certify_governing(results, to_certify):
-    """Certify, in each case, the peaks it governs (the largest located one over the cases of
-    each quantity and of each motor's torque) and its pins' forces: each a bound over the
-    continuous stroke (:class:`.certified.CertifiedPeaks`, the enclosure of the same rows),
-    the case's located value raised to the certified one.  The other cases' peaks stay located
-    (refined between the samples) with the note ``LOCATED``: the enclosure's cost is one
-    program evaluation per pass and case, whatever the rows."""
-    governs = {}
-    keys = {k for r in results.values() for k in list(r.peaks) + [_motor_key(m) for m in r.motors]}
-    for key in keys:
-        have = [(_peak(r, key), name) for name, r in results.items() if _peak(r, key) is not None]
-        if have:
-            governs.setdefault(max(have)[1], set()).add(key)
-    for name, (peaks, nodes, p_case, sampled) in to_certify.items():
-        r = results[name]
-        wanted = governs.get(name, set()) | {k for k in r.peaks if k.startswith(PEAKED)}
-        for key, (value, at, certificate) in peaks(nodes, p_case, sampled, names=wanted).items():
-            motor = key[len("motor_torque["):-1] if key.startswith("motor_torque[") else None
-            if motor is not None:
-                r.motors[motor].update(peak=value, at=at, certificate=certificate)
-            else:
-                r.peaks[key], r.peak_at[key] = value, at
-                r.certificates[f"peak |{key}|"] = certificate
-
-
-def _peak(r, key):
-    if key.startswith("motor_torque["):
-        own = r.motors.get(key[len("motor_torque["):-1])
-        return None if own is None else own["peak"]
-    return r.peaks.get(key)
+LOAD = "load_inertia"   # the load inertia's row among a case's certified peaks
 
 
 def _motor_key(name) -> str:

@@ -19,6 +19,7 @@ import numpy as np
 from ..kinematics.enclosure import Enclosures
 from ..kinematics.peaks import Request, continuous_maxima_rows, resolving_points
 from ..scene.expressions import Expression
+from .intervals_compiled import compile_program
 from .mapped import MappedFunction
 from .quantities import model_value
 
@@ -49,7 +50,7 @@ class CertifiedExtremes:
         v = ca.vertcat(*rows) if rows else ca.DM.zeros(0, 1)
         dv = mech.ds(v)
         self.derivatives = MappedFunction(mech.function("certified_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)}))
-        self.enclosures = Enclosures(self.derivatives.func)   # the same program, in intervals
+        self.enclosures = Enclosures(self.derivatives.func, compile_program)   # the same program, in intervals
         self.values = MappedFunction(mech.function("certified_v", {"v": v}))
         self.q = MappedFunction(mech.function("q", {"q": mech.q}))
 
@@ -128,40 +129,73 @@ class CertifiedExtremes:
 class CertifiedPeaks:
     """The peaks |v| of named rows of (s, p) over the continuous stroke, located and certified
     as analyse's (:class:`CertifiedExtremes`: the rows' exact s-derivatives, their enclosure):
-    a load case's pin forces (:class:`~optdesign.model.cases.CaseAnalysis`)."""
+    a load case's pin forces (:class:`~optdesign.model.cases.CaseAnalysis`).
 
-    def __init__(self, mech, rows: dict):
+    ``time`` = (tau, profile): the rows are graphs of (s, tau, p) along a law in time
+    (:meth:`~.profiles.MotionProfile.graphs` with ``time``), located and enclosed as graphs of
+    tau alone, s = profile.sweep_at(tau): closed form and smooth in tau, also at a rest, where
+    the law's inverse tau(s) has an infinite derivative and defeats the Taylor form."""
+
+    def __init__(self, mech, rows: dict, time=None):
         self.names = list(rows)
         v = ca.vertcat(*rows.values())
-        dv = mech.ds(v)
-        self.derivatives = MappedFunction(mech.function("peaks_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)}))
-        self.enclosures = Enclosures(self.derivatives.func)
+        self.profile = None if time is None else time[1]
+        if time is None:
+            var, func = mech.s, mech.function
+        else:
+            var = time[0]
+            v = ca.substitute(v, mech.s, self.profile.sweep_at(var))
+            assert not ca.depends_on(v, mech.s), "a case's rows in time still depend on s"
+            opts = {"cse": True} if mech.sym is ca.SX else {}
+            func = lambda name, out: ca.Function(name, [var, mech.p], list(out.values()), ["s", "p"], list(out), opts)  # noqa: E731
+        dv = ca.jacobian(v, var)
+        self.derivatives = MappedFunction(func("peaks_ds", {"v": v, "dv": dv, "d2v": ca.jacobian(dv, var)}))
+        self.enclosures = Enclosures(self.derivatives.func, compile_program)
 
     def __call__(self, s_values, p, columns, names=None, certify=True) -> dict:
         """name -> (|peak|, {s, value}, certificate {bound, note}) at parameters ``p``, from the
         sampled ``columns`` on ``s_values`` (ascending or descending), for the rows ``names``
         (all by default); without ``certify`` located only (the refined sample maxima, no
-        enclosure: certificate None)."""
+        enclosure: certificate None).  In time: on the times of ``s_values`` and the law's
+        piece ends, the rows evaluated there."""
         s_values = np.asarray(s_values, float)
-        V = np.array([columns[name] for name in self.names], float)
-        if len(s_values) > 1 and s_values[-1] < s_values[0]:
-            s_values, V = s_values[::-1], V[:, ::-1]
         chosen = [n for n in self.names if names is None or n in names]
         if not chosen:
             return {}
+        if self.profile is not None:
+            law = self.profile.shape.motion_law
+            grid = np.unique(np.clip(np.r_[0.0, self.profile.times(s_values) / self.profile.shape.time, law.breaks, 1.0], 0.0, 1.0))
+            V = self.derivatives(grid, p)[0]
+        else:
+            grid, V = s_values, np.array([columns[name] for name in self.names], float)
+            if len(grid) > 1 and grid[-1] < grid[0]:
+                grid, V = grid[::-1], V[:, ::-1]
         requests = [Request(self.names.index(n), "abs", ends=True) for n in chosen]
-        found = continuous_maxima_rows(lambda s: self.derivatives(s, p), s_values, V, requests,
+        found = continuous_maxima_rows(lambda s: self.derivatives(s, p), grid, V, requests,
                                        enclosure=self.enclosures.at(p) if certify else None)
-        return {name: (abs(ext[0].value), {"s": ext[0].s, "value": ext[0].value},
-                       _certificate(ext[0]) if certify else None)
+        return {name: (abs(ext[0].value), {"s": self._sweep(ext[0].s), "value": ext[0].value},
+                       _certificate(ext[0], note=self._note) if certify else None)
                 for name, ext in zip(chosen, found)}
 
+    def _sweep(self, x) -> float:
+        """The sweep value at x (in time: x is tau)."""
+        return float(x) if self.profile is None else float(self.profile.law_sweep(np.array([x]))[0])
 
-def _certificate(e, sign=1.0) -> dict:
+    def _note(self, note) -> str:
+        """A certificate's note with its position as a sweep value (in time it says tau)."""
+        if self.profile is None or " s = " not in note:
+            return note
+        head, tail = note.split(" s = ", 1)
+        number, rest = tail.split(" ", 1)
+        return f"{head} s = {self._sweep(float(number)):.9g} {rest}"
+
+
+def _certificate(e, sign=1.0, note=None) -> dict:
     """What the enclosure proved of one extremum: ``bound`` (of |v|, of v for a max, of v from
-    below for a min; None without one) and ``note`` (why not, "" when certified)."""
+    below for a min; None without one) and ``note`` (why not, "" when certified; ``note``: a
+    function that rewrites it)."""
     bound = None if e.bound is None else sign * e.bound
-    return {"bound": bound, "note": e.note}
+    return {"bound": bound, "note": e.note if note is None else note(e.note)}
 
 
 def aggregates(expr: Expression) -> list:

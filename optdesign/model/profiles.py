@@ -113,9 +113,12 @@ class MotionProfile:
         return float(np.max(self.law_speed(np.linspace(self.s_begin, self.s_end, 201))))
 
     # --- graphs of s ---
-    def graphs(self, s, law_value=None):
+    def graphs(self, s, law_value=None, time=None):
         """(sd, sdd, V^2, t) at sweep value ``s``; t is None for a law.  ``law_value(expr)``
-        evaluates a law's speed expression in the caller's graph of s."""
+        evaluates a law's speed expression in the caller's graph of s.  ``time``: for a law in
+        time, the fraction tau of its duration as its own symbol, used in place of the law's
+        inverse at s (the caller puts s = :meth:`sweep_at` (tau): every graph then smooth in
+        tau, also at a rest, where tau(s) has an infinite derivative)."""
         sh, sigma = self.shape, self.sigma
         if sh.kind == "law":
             V = law_value(sh.law)
@@ -123,18 +126,18 @@ class MotionProfile:
             return sigma * V, V * dV, V**2, None
         x = ca.fmin(ca.fmax(sigma * (s - self.s_begin), 0.0), self.length)
         y = ca.fmin(ca.fmax(sigma * (self.s_end - s), 0.0), self.length)
-        return self.along(x, y)
+        return self.along(x, y, time)
 
-    def along(self, x, y):
+    def along(self, x, y, time=None):
         """(sd, sdd, V^2, t) at distance x from the motion's beginning and y = L - x before its
-        end (both given, so that each is exact next to its own end)."""
+        end (both given, so that each is exact next to its own end); ``time``: :meth:`graphs`."""
         sh, sigma = self.shape, self.sigma
         if sh.kind == "constant":
             v = sh.speed
             return sigma * v + 0 * x, 0 * x, v**2 + 0 * x, x / v
         if sh.motion_law is not None:   # a law in time: tau = f^-1(x/L), t = T tau
             T, L = sh.time, self.length
-            tau = sh.motion_law.inverse(x / L)
+            tau = sh.motion_law.inverse(x / L) if time is None else time
             _, speed, acceleration, _ = sh.motion_law.derivatives(tau)
             V = L / T * speed
             return sigma * V, sigma * L / T**2 * acceleration, V**2, T * tau
@@ -152,17 +155,26 @@ class MotionProfile:
             V2 = V**2
         return sigma * V, sigma * A, V2, t
 
-    def jerk(self, s):
-        """The sweep's jerk at ``s`` along a law in time: sigma L/T^3 f^(3)(tau)."""
+    def jerk(self, s, time=None):
+        """The sweep's jerk at ``s`` along a law in time: sigma L/T^3 f^(3)(tau); ``time``: :meth:`graphs`."""
         sh = self.shape
         x = ca.fmin(ca.fmax(self.sigma * (s - self.s_begin), 0.0), self.length)
-        tau = sh.motion_law.inverse(x / self.length)
+        tau = sh.motion_law.inverse(x / self.length) if time is None else time
         return self.sigma * self.length / sh.time**3 * sh.motion_law.derivatives(tau)[3]
 
-    def motion(self, mech, law_value=None) -> Motion:
-        """The drive's motion (:class:`Motion`) along this profile in ``mech``'s graphs."""
+    @property
+    def in_time(self) -> bool:
+        """A law in time (a motion law or segments): closed form in tau, its inverse not."""
+        return self.shape.motion_law is not None
+
+    def sweep_at(self, tau):
+        """The sweep value at the fraction ``tau`` of a law in time's duration (a CasADi graph)."""
+        return self.s_begin + self.sigma * self.length * self.shape.motion_law.derivatives(tau)[0]
+
+    def motion(self, mech, law_value=None, time=None) -> Motion:
+        """The drive's motion (:class:`Motion`) along this profile in ``mech``'s graphs; ``time``: :meth:`graphs`."""
         s = mech.s
-        sd, sdd, V2, _ = self.graphs(s, law_value or (lambda e: mech.value(e, "[profiles] speed")))
+        sd, sdd, V2, _ = self.graphs(s, law_value or (lambda e: mech.value(e, "[profiles] speed")), time)
         k = mech.ds(mech.q)
         dk = mech.ds(k)
         return Motion(k * sd, k * sdd + dk * V2, k**2 * V2, k * self.sigma * self.reference_speed)

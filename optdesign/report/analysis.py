@@ -188,15 +188,17 @@ def _analysis_figures(result, folder) -> list:
     from .stroke_plots import inertia_figure, joints_figure, quantities_figure, stroke_figure
 
     folder = Path(folder)
+    # with [[cases]] these are the nominal state's (the cases' own: cases.png), and say so
+    note = " (the nominal [drive] state; the load cases: cases.png)" if result.scene.cases else ""
     written = [stroke_figure([("", result)], folder / "drive.png", components=True, constraints=False,
-                             title=f"{result.scene.title}\ndrive load and its components")]
+                             title=f"{result.scene.title}\ndrive load and its components{note}")]
     if "reduced_inertia" in result.columns:
-        written.append(inertia_figure(result, folder / "reduced_inertia.png"))
+        written.append(inertia_figure(result, folder / "reduced_inertia.png", note))
     if any(np.ndim(v) for v in result.constraints.values()):
         written.append(stroke_figure([("", result)], folder / "constraints.png", drive=False,
-                                     title=f"{result.scene.title}\nconstraints over the stroke"))
+                                     title=f"{result.scene.title}\nconstraints over the stroke{note}"))
     if result.quantities:   # [quantities]
-        written.append(quantities_figure(result, folder / "quantities.png"))
+        written.append(quantities_figure(result, folder / "quantities.png", note))
     if any(k.startswith("pin_force(") for k in result.columns):   # analyse --joints
-        written.append(joints_figure(result, folder / "joints.png"))
+        written.append(joints_figure(result, folder / "joints.png", note))
     return written + cases_figures(result, folder)

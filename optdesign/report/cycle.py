@@ -36,17 +36,25 @@ def cycle_figures(result) -> dict:
            "rms_motor_torque": math.sqrt(max(sums["motor_squared"], 0.0) / T) if T > 0 else math.nan,
            "peak_motor_speed": float(np.max(np.abs(speed))), "motor_energy": sums["motor_work"],
            "drive_energy": sums["drive_work"], "mean_motor_power": sums["motor_work"] / T if T > 0 else math.nan,
-           "phases": [{"name": p["name"], "kind": p["kind"], "t_start": p["t_start"], "t_end": p["t_end"],
-                       "duration": p["t_end"] - p["t_start"],
-                       "rms_motor_torque": math.sqrt(max(p["integrals"]["motor_squared"], 0.0)
-                                                     / max(p["t_end"] - p["t_start"], 1e-300))}
-                      for p in result.phases]}
+           "phases": [_phase_figures(result, p) for p in result.phases]}
     motor = _motor(result.scene)
     if motor is not None:
         name, numbers = motor
         out["motor"] = {"name": name, **numbers}
         out["limits"] = binding(result, numbers, out["rms_motor_torque"])
     return out
+
+
+def _phase_figures(result, p) -> dict:
+    """One simulated phase's figures: its times, the motor's RMS and peak torque and peak speed
+    over it, the energy at the drive."""
+    duration = p["t_end"] - p["t_start"]
+    rows = slice(*p["rows"])
+    torque, speed = (np.abs(result.columns[k][rows]) for k in ("motor_torque", "motor_speed"))
+    return {"name": p["name"], "kind": p["kind"], "t_start": p["t_start"], "t_end": p["t_end"], "duration": duration,
+            "rms_motor_torque": math.sqrt(max(p["integrals"]["motor_squared"], 0.0) / max(duration, 1e-300)),
+            "peak_motor_torque": float(np.max(torque, initial=0.0)), "peak_motor_speed": float(np.max(speed, initial=0.0)),
+            "drive_energy": p["integrals"]["drive_work"]}
 
 
 def _motor(scene):
@@ -77,8 +85,13 @@ def binding(result, motor, rms) -> list:
 
 
 def profile_figures(result) -> dict | None:
-    """analyse's figures for the same cycle (the profiles followed exactly), with the
-    simulation's motor; None without [[cases]] or without a motor."""
+    """analyse's figures with the simulation's motor (the profiles followed exactly): ``phases``,
+    for each simulated phase that follows a case's profile (a controller on the case's own
+    profile and direction, until the profile's end), that case's duration, motor peak and RMS
+    torque, peak speed and energy at the drive; ``cycle``, the same over the cycle of [duty]
+    (or every case once; None when a case has no motion in time) with its ``steps``; and
+    ``same_cycle``, whether the simulated phases are that cycle's steps (then the two cycles
+    compare, else only the phases do).  None without [[cases]] or without a motor."""
     from ..model.analysis import analyse
 
     scene = result.scene
@@ -86,21 +99,84 @@ def profile_figures(result) -> dict | None:
     if motor is None or not scene.cases:
         return None
     name, numbers = motor
-    a = analyse(scene, certify=False).cases
-    entry = a.train["motors"][name]
-    used = [p.case for p in scene.simulation.phases if p.case is not None] or list(a.cases)
-    J = numbers["inertia"]
-    peak = max(float(np.max(np.abs(a.cases[c].columns["motor_load_torque"] + J * a.cases[c].columns["motor_acceleration"])))
-               for c in used)
-    speed = max(a.cases[c].peaks.get("motor_speed", 0.0) for c in used)
-    duty = a.duty
-    return {"cycle_time": duty.get("cycle_time"), "peak_motor_torque": peak, "rms_motor_torque": entry.get("rms"),
-            "peak_motor_speed": speed, "drive_energy": duty.get("energy"), "cases": used}
+    a = analyse(scene).cases   # each case's motor peak located between its samples
+    per_case = {c: _case_figures(r, name, numbers["inertia"]) for c, r in a.cases.items()}
+    spec = {ph.name: ph for ph in scene.simulation.phases}
+    phases = []
+    for p in result.phases:
+        case = _followed_case(spec[p["name"]], scene)
+        if case is not None:
+            phases.append({"phase": p["name"], "case": case, **per_case[case]})
+    duty, cycle = a.duty, None
+    if "steps" in duty:
+        cases = {st["case"] for st in duty["steps"] if st["kind"] == "case"}
+        cycle = {"cycle_time": duty["cycle_time"], "rms_motor_torque": a.train["motors"][name].get("rms"),
+                 "peak_motor_torque": max(per_case[c]["peak_motor_torque"] for c in cases),
+                 "peak_motor_speed": max(per_case[c]["peak_motor_speed"] for c in cases),
+                 "drive_energy": duty["energy"], "steps": [_step_label(st) for st in duty["steps"]]}
+    same = cycle is not None and result.stop == "cycle end" and _same_steps(result, spec, scene, duty["steps"])
+    return {"phases": phases, "cycle": cycle, "same_cycle": same}
+
+
+def _case_figures(r, motor, J) -> dict:
+    """A case's figures in analyse with a motor of inertia J: duration, the motor's peak torque
+    (located between the samples), RMS torque over the case, peak speed, energy at the drive."""
+    a, b, c = (r.integrals[k] for k in ("motor_load_squared", "motor_load_acceleration", "motor_acceleration_squared"))
+    sampled = float(np.max(np.abs(r.columns["motor_load_torque"] + J * r.columns["motor_acceleration"])))
+    return {"duration": r.duration, "peak_motor_torque": max(r.motors[motor]["peak"], sampled),
+            "rms_motor_torque": math.sqrt(max(a + 2 * J * b + J * J * c, 0.0) / r.duration),
+            "peak_motor_speed": r.peaks.get("motor_speed", 0.0), "drive_energy": r.integrals["energy"]}
+
+
+def _followed_case(ph, scene):
+    """The case whose profile the phase ``ph`` runs as analyse has it (a controller on the
+    case's own profile and direction until the profile ends), or None."""
+    if ph.kind != "controller" or ph.case is None or ph.until != "profile":
+        return None
+    case = next(c for c in scene.cases if c.name == ph.case)
+    own = ph.setting.get("profile", case.profile) == case.profile
+    return ph.case if own and ph.setting.get("direction", case.direction) == case.direction else None
+
+
+def _step_label(st) -> str:
+    if st["kind"] == "case":
+        return st["case"] if st["repeat"] == 1 else f"{st['repeat']:g} x {st['case']}"
+    return f"{st['kind']} {st['time']:.6g} s"
+
+
+def _same_steps(result, spec, scene, steps) -> bool:
+    """Whether the simulated phases run the duty cycle's steps in order: each case step (its
+    repeats) a phase following that case, each dwell a brake's hold and each hold the motor's,
+    of the same time."""
+    wanted = []
+    for st in steps:
+        if st["kind"] == "case":
+            if st["repeat"] != int(st["repeat"]):
+                return False
+            wanted += [("case", st["case"])] * int(st["repeat"])
+        else:
+            wanted.append((st["kind"], st["time"]))
+    ran = []
+    for p in result.phases:
+        ph = spec[p["name"]]
+        case = _followed_case(ph, scene)
+        if case is not None:
+            ran.append(("case", case))
+        elif ph.kind == "hold":
+            ran.append(("dwell" if ph.setting == "brake" else "hold", p["t_end"] - p["t_start"]))
+        else:
+            return False
+    return len(ran) == len(wanted) and all(
+        x[0] == y[0] and (x[1] == y[1] if x[0] == "case" else math.isclose(x[1], y[1], rel_tol=1e-9))
+        for x, y in zip(ran, wanted))
 
 
 COMPARED = (("cycle_time", "cycle time", "s"), ("peak_motor_torque", "motor peak torque", "N m"),
             ("rms_motor_torque", "motor RMS torque", "N m"), ("peak_motor_speed", "motor peak speed", "rad/s"),
             ("drive_energy", "energy per cycle at the drive", "J"))
+PHASE_COMPARED = (("duration", "duration", "s"), ("peak_motor_torque", "motor peak torque", "N m"),
+                  ("rms_motor_torque", "motor RMS torque", "N m"), ("peak_motor_speed", "motor peak speed", "rad/s"),
+                  ("drive_energy", "energy at the drive", "J"))
 
 
 def cycle_report(result) -> dict:
@@ -109,19 +185,35 @@ def cycle_report(result) -> dict:
     return {**cycle_figures(result), "profiles": profile_figures(result)}
 
 
+def _compared(lines, head, sim, ref, rows):
+    lines.append(f"  {head:32s} {'simulated':>14s} {'profiles (analyse)':>20s} {'difference':>11s}")
+    for key, label, unit in rows:
+        value, other = sim[key], None if ref is None else ref.get(key)
+        diff = "" if other in (None, 0) else f"{(value - other) / abs(other):+.2e}"
+        lines.append(f"  {'  ' + label + ' [' + unit + ']':32s} {value:14.6g} "
+                     f"{'' if other is None else format(other, '20.6g'):>20s} {diff:>11s}")
+
+
 def cycle_lines(figures, profile) -> list:
-    """The cycle's summary: the simulation's figures beside analyse's, the limits that bind."""
+    """The cycle's summary: the simulation's figures beside analyse's (the whole cycle when the
+    phases are [duty]'s steps, else phase by phase, saying that the cycles differ), the limits
+    that bind."""
     lines = ["", "duty cycle in time" + (f" with motor {figures['motor']['name']!r}" if "motor" in figures else "")]
     for ph in figures["phases"]:
         lines.append(f"  phase {ph['name']!r} ({ph['kind']}): t = {ph['t_start']:.6g} .. {ph['t_end']:.6g} s, "
                      f"motor RMS torque {ph['rms_motor_torque']:.6g} N m")
-    lines.append(f"  {'':32s} {'simulated':>14s} {'profiles (analyse)':>20s} {'difference':>11s}")
-    for key, label, unit in COMPARED:
-        sim = figures[key]
-        ref = None if profile is None else profile.get(key)
-        diff = "" if ref in (None, 0) or ref is None else f"{(sim - ref) / abs(ref):+.2e}"
-        lines.append(f"  {label + ' [' + unit + ']':32s} {sim:14.6g} {'' if ref is None else format(ref, '20.6g'):>20s} "
-                     f"{diff:>11s}")
+    if profile is None or profile["same_cycle"]:
+        _compared(lines, "the cycle", figures, None if profile is None else profile["cycle"], COMPARED)
+    else:
+        ran = ", ".join(ph["name"] + (f" (hold {ph['duration']:.6g} s)" if ph["kind"] == "hold" else "")
+                        for ph in figures["phases"])
+        duty = profile["cycle"]
+        lines.append(f"  the simulated phases ({ran}: {figures['cycle_time']:.6g} s) are not analyse's duty cycle")
+        lines.append("  " + ("" if duty is None else f"({', '.join(duty['steps'])}: {duty['cycle_time']:.6g} s): ")
+                     + ("compared phase by phase" if profile["phases"] else "no phase follows a case's profile to compare"))
+        sim = {ph["name"]: ph for ph in figures["phases"]}
+        for ref in profile["phases"]:
+            _compared(lines, f"phase {ref['phase']!r}, case {ref['case']!r}", sim[ref["phase"]], ref, PHASE_COMPARED)
     lines.append(f"  energy per cycle at the motor {figures['motor_energy']:.6g} J, mean power "
                  f"{figures['mean_motor_power']:.6g} W")
     if "limits" in figures:

@@ -99,8 +99,8 @@ def stroke_figure(runs, path, title=None, components=False, drive=True, constrai
 SEED_UNIT = {"rotary": "N m", "linear": "N"}
 
 
-def inertia_figure(result, path):
-    """The reduced inertia (mass) and its derivative over the sweep."""
+def inertia_figure(result, path, note=""):
+    """The reduced inertia (mass) and its derivative over the sweep (``note`` after the title)."""
     scene = result.scene
     sf, su = sweep_scale(scene)
     fig, ax = new_figure(figsize=(7.5, 4))
@@ -114,16 +114,16 @@ def inertia_figure(result, path):
     ax.set_xlabel(f"{scene.sweep.name} [{su}]" if su else scene.sweep.name)
     ax.set_ylabel(f"{name} [{unit}]")
     ax2.set_ylabel(f"d{name}/dq [{dunit}]")
-    ax.set_title("reduced inertia and its derivative", fontsize=10)
+    ax.set_title("reduced inertia and its derivative" + ("\n" + note.strip() if note else ""), fontsize=10, loc="left")
     fig.legend(loc="upper right", fontsize=8)
     ax.grid(alpha=0.3)
     save_figure(fig, path)
     return path
 
 
-def quantities_figure(result, path):
+def quantities_figure(result, path, note=""):
     """Each of the scene's [quantities] over the sweep (in the scene's sweep unit), one panel
-    each, labelled with its unit."""
+    each, labelled with its unit (``note`` after the title)."""
     scene = result.scene
     units = {q.name: q.unit for q in scene.quantities}
     factor, unit = sweep_scale(scene)
@@ -135,15 +135,15 @@ def quantities_figure(result, path):
         ax.set_ylabel(f"{name} [{units.get(name) or '-'}]")
         ax.grid(True, alpha=0.3)
     axes[-1, 0].set_xlabel(f"{scene.sweep.name}" + (f" [{unit}]" if unit else ""))
-    axes[0, 0].set_title(textwrap.shorten(f"{scene.title}: quantities", 90))
+    axes[0, 0].set_title(textwrap.shorten(f"{scene.title}: quantities", 90 - len(note)) + note)
     save_figure(fig, path)
     return path
 
 
-def joints_figure(result, path):
+def joints_figure(result, path, note=""):
     """The force at each pin (``pin_force(P)``, the first party's) and each slider's normal force
     over the sweep (analyse --joints), on one axis in the scene's force unit, each peak over the
-    continuous stroke marked where it lies."""
+    continuous stroke marked where it lies (``note`` after the title)."""
     scene = result.scene
     sf, su = sweep_scale(scene)
     names = [k for k in result.columns if k.startswith(("pin_force(", "slider_normal(")) and ", " not in k]
@@ -158,7 +158,7 @@ def joints_figure(result, path):
             ax.plot([at["s"] * sf], [at["value"] * k], "v", color=line.get_color(), ms=6)
     ax.set_xlabel(f"{scene.sweep.name} [{su}]" if su else scene.sweep.name)
     ax.set_ylabel(f"force [{unit}]")
-    ax.set_title(textwrap.shorten(f"joint forces (peaks marked): {scene.title}", 90), fontsize=10)
+    ax.set_title(textwrap.shorten(f"joint forces (peaks marked): {scene.title}", 90 - len(note)) + note, fontsize=10)
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3)
     save_figure(fig, path)

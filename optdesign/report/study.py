@@ -28,6 +28,7 @@ def figures(study, rows, folder, fronts=None) -> list:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import numpy as np
 
     if not study.axes or not rows:
         return []
@@ -36,25 +37,31 @@ def figures(study, rows, folder, fronts=None) -> list:
     goal = "objective" if study.mode == "optimise" else "peak:drive"
     quantities = [goal]
     if study.mode == "optimise":
-        quantities += [k for k in rows[0] if k.startswith("design:")] if rows else []
-        quantities = list(dict.fromkeys(quantities + [k for r in rows for k in r if k.startswith("design:")]))
+        quantities += [k for k in rows.names() if k.startswith("design:")]
     else:
-        quantities += [k for k in ("rms:drive", "peak:power") if any(k in r for r in rows)]
+        quantities += [k for k in ("rms:drive", "peak:power") if rows.has(k)]
+    # the rows' columns as arrays (rows: optdesign.study.rows.Rows; a million rows are not built as dicts)
+    x_all = rows.column(x_axis.column)
+    success = rows.column("success") == 1
+    ok_all = success & ~np.isnan(rows.column(goal))
+    values = {q: rows.column(q) for q in quantities}
     groups = {}
-    for r in rows:
-        groups.setdefault(tuple(r.get(a.column) for a in outer), []).append(r)
+    keys = zip(*(rows.column(a.column) for a in outer)) if outer else [()] * len(rows)   # one axis: one line
+    for i, key in enumerate(keys):
+        groups.setdefault(key, []).append(i)
     drive = "torque [N m]" if study.scene.drive and study.scene.drive.kind == "rotary" else "force [N]"
     written = []
     fig, axes = plt.subplots(len(quantities), 1, figsize=(7, 2.2 * len(quantities) + 0.9), squeeze=False, sharex=True)
-    for key, rs in groups.items():
-        label = ", ".join(f"{a.label}={_fmt(v)}" for a, v in zip(outer, key)) or None
-        ok = [r for r in rs if r.get("success") and r.get(goal) is not None]
-        x = _conv(x_axis.label, [r[x_axis.column] for r in ok])
+    for key, index in groups.items():
+        first = rows[index[0]]
+        label = ", ".join(f"{a.label}={_fmt(first.get(a.column))}" for a in outer) or None
+        index = np.asarray(index)
+        ok, bad = index[ok_all[index]], index[~success[index]]
+        x = _conv(x_axis.label, x_all[ok])
         for ax, q in zip(axes[:, 0], quantities):
-            ax.plot(x, flat(_conv(q, [r.get(q, float("nan")) for r in ok])), "o-", ms=3, label=label)
-        bad = [r for r in rs if not r.get("success")]
-        if bad:
-            axes[0, 0].plot(_conv(x_axis.label, [r[x_axis.column] for r in bad]), [float("nan")] * len(bad), "x")
+            ax.plot(x, flat(_conv(q, values[q][ok])), "o-", ms=3, label=label)
+        if bad.size:
+            axes[0, 0].plot(_conv(x_axis.label, x_all[bad]), [float("nan")] * bad.size, "x")
     for ax, q in zip(axes[:, 0], quantities):
         ax.set_ylabel(f"{'optimal ' if study.mode == 'optimise' and q == goal else ''}"
                       + (f"peak drive {drive}" if q in ("objective", "peak:drive") and _is_peak_drive(study)

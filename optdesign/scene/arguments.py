@@ -201,11 +201,12 @@ def simulation_arguments(tolerance, samples, t_end, steps):
     return tolerance, samples, t_end, steps
 
 
-# one study case in the client: its Case and journal index (CASE_BYTES) and its row, a dict of
-# numbers kept for the result (COLUMN_BYTES per column); measured with tracemalloc over a resumed
-# study of the truck crane (rows of 25 columns): 3.3 kB per case at 20,000 cases, 3.6 kB at 2,000
-# (tests/test_study_scale.py checks the estimate against it)
-CASE_BYTES, COLUMN_BYTES = 800, 120
+# one study case in the client: its Case (~280 B), its journal index (~150 B) and its row, held
+# column by column for the result (optdesign/study/rows.py: 8 B per number, COLUMN_BYTES per
+# column with a margin for strings and values apart); measured with tracemalloc over a resumed
+# study of the truck crane (rows of 25 columns): 654 B per case at 20,000 cases (3.3 kB when
+# rows were dicts) (tests/test_study_scale.py checks the estimate against it)
+CASE_BYTES, COLUMN_BYTES = 600, 16
 
 
 def study_cases(name: str, count: int, columns: int = 25) -> int:

@@ -23,6 +23,7 @@ from ..report import study as study_figures
 from . import journal as study_journal
 from . import table as study_table
 from .results import ClusterLost, StudyInterrupted, StudyResult
+from .rows import Rows
 from ..report.folder import NoHardLinks, inspect, replace_folder
 from ..report.files import write_file
 from .executors import _executor, _Inline, record  # noqa: F401  (_Inline: the tests' stand-in executors)
@@ -30,7 +31,7 @@ from .tasks import scene_digest
 
 
 # the files a study derives from its journal (replaced at the end; a restart drops them)
-DERIVED = (study_table.CSV, "pareto.csv", "study.png", "pareto.png", "study.json", "summary.txt")
+DERIVED = (study_table.CSV, study_table.PARQUET, "pareto.csv", "study.png", "pareto.png", "study.json", "summary.txt")
 COMMIT_S = 0.1   # the journal is made durable (fsync) at least this often while cases come back
 FRESH = 10_000   # rows kept for cases.csv while an earlier case runs (more are read back from the journal)
 
@@ -83,13 +84,12 @@ def execute(study, folder: Path, workers, scheduler, progress, restart, figures)
             rows = table.finish()
             try:
                 result = write_folder(study, cases, folder, rows, table, figures, computed, reused, t0, where,
-                                      journal.notes)
+                                      [f"journal: {note}" for note in journal.notes])
             except OptdesignError as exc:
                 raise OptdesignError(f"{exc}; the {len(rows)} finished cases are kept in {journal.path}: run the "
                                      "same study again with the same folder to write them") from None
         finally:
-            table.close()
-            table.path.unlink(missing_ok=True)   # moved into the folder, or not to be left there
+            table.discard()   # its files moved into the folder, or not to be left there
     if lost is not None:
         raise ClusterLost(
             f"{lost}: {len(rows)} of {len(cases)} cases are finished and kept in {folder / study_journal.JOURNAL}; "
@@ -113,14 +113,14 @@ def write_folder(study, cases, folder, rows, table, figures, computed, reused, t
 
     def write(tmp) -> list:
         paths = [write_file(tmp / "study.json", json.dumps(definition(study, cases), indent=1) + "\n"),
-                 study_table.write_csv(tmp, table)]
+                 *study_table.write_tables(tmp, table)]
         pareto = bool(study.axes) and study.axes[-1].kind == "pareto"
         if complete and figures:
             paths += study_figures.figures(study, rows, tmp, study_table.front(study, rows) if pareto else None)
         if complete and pareto:   # a table, not a figure: --no-figures keeps it
             paths.append(study_table.pareto_csv(study, rows, tmp))
         result = StudyResult(study, tmp, rows, complete, computed, reused, time.perf_counter() - t0, paths,
-                             tuple(notes))
+                             (*notes, *([table.parquet.note] if table.parquet.note else [])))
         paths.append(write_summary(result, where))
         made.append(result)
         return paths
@@ -152,7 +152,8 @@ def definition(study, cases) -> dict:
 
 def write_summary(result, where) -> Path:
     rows = result.rows
-    ok = sum(1 for r in rows if r.get("success"))
+    success = rows.column("success") == 1
+    ok = int(success.sum())
     lines = [f"{result.study.scene.title}",
              f"{result.study.mode} study of {math.prod(len(a) for a in result.study.axes)} cases: {len(rows)} finished "
              f"({ok} successful, {len(rows) - ok} failed), {'complete' if result.complete else 'INCOMPLETE: run again to resume'}",
@@ -160,14 +161,14 @@ def write_summary(result, where) -> Path:
              f"{result.wall_s:.2f} s wall ({where})"]
     if result.computed:
         lines.append(f"cases per second (this run): {result.computed / result.wall_s:.3g}")
-    bad = [r for r in rows if not r.get("success")]
-    for r in bad[:20]:
+    for i in (~success).nonzero()[0][:20]:
+        r = rows[i]
         lines.append(f"  case {r['case']} failed: {r.get('status')}")
     if result.study.mode == "analyse" and result.study.scene.cases:
         lines.append("columns: peak:*, rms:* and constraint:* are the nominal state's (at the [drive] speed and "
                      "acceleration); the load cases' are case_peak:* (with the governing case), cycle_rms:*, cycle:*, "
                      "motor_fits:*, smallest_motor and cylinder:*")
-    lines += [f"journal: {note}" for note in result.notes]
+    lines += list(result.notes)
     lines += case_table(result.study, rows)
     lines.append(f"files: {', '.join(p.name for p in result.paths)}")
     path = result.folder / "summary.txt"
@@ -180,10 +181,11 @@ def case_table(study, rows, shown=30) -> list:
     with the design for an optimisation), the first ``shown`` of them."""
     if not rows:
         return []
+    rows = rows if isinstance(rows, Rows) else Rows(rows)
     keys = [c for a in study.axes for c in a.columns] + (
         ["objective"] + [k for k in rows[0] if k.startswith("design:")] if study.mode == "optimise"
         else [k for k in ("peak:drive", "case_peak:drive", "cycle_rms:drive") if k in rows[0]])
-    keys = list(dict.fromkeys(k for k in keys if any(k in r for r in rows)))
+    keys = list(dict.fromkeys(k for k in keys if rows.has(k)))
 
     def cell(v):
         return "-" if v is None else f"{v:.6g}" if isinstance(v, float) else str(v)
@@ -194,6 +196,16 @@ def case_table(study, rows, shown=30) -> list:
     if len(rows) > shown:
         out.append(f"  ... {len(rows) - shown} more in cases.csv")
     return out
+
+
+LOCKSTEP = 32   # analyse cases per batch at most, run in lockstep (study.batched): on the truck
+#                 crane 8 cases 24 ms per case, 32 21 ms, 128 21 ms (44-60 ms one by one)
+
+
+def _lockstep_size(executor, remaining) -> int:
+    """Cases per batch of an analyse study: LOCKSTEP, or fewer so that every batch the executor
+    keeps in flight (its window) has some while few are left."""
+    return max(1, min(LOCKSTEP, -(-remaining // getattr(executor, "window", 1))))
 
 
 # --- the scheduling loop -------------------------------------------------------------------
@@ -237,7 +249,9 @@ def _schedule(study, chains, journal, executor, progress, done, total, ctrl_c, c
     blob, digest = pickle.dumps(study.scene), scene_digest(study.scene)
     grouped = study.mode == "analyse" and all(len(ch) == 1 for ch in chains)
     waiting = collections.deque(chains)   # chains not submitted yet
-    open_ = {}   # case id -> [cases of its batch still to come, its chain, position of the batch's last case]
+    # case id -> per batch holding it (a study may list one case twice, a batch hold both):
+    # [cases of its batch still to come, its chain, position of the batch's last case]
+    open_ = {}
     computed = reported = 0
     if progress is not None:
         progress(done, total)
@@ -260,13 +274,16 @@ def _schedule(study, chains, journal, executor, progress, done, total, ctrl_c, c
     def send(batch, tasks, chain, last):
         entry = [len(batch), chain, last]
         for case in batch:
-            open_[case.id] = entry
+            open_.setdefault(case.id, []).append(entry)
         executor.submit(batch, tasks)
 
     def feed():
         while waiting and executor.room():
             if grouped:
-                batch = [waiting.popleft()[0] for _ in range(min(executor.batch_size(len(waiting)), len(waiting)))]
+                size = executor.batch_size(len(waiting))
+                if size == 1:   # an executor that does not size its batches (in process, the pool)
+                    size = _lockstep_size(executor, len(waiting))
+                batch = [waiting.popleft()[0] for _ in range(min(size, len(waiting)))]
                 send(batch, [study.task(case, None, blob, digest) for case in batch], None, None)
             else:
                 submit(waiting.popleft(), 0)
@@ -288,7 +305,9 @@ def _schedule(study, chains, journal, executor, progress, done, total, ctrl_c, c
         executor.finished += 1
         if not executor.ready() or time.monotonic() - journal.synced >= COMMIT_S:
             commit()
-        entry = open_.pop(case.id)
+        entry = open_[case.id].pop(0)
+        if not open_[case.id]:
+            del open_[case.id]
         entry[0] -= 1
         if entry[0]:
             continue   # more of its batch to come

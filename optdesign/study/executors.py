@@ -217,6 +217,9 @@ class _Pool(_Futures):
         again = []
         for b in suspects:
             b.deaths += 1
+            if len(b.cases) > 1:   # analyse cases in lockstep: which one died is not known; each alone
+                again += [_Batch([c], [t], b.deaths) for c, t in zip(b.cases, b.tasks)]
+                continue
             if b.deaths < MAX_DEATHS:
                 again.append(b)
                 continue

@@ -2,10 +2,10 @@
 from __future__ import annotations
 
 import dataclasses
-import math
 from pathlib import Path
 
 from ..errors import OptdesignError
+from .rows import Rows
 
 
 class StudyInterrupted(KeyboardInterrupt):
@@ -29,17 +29,23 @@ class ClusterLost(OptdesignError):
 @dataclasses.dataclass(frozen=True)
 class StudyResult:
     """What a study run produced: ``rows`` (one dict per finished case, in case order: the
-    CSV's columns with numbers as numbers), the folder and its files, and counts."""
+    CSV's columns with numbers as numbers; a read-only :class:`~optdesign.study.rows.Rows` that
+    holds them column by column and builds a row's dict when asked for), the folder and its
+    files, and counts."""
 
     study: "Study"  # noqa: F821  (optdesign.study.study.Study)
     folder: Path
-    rows: list
+    rows: Rows               # a list of dicts given is turned into Rows
     complete: bool
     computed: int            # cases computed by this run
     reused: int              # finished cases found in the journal
     wall_s: float
     paths: list
-    notes: tuple = ()        # what opening the journal found and did (a torn last line cut, damaged lines moved)
+    notes: tuple = ()        # what opening the journal found and did (a torn last line cut, damaged lines moved), files not written
+
+    def __post_init__(self):
+        if not isinstance(self.rows, Rows):
+            object.__setattr__(self, "rows", Rows(self.rows))
 
     def __repr__(self):
         state = "complete" if self.complete else "incomplete"
@@ -50,7 +56,8 @@ class StudyResult:
         """Plain data (numbers, lists, dicts: ready for json.dumps); the study by its scene."""
         from ..scene.plain import plain, result_dict
 
-        out = result_dict(self, "study", skip=("study",))
+        out = result_dict(self, "study", skip=("study", "rows"))
+        out["rows"] = plain(list(self.rows))
         scene = getattr(self.study, "scene", None)
         if scene is not None:
             out.update(title=scene.title, file=scene.path)
@@ -58,15 +65,4 @@ class StudyResult:
 
     def column(self, name):
         """A column as a float array (missing values as nan)."""
-        import numpy as np
-
-        return np.array([_as_float(r.get(name)) for r in self.rows], dtype=float)
-
-
-def _as_float(v):
-    if v is None:
-        return math.nan
-    try:
-        return float(v)
-    except (TypeError, ValueError):
-        return math.nan
+        return self.rows.column(name)

@@ -26,6 +26,7 @@ figures and ``summary.txt`` are written at the end, atomically.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import json
 import math
@@ -42,7 +43,7 @@ MODES = ("optimise", "analyse")
 
 
 # --- cases ------------------------------------------------------------------------------------
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, slots=True)
 class Case:
     """One case: its place in the study, its content and its id (a digest of the content and,
     for a warm-started case, of the previous case of its chain)."""
@@ -195,16 +196,18 @@ class Study:
                 chain, prev = chain + 1, None
             overrides, bounds, inputs = [], [], []
             for axis, i in zip(self.axes, idx):
-                for col, v in axis.points[i]:
-                    inputs.append((col, v))
+                for pair in axis.points[i]:   # the axis's (column, value) pairs, shared by every case (memory)
+                    inputs.append(pair)
                     if axis.kind == "pareto":
-                        bounds.append((axis.constraint, axis.side, v))
+                        bounds.append((axis.constraint, axis.side, pair[1]))
                     else:
-                        overrides.append((col, v))
+                        overrides.append(pair)
             content = {"scene": digest, "mode": self.mode, "overrides": overrides, "bounds": bounds,
                        "run": run, "prev": prev}
             cid = hashlib.sha256(json.dumps(content, sort_keys=True).encode()).hexdigest()[:16]
-            out.append(Case(index, chain, link, tuple(overrides), tuple(bounds), tuple(inputs), cid))
+            overrides = tuple(overrides)
+            out.append(Case(index, chain, link, overrides, tuple(bounds) if bounds else (),
+                            overrides if not bounds else tuple(inputs), cid))
             prev = cid if chained else None
         return out
 
@@ -214,12 +217,17 @@ class Study:
         return {"starts": int(self.starts), "seed": int(self.seed), "warm_starts": int(self.warm_starts),
                 "settings": dataclasses.asdict(self.settings)}
 
+    @functools.cached_property
+    def _settings_items(self) -> tuple:
+        """The solver settings as a task carries them, made once (asdict costs ~1 ms: a million
+        cases' tasks took as long as their analyses)."""
+        return tuple(dataclasses.asdict(self.settings).items())
+
     def task(self, case: Case, x_warm=None, blob=None, digest=None) -> Task:
         """The worker's view of a case (see :func:`optdesign.study.tasks.run_task`)."""
         return Task(blob if blob is not None else pickle.dumps(self.scene),
                     digest or scene_digest(self.scene), self.mode, case.overrides, case.bounds,
-                    int(self.starts), int(self.seed), int(self.warm_starts),
-                    tuple(dataclasses.asdict(self.settings).items()),
+                    int(self.starts), int(self.seed), int(self.warm_starts), self._settings_items,
                     None if x_warm is None else tuple(x_warm),
                     # one parameter axis: each case's overrides are an axis point, validated in _validate
                     sum(a.kind != "pareto" for a in self.axes) <= 1)

@@ -8,6 +8,8 @@ import os
 from pathlib import Path
 
 from ..report.files import write_file
+from .parquet import PARQUET, ParquetWriter
+from .rows import Rows
 
 CSV = "cases.csv"
 PARTIAL = f".{CSV}.partial.tmp"   # cases.csv while the study runs (a produced file's temporary name)
@@ -32,12 +34,15 @@ def columns(input_names, rows) -> list:
 
 def cell(value) -> str:
     """A CSV cell: floats in their shortest exact form (repr), None as empty."""
+    kind = type(value)
+    if kind is float:
+        return repr(value)   # nan, inf, -inf included
     if value is None:
         return ""
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, float):
-        return repr(value) if math.isfinite(value) else ("nan" if math.isnan(value) else repr(value))
+        return repr(float(value))
     return str(value)
 
 
@@ -46,19 +51,22 @@ class CsvWriter:
     is appended once every case before it has finished (case order, whatever order they finish
     in), so that the file is the same, byte for byte, however the cases were run, and it is not
     rebuilt at the end.  ``finished(case)`` gives a finished case's merged row, else None; the
-    rows written are kept in ``rows`` (the study's result), each taken from the journal once.
+    rows written are kept in ``rows`` (the study's result: a :class:`~optdesign.study.rows.Rows`,
+    column by column), each taken from the journal once.
     The columns are those of the rows written so far (:func:`columns`); a row bringing a new
     column (the first successful case after failed ones) has the file rewritten once with it, so
     the end result is the table of every finished row whatever came first.  A write that fails
-    (a full disk) stops the writing; :func:`write_csv` raises it at the end, when the results are
-    written (the journal keeps every case)."""
+    (a full disk) stops the writing; :func:`write_tables` raises it at the end, when the results
+    are written (the journal keeps every case).  The same rows go to cases.parquet
+    (:class:`~optdesign.study.parquet.ParquetWriter`), in row groups as they are written."""
 
     def __init__(self, folder, input_names, cases, finished):
         self.path = Path(folder) / PARTIAL
         self.inputs, self.cases, self.finished = list(input_names), cases, finished
-        self.seen, self.cols, self.next, self.rows, self.error = {}, None, 0, [], None
+        self.seen, self.cols, self.next, self.rows, self.error = {}, None, 0, Rows(), None
         self.fh = self.writer = None
         self._write(lambda: self._open("w"))
+        self.parquet = ParquetWriter(folder, self.rows)
 
     def advance(self):
         """Append the rows from the first case not written up to the first unfinished one."""
@@ -69,7 +77,7 @@ class CsvWriter:
             self._add(row)
             self.next += 1
 
-    def finish(self) -> list:
+    def finish(self) -> Rows:
         """Append the finished cases after the first unfinished one too, and close the file;
         returns the rows (once finished, it stays so)."""
         if self.fh is not None and self.fh.closed:
@@ -81,12 +89,20 @@ class CsvWriter:
         self.next = len(self.cases)
         if self.cols is None:
             self._write(lambda: self.writer.writerow(columns(self.inputs, [])))
+        self.parquet.finish(self.cols or columns(self.inputs, []))
         self.close()
         return self.rows
 
     def close(self):
         if self.fh is not None and not self.fh.closed:
             self._write(self.fh.close)
+        self.parquet.close()
+
+    def discard(self):
+        """The files in progress removed (moved into the folder already, or not to be left there)."""
+        self.close()
+        self.path.unlink(missing_ok=True)
+        self.parquet.path.unlink(missing_ok=True)
 
     def _open(self, mode):
         self.fh = open(self.path, mode, newline="")
@@ -101,6 +117,7 @@ class CsvWriter:
             if cols != self.cols:
                 self._write(lambda: self._rewrite(cols))
         self._write(lambda: self.writer.writerow([cell(row.get(k)) for k in self.cols]))
+        self.parquet.add(self.cols)
 
     def _write(self, action):
         if self.error is None:
@@ -130,14 +147,19 @@ class CsvWriter:
         self._open("a")
 
 
-def write_csv(folder, writer: CsvWriter) -> Path:
-    """cases.csv in ``folder``: the study's :class:`CsvWriter` finished and its file moved there."""
+def write_tables(folder, writer: CsvWriter) -> list:
+    """cases.csv (and cases.parquet, where pyarrow is installed) in ``folder``: the study's
+    :class:`CsvWriter` finished and its files moved there."""
     writer.finish()
-    if writer.error is not None:
-        raise writer.error
-    path = Path(folder) / CSV
-    os.replace(writer.path, path)
-    return path
+    for error in (writer.error, writer.parquet.error):
+        if error is not None:
+            raise error
+    paths = [Path(folder) / CSV]
+    os.replace(writer.path, paths[0])
+    if writer.parquet.note is None:
+        paths.append(Path(folder) / PARQUET)
+        os.replace(writer.parquet.path, paths[1])
+    return paths
 
 
 def read_csv(path) -> list:

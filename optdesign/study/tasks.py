@@ -27,7 +27,6 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import math
 import pickle
 import threading
 import time
@@ -168,9 +167,16 @@ def run_task(task: Task) -> dict:
     A case that fails on purpose (a geometry that does not assemble, no start converging) is a
     finished case with ``success`` False and the reason in ``status``; any other exception is a
     bug and propagates."""
+    t0 = time.perf_counter()
+    row, x = _finish(_prepare(task))
+    return {"row": row, "x": x, "time_s": time.perf_counter() - t0}
+
+
+def _prepare(task: Task):
+    """What a case needs before its computation: (task, its built model, its case scene or the
+    dict of its leaf values or None), or (task, the OptdesignError that stops it, None)."""
     from ..errors import OptdesignError
 
-    t0 = time.perf_counter()
     base = _scene(task)
     overrides = dict(task.overrides)
     structural = {k: v for k, v in overrides.items() if k in structural_names(base, task.mode)}
@@ -181,21 +187,49 @@ def run_task(task: Task) -> dict:
     try:
         model = _model(task, base, structural)
         scene = overrides if vector else case_scene(base, task.mode, overrides) if overrides else None
-        if task.mode == "optimise":
-            row, x = _optimise(task, model, scene)
-        else:
-            row, x = _analyse(model, scene), None
     except OptdesignError as exc:
-        row, x = {"status": f"error: {exc}", "success": False}, None
-    return {"row": row, "x": x, "time_s": time.perf_counter() - t0}
+        return task, exc, None
+    return task, model, scene
+
+
+def _finish(prepared):
+    """(row, x) of a prepared case (:func:`_prepare`)."""
+    from ..errors import OptdesignError
+
+    task, model, scene = prepared
+    try:
+        if isinstance(model, OptdesignError):
+            raise model
+        if task.mode == "optimise":
+            return _optimise(task, model, scene)
+        return _analyse(model, scene), None
+    except OptdesignError as exc:
+        return {"status": f"error: {exc}", "success": False}, None
 
 
 def run_batch(tasks: list, each=None) -> list:
     """Consecutive cases of one chain, in order, in one call (one Dask task for several cases):
     each case after the first is warm-started from the optimum of the one before it, exactly as
     the client would start it from the journal (None after a failed case), so a batch gives the
-    numbers of the cases run one by one.  Returns their outputs in order; ``each(output)`` is
-    called as each case finishes."""
+    numbers of the cases run one by one.  Cases of an analyse study (no chain) run in lockstep
+    (:mod:`.batched`: their certification's interval work done together), with the numbers of
+    each run alone.  Returns their outputs in order; ``each(output)`` is called as each case
+    finishes."""
+    if len(tasks) > 1 and all(t.mode == "analyse" for t in tasks):
+        from .batched import lockstep
+
+        t0 = time.perf_counter()
+        prepared = [_prepare(task) for task in tasks]
+        done = lockstep([lambda p=p: _finish(p) for p in prepared])
+        per_case = (time.perf_counter() - t0) / len(tasks)   # the batch's time, shared
+        outs = []
+        for value, error in done:
+            if error is not None:
+                raise error   # a bug (an expected failure is a failed row)
+            outs.append({"row": value[0], "x": None, "time_s": per_case})
+            if each is not None:
+                each(outs[-1])
+        return outs
     outs = []
     for task in tasks:
         outs.append(run_task(warm_from(task, outs[-1]) if outs else task))
@@ -295,11 +329,8 @@ def _analyse(analysis, scene) -> dict:
     row.update({f"peak:{k}": v for k, v in res.peaks.items()})
     row.update({f"peak_at:{k}": at["s"] for k, at in res.peak_at.items()})
     row.update({f"peak_sampled:{k}": v for k, v in res.peaks_sampled.items()})
-    s = res.columns["s"]
-    for k in ("drive", "power"):
-        if k in res.columns:  # rms over the stroke (trapezoid rule on the samples)
-            v = res.columns[k]
-            row[f"rms:{k}"] = float(math.sqrt(np.trapezoid(v**2, s) / (s[-1] - s[0])))
+    # rms over the continuous sweep (adaptive quadrature, model/analysis.Analysis.sweep_rms)
+    row.update({f"rms:{k}": value for k, (value, _) in analysis.sweep_rms(p).items()})
     for name, v in res.constraints.items():
         if np.ndim(v):
             e = res.constraint_extremes[name]

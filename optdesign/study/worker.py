@@ -41,9 +41,11 @@ def run_batch_in_helper(tasks: list) -> list:
     ``MAX_DEATHS`` times is recorded as failed with the reason."""
     from .tasks import died_output, warm_from
 
-    outs, deaths = [], 0
+    outs, deaths, alone = [], 0, False
     while len(outs) < len(tasks):
-        rest = list(tasks[len(outs):])
+        # after a death that no case's output preceded (a batch of analyse cases in lockstep
+        # gives them all at its end), the rest one case per call: the case that dies is known
+        rest = list(tasks[len(outs):len(outs) + 1 if alone else len(tasks)])
         if outs:
             rest[0] = warm_from(rest[0], outs[-1])
         helper, done = _take(), len(outs)
@@ -56,6 +58,9 @@ def run_batch_in_helper(tasks: list) -> list:
         except (OSError, EOFError, pickle.UnpicklingError):
             helper.kill()
             code = helper.wait()
+            if len(rest) > 1 and len(outs) == done and not alone and all(t.mode == "analyse" for t in rest):
+                alone = True   # which case died is not known yet
+                continue
             deaths = 1 if len(outs) > done else deaths + 1   # of the case it was computing
             if deaths >= MAX_DEATHS:
                 outs.append(died_output(f"the study's helper process computing this case on a Dask worker died "

@@ -220,10 +220,10 @@ def test_a_study_swaps_its_derived_files_and_keeps_its_journal_as_the_same_file(
     plain = Study(scene, [values("mC", [300.0])], starts=1)      # another study, no Pareto axis
     result = plain.run(out=tmp_path, workers=1, figures=False)
     names = sorted(p.name for p in tmp_path.iterdir())
-    assert names == ["cases.csv", JOURNAL, "mine.png", "study.json", "summary.txt"]   # stale figures gone
+    assert names == ["cases.csv", "cases.parquet", JOURNAL, "mine.png", "study.json", "summary.txt"]   # stale figures gone
     assert (tmp_path / JOURNAL).stat().st_ino == inode
     assert len((tmp_path / JOURNAL).read_text().splitlines()) == 3                    # 2 + 1 cases, all kept
-    assert result.paths == [tmp_path / n for n in ("study.json", "cases.csv", "summary.txt")]
+    assert result.paths == [tmp_path / n for n in ("study.json", "cases.csv", "cases.parquet", "summary.txt")]
     assert siblings(tmp_path) == []
 
 
@@ -250,7 +250,7 @@ def test_a_full_disk_at_the_end_of_a_study_keeps_the_old_folder_and_every_finish
     def full(*a, **k):
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    monkeypatch.setattr(study_table, "write_csv", full)
+    monkeypatch.setattr(study_table, "write_tables", full)
     study = Study(scene, [values("mC", [300.0, 400.0, 500.0])], mode="analyse")
     with pytest.raises(OptdesignError, match=r"study folder .*: cannot write the results \(No space left on device\); "
                                              r"the folder was left as it was; the 3 finished cases are kept in "):

@@ -64,7 +64,7 @@ def test_restart_swaps_in_a_fresh_folder_keeps_other_files_and_the_new_journal_i
     study.run(out=tmp_path, workers=1, figures=False)
     (tmp_path / "notes.txt").write_text("mine")
     old_inode = (tmp_path / JOURNAL).stat().st_ino
-    with Journal(tmp_path, restart=True, produces=("cases.csv", "summary.txt", "study.json")) as j:
+    with Journal(tmp_path, restart=True, produces=("cases.csv", "cases.parquet", "summary.txt", "study.json")) as j:
         assert j.records == {}
         assert sorted(p.name for p in tmp_path.iterdir()) == [JOURNAL, "notes.txt"]
         assert (tmp_path / JOURNAL).read_bytes() == b"" and (tmp_path / JOURNAL).stat().st_ino != old_inode

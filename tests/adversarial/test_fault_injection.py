@@ -19,7 +19,7 @@ from optdesign.report.design import FILES   # every file of an optimise folder
 
 from .util import JIB_DESIGN, ROOT, snapshot
 
-DERIVED = ("cases.csv", "study.json", "summary.txt")
+DERIVED = ("cases.csv", "cases.parquet", "study.json", "summary.txt")
 KILLS = 3
 
 

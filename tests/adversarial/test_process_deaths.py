@@ -144,6 +144,25 @@ def test_a_pool_that_cannot_be_replaced_ends_with_exit_2_the_cases_kept_and_the_
                          f"--workers 2 --no-figures --out {out}"), last
 
 
+def test_a_case_that_kills_its_pool_process_in_a_lockstep_batch_is_failed_and_the_batchs_others_computed():
+    """A batch of analyse cases in lockstep (study/batched.py) gives its outputs together at its
+    end: when its process dies, which case killed it is not known, so each case of the batch is
+    run again alone; the one that kills is failed after MAX_DEATHS, the others keep their numbers
+    (the batch's cases were all recorded as failed before)."""
+    study, cases, tasks = _tasks(5)
+    bad = 3
+    pool = _Pool(2)
+    try:
+        pool.submit(cases, [_poisoned(t) if i == bad else t for i, t in enumerate(tasks)])
+        got = list(pool.results())
+    finally:
+        pool.close()
+    assert sorted(case.id for case, _ in got) == sorted(c.id for c in cases)
+    out = {case.index: o for case, o in got}
+    assert out[bad]["row"]["status"].startswith(f"error: the worker process computing this case died {MAX_DEATHS} times")
+    assert [out[i]["row"] for i in range(5) if i != bad] == _reference([t for i, t in enumerate(tasks) if i != bad])
+
+
 # --- the helper process of a Dask worker -----------------------------------------------------------------
 def test_a_dask_helper_that_dies_is_replaced_and_its_batch_goes_on_from_the_case_it_was_computing():
     study, cases, tasks = _tasks(4)

@@ -1,0 +1,134 @@
+"""Analyse cases run in lockstep (optdesign/study/batched.py: their enclosure bounds answered by
+one interval-program call over all their intervals, each with its case's parameters) give each
+case exactly the row of its own run: the truck crane over boom and payload masses and its
+geometry, a generated family of crank-rocker four-bars (Sobol, with a torque bump narrower than
+the samples, as in tests/test_enclosure_fourbars.py) with one that does not assemble, and the
+cases.csv of a study run case by case, in lockstep, on the process pool and on Dask, byte for
+byte."""
+from __future__ import annotations
+
+import json
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import optdesign
+from optdesign.study import Study, grid, together
+from optdesign.study import batched, execute as study_execute
+from optdesign.study.tasks import run_batch, run_task
+
+from test_enclosure_fourbars import G, M2, M3, OMEGA, SCENE, designs
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _tasks(study):
+    return [study.task(case) for case in study.cases()]
+
+
+def _rows(outs):
+    return [json.dumps(o["row"], sort_keys=True) for o in outs]   # floats to their last digit
+
+
+def test_truck_crane_cases_in_lockstep_give_each_case_its_own_row():
+    scene = optdesign.load(ROOT / "problems" / "truck_crane.toml")
+    u = np.random.default_rng(3).random((10, 5))
+    rows = [{"mB": 400 + 500 * a, "mP": 300 + 3000 * b, "b": 0.6 + 1.5 * c, "xD": -0.1 + 0.6 * d, "yD": -1.8 + 1.2 * e}
+            for a, b, c, d, e in u]
+    tasks = _tasks(Study(scene, [together(rows)], mode="analyse"))
+    alone = [run_task(t) for t in tasks]
+    assert all(o["row"]["success"] for o in alone)
+    assert _rows(run_batch(tasks)) == _rows(alone)
+
+
+def test_a_family_of_four_bars_in_lockstep_gives_each_its_own_row():
+    cases = [{k: float(v) for k, v in d.items()} for d in designs(8, seed=11)]
+    scene = optdesign.loads(SCENE.format(side="left", g=G, omega=OMEGA, m2=M2, m3=M3, **cases[0]), "four-bars")
+    cases.append(dict(cases[0], a=4.0))   # not a crank-rocker: does not assemble over the sweep
+    tasks = _tasks(Study(scene, [together(cases)], mode="analyse"))
+    alone = [run_task(t) for t in tasks]
+    assert not alone[-1]["row"]["success"] and sum(o["row"]["success"] for o in alone) >= 3
+    assert _rows(run_batch(tasks)) == _rows(alone)
+
+
+@pytest.fixture(scope="module")
+def crane_study():
+    scene = optdesign.load(ROOT / "problems" / "truck_crane.toml")
+    return Study(scene, [grid("mP", 300, 3300, 24)], mode="analyse")
+
+
+@pytest.fixture(scope="module")
+def one_by_one(crane_study, tmp_path_factory):
+    folder = tmp_path_factory.mktemp("one_by_one")
+    old = study_execute.LOCKSTEP
+    study_execute.LOCKSTEP = 1   # batches of one case: each run alone (tasks.run_task)
+    try:
+        crane_study.run(out=folder, workers=1, figures=False)
+    finally:
+        study_execute.LOCKSTEP = old
+    return (folder / "cases.csv").read_bytes()
+
+
+@pytest.mark.parametrize("where", ["serial", "pool"])
+def test_cases_csv_in_lockstep_is_the_one_by_one_file(crane_study, one_by_one, tmp_path, where):
+    result = crane_study.run(out=tmp_path, workers=1 if where == "serial" else 2, figures=False)
+    assert result.computed == 24 and all(r["success"] for r in result.rows)
+    assert (tmp_path / "cases.csv").read_bytes() == one_by_one
+
+
+def test_cases_csv_on_dask_is_the_one_by_one_file(crane_study, one_by_one, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                  dashboard_address=None) as cluster:
+        result = crane_study.run(out=tmp_path, scheduler=cluster.scheduler_address, figures=False)
+    assert result.computed == 24
+    assert (tmp_path / "cases.csv").read_bytes() == one_by_one
+
+
+def test_lockstep_hands_back_each_jobs_exception_and_leaves_no_thread_behind(monkeypatch):
+    def fails():
+        raise ValueError("this case")
+
+    out = batched.lockstep([lambda: 1, fails, lambda: 3])
+    assert out[0] == (1, None) and out[2] == (3, None)
+    assert isinstance(out[1][1], ValueError)
+
+    # an exception in the caller while the cases wait for their bounds (Ctrl-C): every case
+    # ends, no thread is left waiting
+    scene = optdesign.load(ROOT / "problems" / "truck_crane.toml")
+    tasks = _tasks(Study(scene, [grid("mP", 500, 900, 3)], mode="analyse"))
+    before = threading.active_count()
+
+    def interrupted(cases):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(batched, "_answer", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        run_batch(tasks)
+    assert threading.active_count() == before
+
+
+def test_an_enclosure_with_a_parameter_row_per_interval_bounds_each_as_its_own_vector():
+    """The array interface batching relies on (kinematics/enclosure.py): parameters of shape
+    intervals x parameters give each interval exactly the bounds of its own vector."""
+    from optdesign.model.analysis import Analysis
+    from optdesign.scene.resolved import ResolvedScene
+
+    scene = optdesign.load(ROOT / "problems" / "truck_crane.toml")
+    analysis = Analysis(ResolvedScene(scene, variable=["mB", "mP", "b"]))
+    names, base = analysis.mech.parameter_names, np.asarray(analysis.mech.parameter_values, float)
+    rng = np.random.default_rng(5)
+    ps = np.repeat(base[None, :], 3, axis=0)
+    for k, (name, lo, hi) in enumerate((("mB", 300, 900), ("mP", 0, 3000), ("b", 0.6, 2.5))):
+        ps[:, names.index(name)] = rng.uniform(lo, hi, 3)
+    s0, s1 = sorted((analysis.s_values[0], analysis.s_values[-1]))
+    edges = np.sort(rng.uniform(s0, s1, (3, 41)), axis=1)
+    lo, hi = edges[:, :-1], edges[:, 1:]
+    enclosures = analysis.certified.enclosures
+    alone = [enclosures.at(p).bounds(a, b) for p, a, b in zip(ps, lo, hi)]
+    together_ = enclosures.at(np.repeat(ps, 40, axis=0)).bounds(lo.ravel(), hi.ravel())
+    for k, one in enumerate(alone):
+        for x, y in zip(one, together_):
+            np.testing.assert_array_equal(x, y[:, 40 * k:40 * (k + 1)])
