@@ -17,6 +17,7 @@ import numpy as np
 
 from ..model.mapped import MappedFunction
 from ..kinematics.enclosure import Enclosures
+from ..model.intervals_compiled import compile_program
 from ..kinematics.peaks import Request, continuous_maxima_rows
 from .cycle_certify import cycle_rms, recheck_cycle, rms_key
 from .problem import DesignProblem
@@ -77,7 +78,7 @@ class ContinuousCheck:
         # the per-sample quantities' s-derivatives at many sweep values
         self.derivatives = MappedFunction(problem.quantity_derivatives, compile=True)
         # the same program in interval arithmetic: the proof between the samples
-        self.enclosures = Enclosures(problem.quantity_derivatives)
+        self.enclosures = Enclosures(problem.quantity_derivatives, compile_program)
         self.notes = {}   # of the last certified call: (name, sense) -> why it has no certificate
 
     def __call__(self, x, fixed, w, s_points):

@@ -19,6 +19,7 @@ import numpy as np
 from ..kinematics.enclosure import Enclosures
 from ..kinematics.peaks import Extremum, Request, continuous_maxima_rows, resolving_points
 from ..scene.expressions import Expression
+from .intervals_compiled import compile_program
 from .mapped import MappedFunction
 from .quantities import model_value
 
@@ -49,7 +50,7 @@ class CertifiedExtremes:
         v = ca.vertcat(*rows) if rows else ca.DM.zeros(0, 1)
         dv = mech.ds(v)
         self.derivatives = MappedFunction(mech.function("certified_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)}))
-        self.enclosures = Enclosures(self.derivatives.func)   # the same program, in intervals
+        self.enclosures = Enclosures(self.derivatives.func, compile_program)   # the same program, in intervals
         self.values = MappedFunction(mech.function("certified_v", {"v": v}))
         self.q = MappedFunction(mech.function("q", {"q": mech.q}))
 
@@ -138,7 +139,7 @@ class CertifiedPeaks:
         if time is None:
             dv = mech.ds(v)
             self.derivatives = MappedFunction(mech.function("peaks_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)}))
-            self.enclosures = Enclosures(self.derivatives.func)
+            self.enclosures = Enclosures(self.derivatives.func, compile_program)
 
     def __call__(self, s_values, p, columns, names=None, certify=True) -> dict:
         """name -> (|peak|, {s, value}, certificate {bound, note}) at parameters ``p``, from the
@@ -177,7 +178,7 @@ class InTime:
         opts = {"cse": True} if mech.sym is ca.SX else {}
         func = ca.Function("rows_in_time", [tau, mech.p], [v, dv, ca.jacobian(dv, tau)], ["s", "p"], ["v", "dv", "d2v"], opts)
         self.derivatives = MappedFunction(func)
-        self.enclosures = Enclosures(func)
+        self.enclosures = Enclosures(func, compile_program)
 
     def grid(self, s_values) -> np.ndarray:
         """The fractions tau of the law's time at ``s_values``, the law's piece ends, 0 and 1."""
