@@ -104,11 +104,9 @@ def _split(text):
 
 # --- rows -----------------------------------------------------------------------------------
 def case_models(pb) -> list:
-    """The cases' models, built once, with the power-flow switch smoothed like the problem's.
-    A case along a law in time has its own symbol tau for the law's time in its graphs
-    (``CaseModel(..., time=tau)``): :func:`in_sweep` puts the law's inverse tau(s) in before a
-    Function is made of them, and the continuous check certifies its rows in tau
-    (``pb.in_time``, :mod:`.rows`)."""
+    """The cases' models, built once, with the power-flow switch smoothed like the problem's; a
+    case along a law in time with a symbol tau for its time (``pb.case_times``; :func:`in_sweep`
+    puts its inverse tau(s) in, the continuous check certifies in tau: ``pb.in_time``)."""
     if getattr(pb, "case_models", None) is None:
         models, pb.case_times = [], []
         for case in pb.scene.cases:
@@ -123,7 +121,7 @@ def case_models(pb) -> list:
                 power = np.abs(np.asarray(f.map(len(pb.s_grid))(pb.s_grid[None, :], p_case)))
                 width = pb.settings.efficiency_smoothing * max(float(np.nanmax(power)), 1e-12)
                 cm = CaseModel(pb.mech, case, efficiency_smoothing=width, time=tau)
-            elif tau is not None:
+            elif tau is not None:   # (tau(s) at a rest defeats the enclosure, certify.py)
                 cm = CaseModel(pb.mech, case, time=tau)
             models.append(cm)
         pb.case_models = models
@@ -131,8 +129,7 @@ def case_models(pb) -> list:
 
 
 def in_sweep(pb, exprs) -> list:
-    """``exprs`` (a list) with each law in time's symbol tau replaced by its inverse tau(s):
-    graphs of (s, p), as a Function of the problem's takes them."""
+    """``exprs`` (a list) with each law in time's tau replaced by its inverse tau(s): graphs of (s, p)."""
     times = getattr(pb, "case_times", ())
     if not times:
         return list(exprs)
