@@ -204,9 +204,12 @@ def peak_motor(x, times=4001):
     return best
 
 
+DEPTH = 0.46   # the ram pin depth's limit [m] (a test may relax it: l is then held by no constraint)
+
+
 def constraints(c) -> np.ndarray:
     """Each constraint's margin (>= 0 where it holds), scaled to order one."""
-    return np.array([(math.radians(10) - c["angle"]) / math.radians(10), (0.46 - c["depth"]) / 0.46,
+    return np.array([(math.radians(10) - c["angle"]) / math.radians(10), (DEPTH - c["depth"]) / DEPTH,
                      (480 - c["peak"]) / 480, (300 - c["speed"]) / 300, (160 - c["rms"]) / 160])
 
 

@@ -45,6 +45,27 @@ def test_a_start_reports_the_certified_rms():
     assert result.objective_sampled != result.objective   # the NLP's own value is kept beside it
 
 
+@pytest.mark.slow
+def test_an_interior_optimum_is_the_certified_integrals():
+    """With the ram pin's depth relaxed to 0.60 m, l is held by no constraint: the NLP's optimum
+    (its rule on the samples, the power-flow switch smoothed: 1.7e-6 off the cycle's RMS) must
+    still be the certified integral's.  Measured: l 1.4e-7 (relative) from the independent
+    optimum's, the value 8e-9 above it (e and i sit 1e-8 inside their bounds, IPOPT's
+    tolerance); checked within 1e-6."""
+    scene = optdesign.loads(SCENE.read_text().replace("max = 0.46", "max = 0.60"), str(SCENE))
+    result = optimise(scene, 1, 0)
+    assert result.success, result.message
+    ref.DEPTH = 0.60
+    try:
+        best, x = ref.polish(ref.grid_search((11, 5, 8))[0][1])
+    finally:
+        ref.DEPTH = 0.46
+    assert x[0] < 0.59   # interior: the depth constraint does not hold l
+    assert result.objective == pytest.approx(ref.quad_rms(*_design(result.design)), rel=1e-9)
+    assert abs(result.objective - best) <= AT_OPTIMUM * best
+    assert result.design["l"] == pytest.approx(x[0], rel=1e-6)
+
+
 def mix_scene():
     """The press with a mix objective: its motor's peak torque plus its RMS over the cycle."""
     text = SCENE.read_text().replace('minimise = "rms_time(motor_torque)"',
