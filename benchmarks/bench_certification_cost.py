@@ -1,10 +1,13 @@
 """What the interval-enclosure certificate (issue 27: kinematics/enclosure.py, peaks.certify)
 costs, against the code before it.
 
-    python benchmarks/bench_certification_cost.py [--baseline REV] [--label TEXT] [--repeats N] [--starts N] [--runs N]
+    python benchmarks/bench_certification_cost.py [--baseline REV|numpy] [--label TEXT] [--repeats N] [--starts N] [--runs N]
 
 writes results/certification_cost.md.  The baseline is the code at REV (default a267455, the
-last commit before the enclosure; ``--label`` says what it is), exported with ``git archive`` into a temporary folder; every
+last commit before the enclosure; ``--label`` says what it is), exported with ``git archive`` into
+a temporary folder, or ``numpy``: this tree with its interval programs run by numpy
+(``OPTDESIGN_INTERVALS=numpy``) instead of compiled C.  Every run compiles what it misses at once
+(``OPTDESIGN_COMPILE=wait``; the warm-up runs fill the cache); every
 measurement runs in a fresh Python process with one tree as its working directory and on its
 path, baseline and current interleaved, so that the shared machine's load falls on both alike.
 Times are medians of ``--repeats`` runs.
@@ -50,16 +53,21 @@ print(json.dumps(out))
 """
 
 
-def timed(cmd, cwd) -> float:
+def _env(tree) -> dict:
+    path, extra = tree
+    return {"PYTHONPATH": str(path), "MPLBACKEND": "Agg", "PATH": "/usr/bin:/bin", "OPTDESIGN_COMPILE": "wait",
+            **{k: os.environ[k] for k in ("HOME", "OPTDESIGN_CACHE_DIR") if k in os.environ}, **extra}
+
+
+def timed(cmd, tree) -> float:
     t0 = time.perf_counter()
-    subprocess.run(cmd, cwd=cwd, env={"PYTHONPATH": str(cwd), "MPLBACKEND": "Agg", "PATH": "/usr/bin:/bin"},
-                   check=True, capture_output=True)
+    subprocess.run(cmd, cwd=tree[0], env=_env(tree), check=True, capture_output=True)
     return time.perf_counter() - t0
 
 
 def inside(tree, scene, repeats) -> dict:
-    out = subprocess.run([sys.executable, "-c", RUN, str(ROOT / scene), str(repeats)], cwd=tree, check=True,
-                         capture_output=True, text=True, env={"PYTHONPATH": str(tree), "MPLBACKEND": "Agg"})
+    out = subprocess.run([sys.executable, "-c", RUN, str(ROOT / scene), str(repeats)], cwd=tree[0], check=True,
+                         capture_output=True, text=True, env=_env(tree))
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
@@ -73,11 +81,15 @@ def main(argv=None):
     args = ap.parse_args(argv)
     load_before = os.getloadavg()
     with tempfile.TemporaryDirectory() as tmp:
-        base = Path(tmp) / "baseline"
-        base.mkdir()
-        archive = subprocess.run(["git", "archive", args.baseline, "optdesign"], cwd=ROOT, check=True, capture_output=True)
-        subprocess.run(["tar", "-x", "-C", str(base)], input=archive.stdout, check=True)
-        trees = {"before": base, "after": ROOT}
+        if args.baseline == "numpy":
+            trees = {"before": (ROOT, {"OPTDESIGN_INTERVALS": "numpy"}), "after": (ROOT, {})}
+        else:
+            base = Path(tmp) / "baseline"
+            base.mkdir()
+            archive = subprocess.run(["git", "archive", args.baseline, "optdesign"], cwd=ROOT, check=True,
+                                     capture_output=True)
+            subprocess.run(["tar", "-x", "-C", str(base)], input=archive.stdout, check=True)
+            trees = {"before": (base, {}), "after": (ROOT, {})}
         rows_a, rows_i, rows_o = [], [], []
         for scene in ANALYSE:
             cmd = [sys.executable, "-m", "optdesign", "analyse", str(ROOT / scene)]
@@ -105,7 +117,8 @@ def main(argv=None):
     load_after = os.getloadavg()
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
     lines = ["# The cost of the enclosure certificate (issue 27)", "",
-             f"`python benchmarks/bench_certification_cost.py --repeats {args.repeats} --starts {args.starts} "
+             f"`python benchmarks/bench_certification_cost.py --baseline {args.baseline} --label '{args.label}' "
+             f"--repeats {args.repeats} --starts {args.starts} "
              f"--runs {args.runs}` at "
              f"{commit} (after) against {args.baseline} (before: {args.label}), "
              f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC, on a shared 2-core machine (other jobs running, load "

@@ -44,13 +44,43 @@ def analysed():
 
 
 @pytest.mark.parametrize("name, key", [("squeeze", "drive"), ("squeeze", "power"), ("squeeze", "motor_torque"),
-                                       ("return", "motor_speed")])
-def test_governing_case_peaks_at_a_rest_are_certified(analysed, name, key):
-    """The governing case's peaks of the ventilator (the ones that did not close): certified, the
-    located value and the bound within [reference, reference (1 + 1e-8)]."""
+                                       ("return", "motor_speed"), ("squeeze", "motor_speed"), ("return", "drive"),
+                                       ("return", "power"), ("return", "motor_torque")])
+def test_case_peaks_at_a_rest_are_certified(analysed, name, key):
+    """Every case's peaks of the ventilator (the first four govern and did not close; the others
+    were "located, not certified: another case governs this peak"): certified, the located
+    value and the bound within [reference, reference (1 + 1e-8)] (the located value to 1e-12
+    below it: the reference's own rounding)."""
     case = analysed.cases.cases[name]
-    assert analysed.cases.governing[key]["case"] == name
     ref = reference_peak(name, key)
     certificate = case.certificates[f"peak |{key}|"]
     assert certificate["note"] == ""
     assert ref * (1 - 1e-12) <= case.peaks[key] <= certificate["bound"] <= ref * (1 + 1e-8), (ref, case.peaks[key], certificate)
+
+
+def load_inertia(psi):
+    """I_zS at rocker angles ``psi`` by virtual work: the drive torque from rest with and without a
+    rocker acceleration, over the crank's (no bag torque; gravity's part cancels)."""
+    psi = np.atleast_1d(np.asarray(psi, float))
+    accelerated = drive_torque(psi, 0.0, 1e3, *DESIGN, 0.0, 0.0)
+    static = drive_torque(psi, 0.0, 0.0, *DESIGN, 0.0, 0.0)[3]
+    return (accelerated[3] - static) / accelerated[2]
+
+
+def test_load_inertia_is_certified_not_sampled(analysed):
+    """The motor report's J_load (its inertia ratio J_load/(i^2 J_r) and optimal ratio
+    sqrt(J_load/J_r)) is the largest reduced inertia over the continuous stroke, within
+    [reference, reference (1 + 1e-8)] of the numpy model's on 20,001 points refined; the
+    samples' (the old figure) lie 6.7e-6 below it, the maximum at 110.19 deg between samples."""
+    psi = np.linspace(PSI_LO, PSI_HI, 20001)
+    i = int(np.argmax(load_inertia(psi)))
+    best = minimize_scalar(lambda x: -load_inertia(x)[0], bounds=(psi[i - 1], psi[i + 1]), method="bounded",
+                           options={"xatol": 1e-14})
+    ref = max(float(load_inertia(psi[i])[0]), -float(best.fun))
+    m = next(iter(analysed.cases.train["motors"].values()))
+    assert ref * (1 - 1e-12) <= m["load_inertia"] <= ref * (1 + 1e-8), (m["load_inertia"], ref)
+    assert m["load_inertia_sampled"] < ref * (1 - 1e-6)   # what the samples alone give: too low
+    assert m["inertia_ratio"] == pytest.approx(m["load_inertia"] / (I_RATIO**2 * m["inertia"]), rel=1e-14)
+    for case in analysed.cases.cases.values():
+        assert case.load_inertia["certificate"]["note"] == ""
+        assert case.load_inertia["value"] <= case.load_inertia["certificate"]["bound"] <= ref * (1 + 1e-8)

@@ -13,6 +13,7 @@ the forming stroke's RMS and 1e-5 off on its energy."""
 from __future__ import annotations
 
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -23,97 +24,14 @@ from scipy.optimize import brentq
 from optdesign.model.analysis import analyse
 from optdesign.scene.file import load
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from ref_press_servo import Press, case_integrals, segments  # noqa: E402
+
 ROOT = Path(__file__).resolve().parents[1] / "problems"
 REL = 1e-8
 
 
-# --- the servo press, independently -----------------------------------------------------------
-class Press:
-    """The slider-crank of press_servo_cycle.toml at the parameters l, e, i (and F0)."""
-
-    H, MR, G, J, ETA, ETA_G = 0.10, 400.0, 9.81, 0.04, 0.95, 0.96
-    D0, W = 0.015, 0.008
-
-    def __init__(self, l, e, i, F0):
-        self.l, self.e, self.i, self.F0 = l, e, i, F0
-        self.r = self.H / 2 * math.sqrt(1 - 4 * e**2 / (4 * l**2 - self.H**2))
-        self.mL = 150 * l
-        self.IL = self.mL * l**2 / 12
-        self.yBDC = -math.sqrt((l + self.r) ** 2 - e**2)
-        self.aBDC = -math.pi / 2 + math.asin(e / (l + self.r))
-
-    def torque(self, phi, pd, pdd):
-        """(T_S at the crank, motor load torque T_g, motor torque T_g + J i phi'') at the crank
-        angle phi from BDC, its rate and acceleration."""
-        r, l, e = self.r, self.l, self.e
-        th = self.aBDC + phi
-        xA, yA = r * math.cos(th), r * math.sin(th)
-        xA1, yA1, xA2, yA2 = -yA, xA, -xA, -yA
-        D = l**2 - (e - xA) ** 2
-        h = math.sqrt(D)
-        D1 = 2 * (e - xA) * xA1
-        D2 = 2 * ((e - xA) * xA2 - xA1**2)
-        h1 = D1 / (2 * h)
-        h2 = (D2 / 2 - h1**2) / h
-        yC, yC1, yC2 = yA - h, yA1 - h1, yA2 - h2
-        dx, dy, dx1, dy1, dx2, dy2 = e - xA, -h, -xA1, -h1, -xA2, -h2
-        b1 = (dx * dy1 - dy * dx1) / l**2
-        b2 = (dx * dy2 - dy * dx2) / l**2
-        xG1, yG1, xG2, yG2 = xA1 / 2, (yA1 + yC1) / 2, xA2 / 2, (yA2 + yC2) / 2
-        F = self.F0 * math.exp(-(((yC - self.yBDC - self.D0) / self.W) ** 2))
-        ideal = (self.MR * (yC2 * pd**2 + yC1 * pdd) * yC1
-                 + self.mL * ((xG2 * pd**2 + xG1 * pdd) * xG1 + (yG2 * pd**2 + yG1 * pdd) * yG1)
-                 + self.IL * (b2 * pd**2 + b1 * pdd) * b1
-                 + self.G * (self.MR * yC1 + self.mL * yG1) - F * yC1)
-        drive = ideal / self.ETA if ideal * pd >= 0 else ideal * self.ETA
-        load = (drive / self.ETA_G if drive * pd >= 0 else drive * self.ETA_G) / self.i
-        return drive, load, load + self.J * self.i * pdd
-
-
-def segments(kind, v, a, d, j, length):
-    """A profile's motion from rest to rest over ``length`` as segments (duration, a0, jerk)."""
-    if kind == "trapezoidal":
-        up, down = [(v / a, a, 0.0)], [(v / d, -d, 0.0)]
-    else:
-        up = [(a / j, 0.0, j), (v / a - a / j, a, 0.0), (a / j, a, -j)]
-        down = [(d / j, 0.0, -j), (v / d - d / j, -d, 0.0), (d / j, -d, j)]
-
-    def distance(segs):
-        s, vv = 0.0, 0.0
-        for T, a0, jj in segs:
-            s, vv = s + vv * T + a0 * T**2 / 2 + jj * T**3 / 6, vv + a0 * T + jj * T**2 / 2
-        return s
-    cruise = (length - distance(up) - (v * sum(T for T, _, _ in down) - distance([(T, -a0, -jj) for T, a0, jj in down]))) / v
-    return up + [(cruise, 0.0, 0.0)] + down
-
-
-def case_integrals(press, segs, phi0, sign):
-    """int T_S^2 dt, int T_g^2 dt, int T_m^2 dt, int T_S phi' dt and the time, by quad in time."""
-    out = np.zeros(5)
-    s, v = 0.0, 0.0
-    for T, a0, jj in segs:
-        def state(tau, s=s, v=v, a0=a0, jj=jj):
-            x = s + v * tau + a0 * tau**2 / 2 + jj * tau**3 / 6
-            return phi0 + sign * x, sign * (v + a0 * tau + jj * tau**2 / 2), sign * (a0 + jj * tau)
-
-        def values(tau):
-            phi, pd, pdd = state(tau)
-            drive, load, motor = press.torque(phi, pd, pdd)
-            return np.array([drive**2, load**2, motor**2, drive * pd])
-        # where the power flow turns (the efficiencies switch): the quadrature's break points
-        grid = np.linspace(0, T, 2001)
-        flow = [press.torque(*state(t))[0] * state(t)[1] for t in grid]
-        cuts = [brentq(lambda t: press.torque(*state(t))[0] * state(t)[1], grid[k], grid[k + 1], xtol=1e-15)
-                for k in range(len(grid) - 1) if flow[k] * flow[k + 1] < 0]
-        edges = [0.0] + cuts + [T]
-        for lo, hi in zip(edges[:-1], edges[1:]):
-            for q in range(4):
-                out[q] += quad(lambda t: values(t)[q], lo, hi, epsabs=0, epsrel=1e-13, limit=400)[0]
-        out[4] += T
-        s, v = s + v * T + a0 * T**2 / 2 + jj * T**3 / 6, v + a0 * T + jj * T**2 / 2
-    return out
-
-
+# --- the servo press, independently (tests/ref_press_servo.py) ----------------------------------
 @pytest.fixture(scope="module")
 def press_result():
     return analyse(load(ROOT / "press_servo_cycle.toml"))

@@ -128,3 +128,28 @@ def test_study_summary_has_a_compact_table_of_its_cases():
     assert lines[0] == "cases:" and lines[1].split() == ["case", "mP", "objective", "design:xD"]
     assert lines[2].split() == ["0", "0", "171492", "0.5"] and lines[3].split()[:3] == ["1", "1000", "171493"]
     assert len(lines) == 2 + 30 + 1 and lines[-1] == "  ... 10 more in cases.csv"
+
+
+def test_a_one_axis_study_figure_draws_its_cases(tmp_path, monkeypatch):
+    """A study of one axis draws one line of its cases in each panel (with the rows held column
+    by column, no outer axis made no group: the figure came out empty)."""
+    from types import SimpleNamespace
+
+    import optdesign.report.study as study_figures
+    from optdesign.study.rows import Rows
+
+    drawn = {}
+
+    def capture(fig, path, label=""):
+        drawn.update({ax.get_ylabel(): [line.get_ydata().tolist() for line in ax.get_lines()] for ax in fig.axes})
+        return path
+
+    monkeypatch.setattr(study_figures, "save_figure", capture)
+    scene = SimpleNamespace(title="a bar", drive=SimpleNamespace(kind="rotary"), objective=None)
+    axis = SimpleNamespace(column="m", label="m", kind="values")
+    study = SimpleNamespace(mode="analyse", axes=[axis], scene=scene)
+    rows = Rows([{"case": k, "m": float(k), "peak:drive": 10.0 + k, "rms:drive": 5.0 + k, "success": True}
+                 for k in range(3)])
+    study_figures.figures(study, rows, tmp_path)
+    assert drawn["peak drive torque [N m]"] == [[10.0, 11.0, 12.0]]
+    assert drawn["rms:drive"] == [[5.0, 6.0, 7.0]]

@@ -363,14 +363,10 @@ def cycle_integrals(pb, p, quantities):
     """(T, {name: int name^2 dt over the cycle}) as expressions of p (MX): each case's samples'
     quantities weighted by the rule, holds' static loads, dwells' time."""
     plan = _time_plan(pb)
+    cycle = _cycle(pb)
     values, durations = {}, {}
-    for name, (nodes, weights, speed_or_T) in plan.items():
-        # only the rows this case's integrals need, at its samples
-        needed = [k for k in dict.fromkeys(list(quantities) + ["hold_load", "q"]) if k in pb.case_rows[name]]
-        f = pb.mech.function(f"cycle_rows_{len(values)}", {k: pb.rows[pb.case_rows[name][k]] for k in needed})
-        mapped = f.map(len(nodes))   # not expanded: see at_points
-        Q = ca.vertcat(*mapped(ca.DM(nodes).T, p))
-        rows = {k: j for j, k in enumerate(needed)}
+    for name, Q, rows in _cycle_rows(pb, p, quantities, {st.case for st in cycle.steps if st.kind != "dwell"}):
+        nodes, weights, speed_or_T = plan[name]
         if weights is None:    # constant drive speed: the trapezoid rule in time, t = |q - q0| / v
             dt = ca.fabs(Q[rows["q"], 1:] - Q[rows["q"], :-1]) / speed_or_T
             w = ca.horzcat(dt, 0) / 2 + ca.horzcat(0, dt) / 2
@@ -382,7 +378,6 @@ def cycle_integrals(pb, p, quantities):
         values[name]["ends"] = {k: (Q[rows[k], 0], Q[rows[k], -1]) for k in quantities}   # a [quantities] name at a hold
     T, sums = 0, {k: 0 for k in quantities}
     models = {cm.name: cm for cm in case_models(pb)}
-    cycle = _cycle(pb)
     named = [k for k in quantities if k in pb.mech.quantities]
     if named and any(st.kind == "dwell" for st in cycle.steps):
         raise SceneError(f"{pb.scene.path}: [objective] minimise = {pb.objective_text!r}: the RMS over time of "
@@ -414,6 +409,37 @@ def cycle_integrals(pb, p, quantities):
                     ratio = evaluate(pb.scene.gearbox.ratio, pb.mech.resolved.environment(p), {}, "[gearbox] ratio")
                     sums[k] = sums[k] + (gear_factor_at_rest(pb.mech, st.efficiency) * load / ratio) ** 2 * duration
     return T, sums
+
+
+def _cycle_rows(pb, p, quantities, used):
+    """(case name, Q, {row name: index in Q}) of each case in ``used``: the rows its integrals
+    need (MX, rows x its nodes).  Cases whose nodes are nearly the same (one profile run both
+    ways, with and without the payload: the nodes differ only at the profile's phase
+    boundaries) are evaluated by one mapped Function of all their rows on the union of their
+    nodes, each case taking its own, so that the kinematics they share is computed once per
+    node (CSE), not once per case (crane_luffing_drive's four duty cases)."""
+    plan = _time_plan(pb)
+    groups = []   # [union of the nodes, [case names]]
+    for name in (n for n in plan if n in used):
+        nodes = plan[name][0]
+        for group in groups:
+            union = np.union1d(group[0], nodes)
+            if len(union) <= max(len(group[0]), len(nodes)) * 1.1:   # a few nodes more, not another grid
+                group[0], group[1] = union, group[1] + [name]
+                break
+        else:
+            groups.append([np.unique(nodes), [name]])
+    for j, (union, names) in enumerate(groups):
+        # only the rows each case's integrals need, at its samples
+        needed = {name: [k for k in dict.fromkeys(list(quantities) + ["hold_load", "q"]) if k in pb.case_rows[name]]
+                  for name in names}
+        f = pb.mech.function(f"cycle_rows_{j}", {f"{c}:{k}": pb.rows[pb.case_rows[c][k]]
+                                                 for c in names for k in needed[c]})
+        out = iter(f.map(len(union)).call([ca.DM(union).T, p]))   # not expanded: see at_points
+        for name in names:
+            columns = np.searchsorted(union, plan[name][0]).tolist()   # its nodes, in its order
+            Q = ca.vertcat(*[next(out) for _ in needed[name]])
+            yield name, Q[:, columns], {k: i for i, k in enumerate(needed[name])}
 
 
 def case_nlp(pb, Q, p, t, f, add, every):

@@ -17,7 +17,9 @@ import numpy as np
 
 from ..model.mapped import MappedFunction
 from ..kinematics.enclosure import Enclosures
+from ..model.intervals_compiled import compile_program
 from ..kinematics.peaks import Request, continuous_maxima_rows
+from .cycle_certify import cycle_rms, recheck_cycle, rms_key
 from .problem import DesignProblem
 
 DENSE = 16   # the recheck's samples per interval of the scene's grid
@@ -76,7 +78,7 @@ class ContinuousCheck:
         # the per-sample quantities' s-derivatives at many sweep values
         self.derivatives = MappedFunction(problem.quantity_derivatives, compile=True)
         # the same program in interval arithmetic: the proof between the samples
-        self.enclosures = Enclosures(problem.quantity_derivatives)
+        self.enclosures = Enclosures(problem.quantity_derivatives, compile_program)
         self.notes = {}   # of the last certified call: (name, sense) -> why it has no certificate
 
     def __call__(self, x, fixed, w, s_points):
@@ -148,7 +150,8 @@ class ContinuousCheck:
         None when they agree, else the reason the solve is not certified: a target (|v|, v or
         -v) of the dense check above the certified one by more than the check's tolerance,
         or a certified value below its own sampled one (a certified peak below a sampled
-        peak is a contradiction, never a result)."""
+        peak is a contradiction, never a result), or a certified integral (the rms objective,
+        an RMS over the duty cycle) that a dense rule does not confirm."""
         pb = self.pb
         grid = pb.s_grid
         dense = np.linspace(grid[0], grid[-1], DENSE * (len(grid) - 1) + 1)
@@ -169,7 +172,34 @@ class ContinuousCheck:
                 return (f"the {_WORDS[c.sense]} of {c.name} is {ext[0].value:.10g} at s = {ext[0].s:.8g} on "
                         f"{len(dense)} samples with every extremum refined, beyond its certified "
                         f"{certified[key]:.10g}")
-        return None
+        # the integrals: the rms objective over the sweep, the RMS over the duty cycle's time
+        return self._recheck_rms(x, fixed, certified) or recheck_cycle(pb, x, fixed, certified)
+
+    def _recheck_rms(self, x, fixed, certified) -> str | None:
+        """The rms objective's certified value (Gauss-Legendre) against the trapezoid rule on
+        grids 16 and 8 times finer than the scene's, Richardson-extrapolated: None when they
+        agree within that rule's error estimate (a third of their difference) or rms_tol."""
+        pb = self.pb
+        key = next(((b.name, "rms") for b in pb.blocks if b.kind == "rms"), None)
+        if key is None or key not in certified:
+            return None
+        grid, rule = pb.s_grid, []
+        for factor in (16, 8):
+            s = np.linspace(grid[0], grid[-1], factor * (len(grid) - 1) + 1)
+            v = pb.evaluate_grid(x, fixed, s)[pb.objective_quantity]
+            rule.append(math.sqrt(np.trapezoid(v**2, s) / (s[-1] - s[0])))
+        other, estimate = rule[0] + (rule[0] - rule[1]) / 3, abs(rule[0] - rule[1]) / 3
+        if abs(certified[key] - other) <= max(estimate, pb.settings.rms_tol * abs(other)):
+            return None
+        return (f"the rms of {key[0]} is {other:.10g} by the trapezoid rule on {len(grid) * 16 - 15} samples "
+                f"(Richardson, +- {estimate:.2g}), against its certified {certified[key]:.10g}")
+
+    def add_cycle(self, x, fixed, certified):
+        """Each integrated quantity's RMS over the duty cycle's time at design ``x``, certified
+        (:func:`.cycle_certify.cycle_rms`), put into ``certified`` (and its error estimate)."""
+        for what, (value, error) in cycle_rms(self.pb, x, fixed).items():
+            certified[rms_key(what)] = value
+            certified[(rms_key(what)[0], "error")] = error
 
     def _extreme_requests(self, V) -> tuple:
         """What :meth:`extremes` locates: (keys, requests, the sampled values)."""

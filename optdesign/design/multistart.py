@@ -254,7 +254,8 @@ def summarise(problem, solver, reports, solutions, timings, plan=None, fixed=Non
     # the best start's solution with its sample points on the continuous extrema (its
     # multipliers are then the continuous problem's); the same optimum to the tolerances
     sol = solver.polish(solutions[best], fixed)
-    best_value, refused, cycle = certify_cycle(pb, sol, objective_value(pb, sol), fixed)
+    best_value, refused, cycle = certify_cycle(pb, sol, objective_value(pb, sol),
+                                              objective_value(pb, sol, certified=False), fixed)
     factor = objective_gradient_factor(pb, sol)
     peak_key = (pb.objective_text, "abs")
     peak_c = abs(sol.certified[peak_key]) if peak_key in sol.certified else None

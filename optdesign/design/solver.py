@@ -78,8 +78,10 @@ class Solver:
             worst = max((v[0] for v in violations), default=0.0)
             on_limit = step is not None and self._on_step_limit(w[:nd], box)
             if worst <= 0 and not on_limit:
-                # certified: rechecked by another path before it may count (a start that fails
-                # its own check is a failed start, with the reason, never an optimum)
+                # certified: the duty cycle's integrals too (design/cycle_certify.py), all rechecked
+                # by another path before it may count (a start that fails its own check is a failed
+                # start, with the reason, never an optimum)
+                self.checker.add_cycle(x, fixed, certified)
                 reason = self.checker.recheck(x, fixed, w, s_now, certified, sampled)
                 if reason is not None:
                     return self._solution(res, x, fixed, s_now, f"{status} (recheck failed: {reason})", False,
@@ -129,7 +131,10 @@ class Solver:
         x = pb.to_x(w[:nd])
         s_now = np.clip(s_pts + tracking @ (x - sol.x), pb.s_grid[0], pb.s_grid[-1])
         violations, certified, sampled = self.continuous_check(x, fixed, w, s_now)
-        if any(v[0] > 0 for v in violations) or self.checker.recheck(x, fixed, w, s_now, certified, sampled):
+        if any(v[0] > 0 for v in violations):
+            return sol
+        self.checker.add_cycle(x, fixed, certified)
+        if self.checker.recheck(x, fixed, w, s_now, certified, sampled):
             return sol
         return self._solution(res, x, fixed, s_now, sol.status, True, sol.iterations + its, sol.exchanges + 1,
                               certified, sampled, True)

@@ -134,7 +134,7 @@ class AssemblyCheck:
             r = ca.vertcat(*(rel for _, rel, _ in self.rows))
             dr = mech.ds(r)
             self._derivatives = mech.function("assembly_ds", {"r": r, "dr": dr, "d2r": mech.ds(dr)})
-            self._enclosures = Enclosures(self._derivatives)   # the same program, in intervals
+            self._enclosures = Enclosures(self._derivatives, mech.interval_compile)   # the same program, in intervals
 
     def _derivatives_many(self, s, p):
         """(R, dR/ds, d2R/ds2) of every relative margin at the sweep values ``s``."""

@@ -45,7 +45,8 @@ class IntervalProgram:
     """An SX Function (s, p) -> outputs (column vectors), evaluated over intervals of s.
 
     Build it with :func:`interval_program`.  Calling it with arrays ``lo``, ``hi`` (the
-    intervals) and the parameter vector ``p`` gives, per output, (lo, hi) arrays (output rows x
+    intervals) and the parameter vector ``p`` (or one row of parameters per interval: an array
+    intervals x parameters) gives, per output, (lo, hi) arrays (output rows x
     intervals) and ``jump`` (output rows x intervals, bool): where a jump of that output's
     dependencies may lie inside the interval."""
 
@@ -294,10 +295,14 @@ class Unavailable:
 
 class Enclosures:
     """The interval program of one Function (s, p) -> (v, dv/ds, d2v/ds2), built once; ``at(p)``
-    gives its :class:`Enclosure` at parameters p, or :class:`Unavailable` with the reason."""
+    gives its :class:`Enclosure` at parameters p, or :class:`Unavailable` with the reason.
+    ``compile``: a function that returns the program's compiled twin (called as the program is:
+    :func:`optdesign.model.intervals_compiled.compile_program`), or the program itself."""
 
-    def __init__(self, func):
+    def __init__(self, func, compile=None):
         self.program, self.reason = interval_program(func)
+        if compile is not None and self.program is not None:
+            self.program = compile(self.program)
 
     def at(self, p):
         return Unavailable(self.reason) if self.program is None else Enclosure(self.program, p)

@@ -51,6 +51,9 @@ class Mechanism:
         self.parameter_names = resolved.leaf_names
         self.parameter_values = resolved.leaf_values.copy()
         self.has_loops = any(isinstance(c, Loop) for c in scene.points)
+        # compiles the certificate's interval programs (set by the model's layer:
+        # optdesign.model.intervals_compiled.compile_program); None: numpy evaluates them
+        self.interval_compile = None
         sym = ca.MX if self.has_loops else ca.SX
         self.sym = sym
         self.s = sym.sym(scene.sweep.name)

@@ -149,6 +149,9 @@ class CaseResult:
     # peak_sampled, certificate} (the peak certified as the others' unless certify is False)
     motors: dict = field(default_factory=dict)
     rests: tuple = ()   # a segments profile's dwells: (time from, time to, sweep value) each
+    # with [[motors]]: the load inertia J_load = max |I_zS| (the reduced inertia without the
+    # efficiency) over the continuous stroke: {value, at {s, value}, sampled, certificate}
+    load_inertia: dict | None = None
 
 
 class CaseAnalysis:
@@ -172,10 +175,11 @@ class CaseAnalysis:
             # inverse tau(s), in the graphs of s, is not: the ventilator's enclosure never closed)
             if certify and cm.profile is not None and cm.profile.in_time:
                 tau = mech.sym.sym("tau")
-                rows = self._peak_rows(self._outputs(CaseModel(mech, cm.case, time=tau), motor, joints))
+                in_time = CaseModel(mech, cm.case, time=tau)
+                rows = self._peak_rows(self._outputs(in_time, motor, joints), in_time.model)
                 self.pin_peaks.append(CertifiedPeaks(mech, rows, time=(tau, cm.profile)) if rows else None)
             else:
-                rows = self._peak_rows(outs)
+                rows = self._peak_rows(outs, cm.model)
                 self.pin_peaks.append(CertifiedPeaks(mech, rows) if rows and certify else None)
             outs["q"], outs["k"] = mech.q, mech.ds(mech.q)
             outs["hold_load"] = cm.static_load() + 0 * mech.s
@@ -196,18 +200,21 @@ class CaseAnalysis:
             outs.update(_joint_outputs(cm, self.mech))
         return outs
 
-    def _peak_rows(self, outs) -> dict:
-        """The rows whose peaks are certified, from a case's columns ``outs``."""
+    def _peak_rows(self, outs, model) -> dict:
+        """The rows whose peaks are certified, from a case's columns ``outs`` and ``model``
+        (with motors, its reduced inertia without the efficiency: the load inertia)."""
         rows = {k: outs[k] for k in PEAK_KEYS if k in outs and not (k == "motor_torque" and self.motor_inertias)}
         rows.update({_motor_key(name): outs["motor_load_torque"] + J * outs["motor_acceleration"]
                      for name, J in self.motor_inertias.items()})
         rows.update({k: v for k, v in outs.items() if k.startswith(PEAKED)})
+        if self.motor_inertias and "reduced_inertia" in outs:
+            rows[LOAD] = model.M_q + 0 * self.mech.s
         return rows
 
     def run(self, p_values) -> "CasesResult":
         """Every case, the governing case of each peak, the duty cycle and the drive train at
         the parameter vector ``p_values``."""
-        results, evaluated, to_certify = {}, {}, {}
+        results, evaluated = {}, {}
         for cm, (names, function), pin_peaks in zip(self.cases, self.functions, self.pin_peaks):
             p_case = cm.case_parameters(np.asarray(p_values, float))
             nodes, on_sample = case_nodes(self.s_values, cm.profile)
@@ -231,13 +238,18 @@ class CaseAnalysis:
                 i = int(np.argmax(np.abs(torque)))
                 peaks[_motor_key(name)] = float(abs(torque[i]))
                 peak_at[_motor_key(name)] = {"s": float(nodes[i]), "value": float(torque[i])}
-            if pin_peaks is not None:   # the peaks over the continuous stroke, located (certified below)
+            if pin_peaks is not None:   # every peak over the continuous stroke, located and certified
                 sampled = dict(columns, **{_motor_key(name): columns["motor_load_torque"] + J * columns["motor_acceleration"]
                                            for name, J in self.motor_inertias.items()})
-                for key, (value, where, _) in pin_peaks(nodes, p_case, sampled, certify=False).items():
+                if LOAD in pin_peaks.names:   # sampled as the model's reduced inertia without its efficiency
+                    sampled[LOAD] = columns["reduced_inertia"] / columns.get("efficiency_factor", 1.0)
+                    peaks[LOAD] = float(np.max(np.abs(sampled[LOAD])))
+                for key, (value, where, certificate) in pin_peaks(nodes, p_case, sampled).items():
                     sampled_pins[key], peaks[key], peak_at[key] = peaks[key], value, where
-                    certificates[f"peak |{key}|"] = {"bound": None, "note": LOCATED}
-                to_certify[cm.name] = (pin_peaks, nodes, p_case, sampled)
+                    certificates[f"peak |{key}|"] = certificate
+            load = None if LOAD not in peaks else {
+                "value": peaks.pop(LOAD), "at": peak_at.pop(LOAD), "sampled": sampled_pins.pop(LOAD),
+                "certificate": certificates.pop(f"peak |{LOAD}|")}
             motors = {name: {"peak": peaks.pop(_motor_key(name)), "at": peak_at.pop(_motor_key(name)),
                              "peak_sampled": sampled_pins.pop(_motor_key(name), None),
                              "certificate": certificates.pop(f"peak |{_motor_key(name)}|", None)}
@@ -251,10 +263,9 @@ class CaseAnalysis:
             results[cm.name] = CaseResult(cm.name, cm.case.direction, profile, cm.case.efficiency,
                                           {k: cm.values[k] for k in cm.case.overrides}, columns, peaks, peak_at,
                                           integrals.get("duration", times.duration), integrals, on_sample, constraints,
-                                          sampled_pins, certificates, motors, _rests(cm.profile))
+                                          sampled_pins, certificates, motors, _rests(cm.profile), load)
             evaluated[cm.name] = {"hold": ends, "on_sample": on_sample,   # the quantities at a hold too
                                   "quantities": {q: {k: columns[q][i] for k, i in at.items()} for q in self.quantities}}
-        _certify_governing(results, to_certify)
         duty = self.duty.evaluate(results, evaluated, p_values, self.mech)
         env = self.mech.resolved.environment(np.asarray(p_values, float))
         values = {k: float(v) for k, v in env.items()}
@@ -379,39 +390,7 @@ def cylinder_report(scene, values, results) -> dict:
     return cylinder_sizing(number, push, pull, length, max(extend, 0.0), max(retract, 0.0))
 
 
-LOCATED = "located, not certified: another case governs this peak"
-
-
-def _certify_governing(results, to_certify):
-    """Certify, in each case, the peaks it governs (the largest located one over the cases of
-    each quantity and of each motor's torque) and its pins' forces: each a bound over the
-    continuous stroke (:class:`.certified.CertifiedPeaks`, the enclosure of the same rows),
-    the case's located value raised to the certified one.  The other cases' peaks stay located
-    (refined between the samples) with the note ``LOCATED``: the enclosure's cost is one
-    program evaluation per pass and case, whatever the rows."""
-    governs = {}
-    keys = {k for r in results.values() for k in list(r.peaks) + [_motor_key(m) for m in r.motors]}
-    for key in keys:
-        have = [(_peak(r, key), name) for name, r in results.items() if _peak(r, key) is not None]
-        if have:
-            governs.setdefault(max(have)[1], set()).add(key)
-    for name, (peaks, nodes, p_case, sampled) in to_certify.items():
-        r = results[name]
-        wanted = governs.get(name, set()) | {k for k in r.peaks if k.startswith(PEAKED)}
-        for key, (value, at, certificate) in peaks(nodes, p_case, sampled, names=wanted).items():
-            motor = key[len("motor_torque["):-1] if key.startswith("motor_torque[") else None
-            if motor is not None:
-                r.motors[motor].update(peak=value, at=at, certificate=certificate)
-            else:
-                r.peaks[key], r.peak_at[key] = value, at
-                r.certificates[f"peak |{key}|"] = certificate
-
-
-def _peak(r, key):
-    if key.startswith("motor_torque["):
-        own = r.motors.get(key[len("motor_torque["):-1])
-        return None if own is None else own["peak"]
-    return r.peaks.get(key)
+LOAD = "load_inertia"   # the load inertia's row among a case's certified peaks
 
 
 def _motor_key(name) -> str:

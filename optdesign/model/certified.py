@@ -19,6 +19,7 @@ import numpy as np
 from ..kinematics.enclosure import Enclosures
 from ..kinematics.peaks import Request, continuous_maxima_rows, resolving_points
 from ..scene.expressions import Expression
+from .intervals_compiled import compile_program
 from .mapped import MappedFunction
 from .quantities import model_value
 
@@ -49,7 +50,7 @@ class CertifiedExtremes:
         v = ca.vertcat(*rows) if rows else ca.DM.zeros(0, 1)
         dv = mech.ds(v)
         self.derivatives = MappedFunction(mech.function("certified_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)}))
-        self.enclosures = Enclosures(self.derivatives.func)   # the same program, in intervals
+        self.enclosures = Enclosures(self.derivatives.func, compile_program)   # the same program, in intervals
         self.values = MappedFunction(mech.function("certified_v", {"v": v}))
         self.q = MappedFunction(mech.function("q", {"q": mech.q}))
 
@@ -149,7 +150,7 @@ class CertifiedPeaks:
             func = lambda name, out: ca.Function(name, [var, mech.p], list(out.values()), ["s", "p"], list(out), opts)  # noqa: E731
         dv = ca.jacobian(v, var)
         self.derivatives = MappedFunction(func("peaks_ds", {"v": v, "dv": dv, "d2v": ca.jacobian(dv, var)}))
-        self.enclosures = Enclosures(self.derivatives.func)
+        self.enclosures = Enclosures(self.derivatives.func, compile_program)
 
     def __call__(self, s_values, p, columns, names=None, certify=True) -> dict:
         """name -> (|peak|, {s, value}, certificate {bound, note}) at parameters ``p``, from the

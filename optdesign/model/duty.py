@@ -367,14 +367,17 @@ def motor_report(scene, values, results, duty, ratio) -> dict:
     over their samples), RMS torque over the cycle, peak speed, whether it fits
     (peak <= peak_torque, RMS <= rated_torque, speed <= max_speed), its inertia ratio J_load /
     (i^2 J_r) and the classical optimal ratio sqrt(J_load / J_r), J_load the largest reduced
-    inertia (I_zS / c) over the cases; and the smallest motor (by rated torque) that fits."""
+    inertia (I_zS / c) over the cases (over the continuous stroke where they certified it;
+    ``load_inertia_sampled`` on the samples); and the smallest motor (by rated torque) that fits."""
     if not scene.motors:
         return {}
-    j_load = 0.0
+    j_load = j_sampled = 0.0   # over the continuous stroke where the cases certified it, else the samples'
     for r in results.values():
         if "reduced_inertia" in r.columns:
             c = r.columns.get("efficiency_factor", 1.0)
-            j_load = max(j_load, float(np.max(np.abs(r.columns["reduced_inertia"] / c))))
+            sampled = float(np.max(np.abs(r.columns["reduced_inertia"] / c)))
+            j_sampled = max(j_sampled, sampled)
+            j_load = max(j_load, sampled, r.load_inertia["value"] if r.load_inertia else 0.0)
     speed = max(r.peaks.get("motor_speed", 0.0) for r in results.values())
     motors = {}
     for m in scene.motors:
@@ -385,7 +388,8 @@ def motor_report(scene, values, results, duty, ratio) -> dict:
         # over the continuous stroke where the cases certified it (model/cases.py), else the samples'
         peak = max(max(r.motors[m.name]["peak"] for r in results.values()), sampled)
         entry = {**num, "peak": peak, "peak_sampled": sampled, "peak_speed": speed, "inertia_ratio": j_load / (ratio**2 * J) if J > 0 else math.inf,
-                 "optimal_ratio": math.sqrt(j_load / J) if J > 0 else math.inf, "ratio": ratio, "load_inertia": j_load}
+                 "optimal_ratio": math.sqrt(j_load / J) if J > 0 else math.inf, "ratio": ratio, "load_inertia": j_load,
+                 "load_inertia_sampled": j_sampled}
         if duty and "integrals" in duty:
             a, b, c2 = (duty["integrals"][k] for k in ("motor_load_squared", "motor_load_acceleration",
                                                         "motor_acceleration_squared"))

@@ -37,6 +37,7 @@ from ..kinematics.mechanism import Mechanism, _fmt_s
 from ..kinematics.enclosure import Enclosures, Selected
 from ..kinematics.peaks import Request, continuous_maxima_rows, narrow_minima
 from .forces import ForceLoads
+from .intervals_compiled import compile_program
 from .mapped import MappedFunction
 
 DEAD_CENTRE_TOL = 1e-9   # the enclosure's tolerance on min |dq/ds|, relative to max |dq/ds| sampled
@@ -372,7 +373,7 @@ class ReducedModel:
             return tuple(sign * a for a in self._k_derivatives(s, p_values))
 
         if self._k_enclosures is None:
-            self._k_enclosures = Enclosures(self._k_derivatives.func)   # the same program, in intervals
+            self._k_enclosures = Enclosures(self._k_derivatives.func, compile_program)   # the same program, in intervals
         enclosure = Selected(self._k_enclosures.at(p_values), [0], [sign])
         extrema = continuous_maxima_rows(evaluate_many, grid, sign * row[None, :],
                                          [Request(0, "min", ends=True, tol=DEAD_CENTRE_TOL * scale)], enclosure=enclosure)[0]

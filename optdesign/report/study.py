@@ -46,7 +46,8 @@ def figures(study, rows, folder, fronts=None) -> list:
     ok_all = success & ~np.isnan(rows.column(goal))
     values = {q: rows.column(q) for q in quantities}
     groups = {}
-    for i, key in enumerate(zip(*(rows.column(a.column) for a in outer))):
+    keys = zip(*(rows.column(a.column) for a in outer)) if outer else [()] * len(rows)   # one axis: one line
+    for i, key in enumerate(keys):
         groups.setdefault(key, []).append(i)
     drive = "torque [N m]" if study.scene.drive and study.scene.drive.kind == "rotary" else "force [N]"
     written = []

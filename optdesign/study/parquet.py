@@ -26,16 +26,18 @@ GROUP = 10_000                         # rows per row group (~2 MB of a 25-colum
 MISSING_NOTE = "cases.parquet not written: pyarrow is not installed (pip install 'optdesign[parquet]' or pip install pyarrow)"
 
 
-def _kind(value) -> str:
-    if value is None:
-        return "null"
-    if isinstance(value, bool):
-        return "bool"
-    if isinstance(value, int):
-        return "int" if -2**63 <= value < 2**63 else "string"
-    if isinstance(value, float):
-        return "float"
-    return "string"
+_KINDS = {type(None): "null", bool: "bool", int: "int", float: "float", str: "string"}
+
+
+def _kind(values) -> str:
+    """The kind of a column's values (one pass over their types, not a call per value)."""
+    kinds = {_KINDS.get(t, "string") for t in set(map(type, values))}
+    kind = "null"
+    for k in kinds:
+        kind = _merge(kind, k)
+    if kind == "int" and any(not -2**63 <= v < 2**63 for v in values if v is not None):
+        return "string"   # an int beyond int64 as its text
+    return kind
 
 
 def _merge(a: str, b: str) -> str:
@@ -115,9 +117,7 @@ class ParquetWriter:
         arrays, kinds = [], {}
         for k in cols:   # one column's values at a time, made an Arrow array at once
             values = self.rows.values(k, start, stop)
-            kinds[k] = self.kinds.get(k, "null")
-            for v in values:
-                kinds[k] = _merge(kinds[k], _kind(v))
+            kinds[k] = _merge(self.kinds.get(k, "null"), _kind(values))
             arrays.append(_array(values, kinds[k]))
         first = self.writer is None
         if first or cols != self.cols or kinds != self.kinds:

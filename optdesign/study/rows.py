@@ -108,14 +108,17 @@ class Rows(collections.abc.Sequence):
         if shape is None:
             shape = self._shapes[keys] = len(self._keys)
             self._keys.append(keys)
-        n = len(self._shape)
+        n, cols = len(self._shape), self._cols
         for k, v in row.items():
-            col = self._cols.get(k)
+            col = cols.get(k)
             if col is None:
-                col = self._cols[k] = _Column(v, n)
-            else:
+                col = cols[k] = _Column(v, n)
+            elif len(col.data) != n:
                 col.pad(n)
-            col.append(v)
+            if type(v) is float and col.kind == "d":   # most values: at once
+                col.data.append(v)
+            else:
+                col.append(v)
         self._shape.append(shape)
 
     def __len__(self):
@@ -163,6 +166,9 @@ class Rows(collections.abc.Sequence):
         if col is None:
             return [None] * (stop - start)
         has = [name in keys for keys in self._keys]
+        col.pad(stop)
+        if all(has) and not col.other and col.kind in ("d", "q", "O"):   # the common case, at C speed
+            return list(col.data[start:stop])
         shape = self._shape
         return [col.get(i) if has[shape[i]] else None for i in range(start, stop)]
 

@@ -34,12 +34,15 @@ def columns(input_names, rows) -> list:
 
 def cell(value) -> str:
     """A CSV cell: floats in their shortest exact form (repr), None as empty."""
+    kind = type(value)
+    if kind is float:
+        return repr(value)   # nan, inf, -inf included
     if value is None:
         return ""
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, float):
-        return repr(value) if math.isfinite(value) else ("nan" if math.isnan(value) else repr(value))
+        return repr(float(value))
     return str(value)
 
 

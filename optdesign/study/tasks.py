@@ -27,7 +27,6 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import math
 import pickle
 import threading
 import time
@@ -330,11 +329,8 @@ def _analyse(analysis, scene) -> dict:
     row.update({f"peak:{k}": v for k, v in res.peaks.items()})
     row.update({f"peak_at:{k}": at["s"] for k, at in res.peak_at.items()})
     row.update({f"peak_sampled:{k}": v for k, v in res.peaks_sampled.items()})
-    s = res.columns["s"]
-    for k in ("drive", "power"):
-        if k in res.columns:  # rms over the stroke (trapezoid rule on the samples)
-            v = res.columns[k]
-            row[f"rms:{k}"] = float(math.sqrt(np.trapezoid(v**2, s) / (s[-1] - s[0])))
+    # rms over the continuous sweep (adaptive quadrature, model/analysis.Analysis.sweep_rms)
+    row.update({f"rms:{k}": value for k, (value, _) in analysis.sweep_rms(p).items()})
     for name, v in res.constraints.items():
         if np.ndim(v):
             e = res.constraint_extremes[name]

@@ -1,0 +1,118 @@
+"""The interval programs of the certificate (:mod:`optdesign.kinematics.enclosure`) compiled to
+C through the disk cache (:mod:`.compiled`), called on whole arrays of intervals.
+
+:func:`compile_program` wraps an :class:`~optdesign.kinematics.enclosure.IntervalProgram` in a
+:class:`CompiledProgram`, called as the program is (intervals [lo, hi], parameters, rows) and
+giving the same arrays; its C (:mod:`optdesign.kinematics.interval_c`) does the same interval
+operations with the same outward rounding.  While the library is not there (the first run of a
+program: it is compiled in the background as the models are, ``OPTDESIGN_COMPILE``), without a
+C compiler, or with ``OPTDESIGN_INTERVALS=numpy``, the numpy program runs.
+
+Parameters may be one vector for every interval or one row per interval (an array of shape
+intervals x parameters): a study's cases stacked into one call.
+"""
+from __future__ import annotations
+
+import ctypes
+import os
+import time
+
+import numpy as np
+
+from ..kinematics.interval_c import c_source
+from . import compiled
+
+NAME = "optdesign_intervals"
+RETRY_S = 2.0   # while the library is being compiled, looked for again at most this often
+_loaded = {}     # cache key -> the C function (one dlopen per library and process)
+
+
+def backend() -> str:
+    """'c' (compiled when the cache can) or 'numpy' (``OPTDESIGN_INTERVALS=numpy``)."""
+    return "numpy" if os.environ.get("OPTDESIGN_INTERVALS", "").strip().lower() == "numpy" else "c"
+
+
+def compile_program(program, wait: bool | None = None):
+    """``program`` (an IntervalProgram) evaluated by compiled C where it can be, else itself."""
+    if backend() == "numpy" or compiled.mode() == "off":
+        return program
+    return CompiledProgram(program, wait)
+
+
+class CompiledProgram:
+    """An IntervalProgram's C twin: the library looked up (and compiled) at the first call; the
+    numpy program runs while there is none."""
+
+    def __init__(self, program, wait: bool | None = None):
+        self.program, self.wait = program, wait
+        self.shapes, self.rows = program.shapes, program.rows
+        self._function, self._tried, self._source = None, -np.inf, None
+        self._need = {}
+
+    def _library(self):
+        if self._function is None and time.monotonic() - self._tried > RETRY_S:
+            self._tried = time.monotonic()
+            if self._source is None:
+                self._source = c_source(self.program, NAME)
+            source = self._source[0]
+            key = compiled.entry_key("intervals", source)
+            if key is None:
+                self._tried = np.inf   # no compiler: numpy for good
+                return None
+            if key not in _loaded:
+                def prepare(folder):
+                    c_file = folder / f"{key}.src{os.getpid()}.c"
+                    compiled.write_atomic(c_file, source.encode())
+                    return {"kind": "source", "name": NAME, "source": str(c_file), "cleanup": [str(c_file)]}
+
+                path = compiled.library(key, prepare, self.wait)
+                if path is None:
+                    return None
+                try:
+                    function = getattr(ctypes.CDLL(str(path)), NAME)
+                except (OSError, AttributeError) as exc:
+                    compiled.remove(key)
+                    compiled.say_once(key, f"optdesign: the compiled library {key} did not load ({exc}); it will be "
+                                           "rebuilt")
+                    return None
+                function.restype = ctypes.c_int
+                function.argtypes = [ctypes.c_long, *[ctypes.c_void_p] * 3, ctypes.c_long, *[ctypes.c_void_p] * 4]
+                _loaded[key] = function
+            self._function = _loaded[key]
+        return self._function
+
+    def need(self, rows):
+        """The varying instructions that the outputs of ``rows`` need (all: None), as bytes."""
+        key = None if rows is None else frozenset(int(r) for r in rows)
+        if key not in self._need:
+            varying = self.program.varying
+            if key is None:
+                mask = np.ones(len(varying), np.uint8)
+            else:
+                kept = {entry[-1][1] for entry in self.program._subset(rows)}
+                mask = np.array([entry[-1][1] in kept for entry in varying], np.uint8)
+            self._need[key] = np.ascontiguousarray(mask)
+        return self._need[key]
+
+    def __call__(self, lo, hi, p, rows=None):
+        """As :meth:`IntervalProgram.__call__`: per output (lo, hi, jump), output rows x intervals."""
+        function = self._library()
+        if function is None:
+            return self.program(lo, hi, p, rows)
+        lo = np.ascontiguousarray(np.asarray(lo, float).ravel())
+        hi = np.ascontiguousarray(np.asarray(hi, float).ravel())
+        n = len(lo)
+        p = np.ascontiguousarray(np.asarray(p, float))
+        stride = p.shape[-1] if p.ndim == 2 else 0
+        if p.ndim == 2 and p.shape[0] != n:
+            raise ValueError(f"p: one row of parameters per interval ({n}), or one vector; got {p.shape}")
+        if p.size == 0:
+            p = np.zeros(1)
+        _, offsets, total = self._source
+        out_lo, out_hi = np.full((total, n), np.nan), np.full((total, n), np.nan)
+        out_jump = np.zeros((total, n), np.bool_)
+        need = self.need(rows)
+        if n and function(n, lo.ctypes.data, hi.ctypes.data, p.ctypes.data, stride, need.ctypes.data,
+                          out_lo.ctypes.data, out_hi.ctypes.data, out_jump.ctypes.data) != 0:
+            raise MemoryError("the compiled interval program could not allocate its work arrays")
+        return [(out_lo[o:o + m], out_hi[o:o + m], out_jump[o:o + m]) for o, m in zip(offsets, self.shapes)]

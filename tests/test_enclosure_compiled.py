@@ -1,0 +1,227 @@
+"""The interval programs compiled to C (kinematics/interval_c.py, model/intervals_compiled.py)
+against the numpy evaluator they replace (kinematics/enclosure.py, intervals.py).
+
+References: dense samples of the same CasADi Function (an enclosure must hold every value the
+function takes on the interval), and the numpy evaluator (the compiled enclosure may not be wider
+than it by more than the rounding of a libm call, and its jump flags are the same); the certified
+figures of the shipped scenes, computed with either backend."""
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import warnings
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+import pytest
+
+import optdesign
+from optdesign.kinematics.enclosure import Enclosure, interval_program
+from optdesign.model import compiled
+from optdesign.model.analysis import Analysis
+from optdesign.model.intervals_compiled import CompiledProgram, compile_program
+
+ROOT = Path(__file__).resolve().parents[1]
+pytestmark = pytest.mark.skipif(compiled.shutil.which(os.environ.get("CC", "gcc")) is None,
+                                reason="no C compiler on this machine")
+
+
+@pytest.fixture(scope="module")
+def cache(tmp_path_factory):
+    """One cache folder for the module, compiling on demand (wait)."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.delenv("OPTDESIGN_NO_COMPILE", raising=False)
+        mp.delenv("OPTDESIGN_INTERVALS", raising=False)
+        mp.setenv("OPTDESIGN_COMPILE", "wait")
+        mp.setenv("OPTDESIGN_CACHE_DIR", str(tmp_path_factory.mktemp("cache")))
+        compiled._compiler.clear()
+        yield
+    compiled._compiler.clear()
+
+
+# every operation the interval programs know, on values that vary with s, in one Function (one
+# library to compile); rows of v are the expressions
+EXPRESSIONS = [
+    lambda s, p: ca.sin(3 * s + p[0]) * ca.cos(s * s) + ca.tan(0.3 * s),
+    lambda s, p: ca.sqrt(1.5 + ca.sin(s)) / (2 + ca.cos(5 * s)) + ca.asin(0.4 * ca.sin(s)),
+    lambda s, p: ca.acos(0.9 * ca.cos(2 * s)) + ca.atan2(ca.sin(s) - 0.3, ca.cos(s) + p[1]),
+    lambda s, p: ca.cos(ca.atan2(ca.sin(4 * s), ca.cos(4 * s) - 0.2)) * s,
+    lambda s, p: (1.2 + ca.sin(s)) ** 2.5 + ca.exp(-s * s) * ca.log(2 + s * s) + s ** 3 + (s - p[0]) ** -2,
+    lambda s, p: ca.if_else(ca.sin(2 * s) > 0.1, s * s, -ca.fabs(s - 0.3)) + ca.fmax(s, 0.2 * s) + ca.fmin(ca.cos(s), 0.5),
+    lambda s, p: ca.sign(s - 0.25) * ca.tanh(3 * s) + ca.sinh(0.5 * s) - ca.cosh(0.3 * s) + ca.atan(s),
+    lambda s, p: ca.floor(2 * s) + ca.ceil(s - p[0]) + ca.hypot(s, p[1]) + ca.log1p(s * s) + ca.expm1(0.1 * s),
+    lambda s, p: ca.if_else(ca.logic_and(s > 0, s < 1), 1 / (s - 0.5), s) + ca.if_else(ca.logic_or(s < -1, s == 0.5), 2, 3)
+    + ca.erf(s) + (s <= p[1]) + (s != 1) + ca.logic_not(s > 2),
+    lambda s, p: ca.sqrt(s) + ca.log(s) + (s * p[0]) ** p[1] + s ** p[0],   # NaN / no enclosure at s < 0
+]
+
+
+def function():
+    s, p = ca.SX.sym("s"), ca.SX.sym("p", 2)
+    v = ca.vertcat(*[e(s, p) for e in EXPRESSIONS])
+    dv = ca.jacobian(v, s)
+    return ca.Function("f", [s, p], [v, dv, ca.jacobian(dv, s)], ["s", "p"], ["v", "dv", "d2v"], {"cse": True})
+
+
+def random_intervals(seed, n=300):
+    rng = np.random.default_rng(seed)
+    centre = rng.uniform(-3, 3, n)
+    width = 10 ** rng.uniform(-7, np.log10(3), n)
+    return centre - width / 2, centre + width / 2
+
+
+@pytest.fixture(scope="module")
+def programs(cache):
+    f = function()
+    numpy_program = interval_program(f)[0]
+    c_program = CompiledProgram(numpy_program, wait=True)
+    assert c_program._library() is not None
+    return f, numpy_program, c_program
+
+
+def test_compiled_enclosures_hold_every_value_and_equal_numpys(programs):
+    """Over random intervals (widths 1e-7 to 3), every output row's compiled enclosure holds the
+    function's values at 201 points of the interval, is no wider than numpy's by more than
+    rounding (1e-12 of the values' size, at least 1e-12), NaN (no enclosure) where numpy's is, and says a jump may lie inside where numpy's
+    does; the same with the rows cut to a subset (the other rows NaN, as numpy's)."""
+    f, numpy_program, c_program = programs
+    p = np.array([0.7, 0.4])
+    lo, hi = random_intervals(3)
+    for rows in (None, [0, 3, 8]):
+        mine, theirs = c_program(lo, hi, p, rows), numpy_program(lo, hi, p, rows)
+        for (cl, ch, cj), (nl, nh, nj) in zip(mine, theirs):
+            assert np.array_equal(np.isnan(cl), np.isnan(nl)) and np.array_equal(np.isnan(ch), np.isnan(nh))
+            assert np.array_equal(cj, nj)
+            # rounding: the C library's elementary functions and numpy's differ by an ulp or so of
+            # their values (of order 1 here), which cancellation may leave in a small result
+            scale = 1e-12 * (np.abs(nl) + np.abs(nh) + 1.0)
+            with np.errstate(invalid="ignore"):
+                assert np.all(np.isnan(nl) | (cl >= nl - scale) | (nl == -np.inf))
+                assert np.all(np.isnan(nh) | (ch <= nh + scale) | (nh == np.inf))
+    values_lo, values_hi, _ = c_program(lo, hi, p)[0]
+    t = np.linspace(0, 1, 201)
+    x = np.clip(lo[:, None] + (hi - lo)[:, None] * t, lo[:, None], hi[:, None]).ravel()
+    v = np.asarray(f.map(len(x))(x[None, :], p)[0]).reshape(len(EXPRESSIONS), len(lo), len(t))
+    checked = 0
+    for r in range(len(EXPRESSIONS)):
+        for k in range(len(lo)):
+            vals = v[r, k][np.isfinite(v[r, k])]
+            if np.isnan(values_lo[r, k]) or not len(vals):
+                continue
+            assert values_lo[r, k] <= vals.min() and vals.max() <= values_hi[r, k], (r, lo[k], hi[k])
+            checked += 1
+    assert checked > 0.8 * len(EXPRESSIONS) * len(lo)
+
+
+def test_the_bounds_with_compiled_programs_hold_every_value(programs):
+    """The certificate's bounds (plain, mean-value and Taylor forms) from the compiled program
+    hold dense samples, as those from numpy's do, and equal them to rounding."""
+    f, numpy_program, c_program = programs
+    p = [0.7, 0.4]
+    lo, hi = random_intervals(11, 200)
+    Lc, Uc, _, _ = Enclosure(c_program, p).bounds(lo, hi)
+    Ln, Un, _, _ = Enclosure(numpy_program, p).bounds(lo, hi)
+    both = np.isfinite(Ln) & np.isfinite(Un)
+    assert np.array_equal(both, np.isfinite(Lc) & np.isfinite(Uc))
+    scale = 1e-12 * (np.abs(Ln) + np.abs(Un) + 1.0)
+    with np.errstate(invalid="ignore"):   # (inf - inf where an end is unbounded)
+        assert np.all(np.abs(Lc - Ln)[both] <= scale[both]) and np.all(np.abs(Uc - Un)[both] <= scale[both])
+    t = np.linspace(0, 1, 201)
+    x = np.clip(lo[:, None] + (hi - lo)[:, None] * t, lo[:, None], hi[:, None]).ravel()
+    v = np.asarray(f.map(len(x))(x[None, :], p)[0]).reshape(len(EXPRESSIONS), len(lo), len(t))
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)   # (intervals with no finite value)
+        low = np.nanmin(np.where(np.isfinite(v), v, np.nan), axis=2)
+        high = np.nanmax(np.where(np.isfinite(v), v, np.nan), axis=2)
+    ok = np.isfinite(low) & ~np.isnan(Lc)
+    assert np.all(Lc[ok] <= low[ok]) and np.all(high[ok] <= Uc[ok])
+
+
+def test_a_row_of_parameters_per_interval_equals_one_call_per_vector(programs):
+    """Parameters per interval (a study's cases stacked into one call): the same enclosures as
+    one call per parameter vector, in C and in numpy."""
+    _, numpy_program, c_program = programs
+    lo, hi = random_intervals(5, 120)
+    rng = np.random.default_rng(2)
+    vectors = rng.uniform(0.2, 1.5, (3, 2))
+    which = rng.integers(0, 3, len(lo))
+    for program in (c_program, numpy_program):
+        stacked = program(lo, hi, vectors[which])
+        for j, vector in enumerate(vectors):
+            alone = program(lo[which == j], hi[which == j], vector)
+            for (sl, sh, sj), (al, ah, aj) in zip(stacked, alone):
+                assert np.array_equal(sl[:, which == j], al, equal_nan=True)
+                assert np.array_equal(sh[:, which == j], ah, equal_nan=True)
+                assert np.array_equal(sj[:, which == j], aj)
+
+
+def test_without_a_compiler_or_when_asked_the_numpy_program_runs(cache, monkeypatch):
+    f = function()
+    program = interval_program(f)[0]
+    monkeypatch.setenv("OPTDESIGN_INTERVALS", "numpy")
+    assert compile_program(program) is program
+    monkeypatch.delenv("OPTDESIGN_INTERVALS")
+    monkeypatch.setenv("CC", "no-such-compiler-here")
+    compiled._compiler.clear()
+    with pytest.warns(compiled.CompileWarning, match="no C compiler"):
+        wrapped = compile_program(program, wait=True)
+        lo, hi = random_intervals(1, 50)
+        got = wrapped(lo, hi, [0.7, 0.4])
+    assert wrapped._library() is None
+    for (a, b, c), (x, y, z) in zip(got, program(lo, hi, [0.7, 0.4])):
+        assert np.array_equal(a, x, equal_nan=True) and np.array_equal(b, y, equal_nan=True) and np.array_equal(c, z)
+    compiled._compiler.clear()
+
+
+def _figures(x, name=""):
+    """Every number and note of an analysis result (not its sampled columns)."""
+    if isinstance(x, dict):
+        for k, v in x.items():
+            yield from _figures(v, f"{name}/{k}")
+    elif isinstance(x, (list, tuple)):
+        for i, v in enumerate(x):
+            yield from _figures(v, f"{name}[{i}]")
+    elif dataclasses.is_dataclass(x) and not isinstance(x, type):
+        for field in dataclasses.fields(x):
+            if field.name not in ("scene", "columns", "bodies", "constraints", "timings", "quantities"):
+                yield from _figures(getattr(x, field.name), f"{name}.{field.name}")
+    elif isinstance(x, (float, int, np.floating, str)) and not isinstance(x, bool):
+        yield name, x
+
+
+def _same_figures(scene_file, monkeypatch):
+    scene = optdesign.load(ROOT / scene_file)
+    monkeypatch.setenv("OPTDESIGN_INTERVALS", "numpy")
+    theirs = dict(_figures(Analysis(scene).run()))
+    monkeypatch.delenv("OPTDESIGN_INTERVALS")
+    analysis = Analysis(scene)
+    mine = dict(_figures(analysis.run()))
+    assert isinstance(analysis.certified.enclosures.program, CompiledProgram)
+    assert analysis.certified.enclosures.program._library() is not None
+    assert mine.keys() == theirs.keys()
+    for k, a in theirs.items():
+        b = mine[k]
+        if isinstance(a, str) or isinstance(b, str):
+            assert a == b, k
+        else:
+            assert a == b or (math.isnan(a) and math.isnan(b)) or abs(a - b) <= 1e-12 * max(abs(a), abs(b)), (k, a, b)
+    return theirs
+
+
+def test_certified_figures_are_the_same_with_the_compiled_programs(cache, monkeypatch):
+    """analyse's certified peaks, their places, bounds and notes: the same (within 1e-12) with
+    the interval programs compiled as with numpy's (every shipped scene: the slow test below)."""
+    figures = _same_figures("problems/seed1_slider_crank.toml", monkeypatch)
+    assert any("peaks" in k for k in figures)
+
+
+SCENES = sorted(str(p.relative_to(ROOT)) for p in (ROOT / "problems").glob("*.toml")
+                if "[drive]" in p.read_text()) + ["tests/data/issue27/knuckle_press.toml"]   # (analyse needs a drive)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("scene_file", SCENES)
+def test_every_shipped_scene_certified_the_same_with_the_compiled_programs(cache, monkeypatch, scene_file):
+    _same_figures(scene_file, monkeypatch)
