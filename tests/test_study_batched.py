@@ -132,3 +132,20 @@ def test_an_enclosure_with_a_parameter_row_per_interval_bounds_each_as_its_own_v
     for k, one in enumerate(alone):
         for x, y in zip(one, together_):
             np.testing.assert_array_equal(x, y[:, 40 * k:40 * (k + 1)])
+
+
+def test_a_ctrl_c_while_a_case_computes_ends_every_case_of_the_batch():
+    """The interrupt reaches the caller while a case runs (not while the bounds are answered):
+    the caller hands each case still unfinished its turn to end, and none is left waiting."""
+    import signal
+    import time
+
+    def first():
+        signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)
+        time.sleep(0.3)   # still running when the caller sees the interrupt
+        return 1
+
+    before = threading.active_count()
+    with pytest.raises(KeyboardInterrupt):
+        batched.lockstep([first, lambda: 2, lambda: 3])
+    assert threading.active_count() == before

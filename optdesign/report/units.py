@@ -128,10 +128,12 @@ def peak_quantity(result) -> str:
 
 KIND_TEXT = {
     "peak": "certified over the continuous stroke",
-    "rms": "an RMS over the sweep's samples: an integral, checked against twice as many panels, not certified",
-    "rms_time": "an RMS over the duty cycle's time by adaptive quadrature to 1e-10 at the optimum; the NLP's rule "
-                "on the cases' samples gave objective_sampled",
-    "mix": "a certified peak plus an RMS over the duty cycle's time (the NLP's integral on the cases' sample grid)",
+    "rms": "an RMS over the sweep by Gauss-Legendre quadrature, checked against twice as many panels and rechecked "
+           "by the trapezoid rule on 16 and 8 times denser samples (Richardson)",
+    "rms_time": "an RMS over the duty cycle's time by adaptive quadrature to 1e-10, at every start's design; the NLP's "
+                "rule on the cases' samples gave objective_sampled",
+    "mix": "a certified peak plus an RMS over the duty cycle's time by adaptive quadrature to 1e-10; the NLP's rule "
+           "on the cases' samples gave objective_sampled",
     "expression": "a value of the design, no stroke in it",
     "extremes": "an expression of extremes over the stroke, each certified over the continuous stroke",
 }
