@@ -83,6 +83,7 @@ def _press(text=None):
     return result, cycle_figures(result), profile_figures(result)
 
 
+@pytest.mark.slow   # (the press: ~2 s CPU each; the transfer arm's tests above are the fast siblings)
 def test_press_runs_its_duty_cycle_so_the_cycles_compare():
     result, figures, profile = _press()
     assert profile["same_cycle"] is True
@@ -92,7 +93,8 @@ def test_press_runs_its_duty_cycle_so_the_cycles_compare():
     assert "the cycle" in text and "cycle time [s]" in text and "not analyse's duty cycle" not in text
 
 
-@pytest.mark.parametrize("change", ["a longer dwell", pytest.param("no dwell", marks=pytest.mark.slow)])
+@pytest.mark.slow
+@pytest.mark.parametrize("change", ["a longer dwell", "no dwell"])
 def test_press_with_other_phases_compares_phase_by_phase(change):
     text = PRESS.read_text()
     dwell = '[[simulation.phases]]\nname = "dwell"\nhold = "brake"\nuntil = { time = 0.4 }\n'
