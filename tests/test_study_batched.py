@@ -149,3 +149,41 @@ def test_a_ctrl_c_while_a_case_computes_ends_every_case_of_the_batch():
     with pytest.raises(KeyboardInterrupt):
         batched.lockstep([first, lambda: 2, lambda: 3])
     assert threading.active_count() == before
+
+
+@pytest.fixture
+def compiling(tmp_path, monkeypatch):
+    """Compiled code on (a fresh disk cache, compiled on demand), as outside the tests."""
+    from optdesign.model import compiled
+
+    monkeypatch.delenv("OPTDESIGN_NO_COMPILE", raising=False)
+    monkeypatch.setenv("OPTDESIGN_COMPILE", "wait")
+    monkeypatch.setenv("OPTDESIGN_CACHE_DIR", str(tmp_path / "cache"))
+    compiled._compiler.clear()
+    yield
+    compiled._compiler.clear()
+
+
+@pytest.mark.slow   # ~10 s compiling; fast siblings: the lockstep tests above (numpy) and tests/test_compiled.py
+def test_compiled_the_sweep_rms_and_the_lockstep_give_the_virtual_machines_and_each_case_its_own_numbers(
+        compiling, monkeypatch):
+    """With compiled code (the interval programs and the RMS integrand from the disk cache), a
+    lockstep batch still gives each case its own row, and an analyse row's rms:*
+    (Analysis.sweep_rms) equal CasADi's virtual machine's to the last digit."""
+    from optdesign.model.analysis import Analysis
+
+    scene = optdesign.load(ROOT / "problems" / "truck_crane.toml")
+    tasks = _tasks(Study(scene, [grid("mP", 0, 3000, 5)], mode="analyse"))
+    alone = [run_task(t) for t in tasks]
+    assert _rows(run_batch(tasks)) == _rows(alone)
+    compiled = Analysis(scene, certify=False)
+    compiled.sweep_rms(compiled.mech.parameter_values)   # its function made (compiled) at the first call
+    monkeypatch.setenv("OPTDESIGN_NO_COMPILE", "1")
+    machine = Analysis(scene, certify=False)
+    for mP in (0.0, 1234.5, 3000.0):
+        p = np.array(compiled.mech.parameter_values, float)
+        p[compiled.mech.parameter_names.index("mP")] = mP
+        assert compiled.sweep_rms(p) == machine.sweep_rms(p)
+    if not compiled._squares[1].func.is_a("External"):
+        pytest.skip("no compiled library here (no C compiler): only the virtual machine was compared")
+    assert not machine._squares[1].func.is_a("External")

@@ -96,6 +96,9 @@ class CompiledProgram:
             self._function = _loaded[key]
         return self._function
 
+    def __getstate__(self):   # (pickled, e.g. to a figure process: the library is looked up again there)
+        return {**self.__dict__, "_function": None, "_tried": -np.inf}
+
     def need(self, rows):
         """The varying instructions that the outputs of ``rows`` need (all: None), as bytes."""
         key = None if rows is None else frozenset(int(r) for r in rows)
