@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import pickle
 import warnings
 from pathlib import Path
 
@@ -155,6 +156,15 @@ def test_a_row_of_parameters_per_interval_equals_one_call_per_vector(programs):
                 assert np.array_equal(sl[:, which == j], al, equal_nan=True)
                 assert np.array_equal(sh[:, which == j], ah, equal_nan=True)
                 assert np.array_equal(sj[:, which == j], aj)
+
+
+def test_a_compiled_program_pickles_and_finds_its_library_again(programs):
+    _, _, c_program = programs
+    again = pickle.loads(pickle.dumps(c_program))
+    lo, hi = random_intervals(8, 40)
+    for mine, theirs in zip(again(lo, hi, [0.7, 0.4]), c_program(lo, hi, [0.7, 0.4])):
+        assert all(np.array_equal(a, b, equal_nan=True) for a, b in zip(mine, theirs))
+    assert again._function is not None
 
 
 def test_without_a_compiler_or_when_asked_the_numpy_program_runs(cache, monkeypatch):

@@ -104,20 +104,36 @@ def _split(text):
 
 # --- rows -----------------------------------------------------------------------------------
 def case_models(pb) -> list:
-    """The cases' models, built once, with the power-flow switch smoothed like the problem's."""
+    """The cases' models, built once, with the power-flow switch smoothed like the problem's; a
+    case along a law in time with a symbol tau for its time (``pb.case_times``; :func:`in_sweep`
+    puts its inverse tau(s) in, the continuous check certifies in tau: ``pb.in_time``)."""
     if getattr(pb, "case_models", None) is None:
-        models = []
+        models, pb.case_times = [], []
         for case in pb.scene.cases:
             cm = CaseModel(pb.mech, case)
+            tau = None
+            if cm.profile is not None and cm.profile.in_time:
+                tau = pb.mech.sym.sym(f"tau_{len(pb.case_times)}")
+                pb.case_times.append((tau, cm.profile))
             if cm.model.uses_efficiency and cm.model.flow == "auto":
                 f = pb.mech.function("power", {"power": cm.model.u * cm.model.flow_speed})
                 p_case = cm.case_parameters(pb.mech.parameter_values)
                 power = np.abs(np.asarray(f.map(len(pb.s_grid))(pb.s_grid[None, :], p_case)))
                 width = pb.settings.efficiency_smoothing * max(float(np.nanmax(power)), 1e-12)
-                cm = CaseModel(pb.mech, case, efficiency_smoothing=width)
+                cm = CaseModel(pb.mech, case, efficiency_smoothing=width, time=tau)
+            elif tau is not None:   # (tau(s) at a rest defeats the enclosure, certify.py)
+                cm = CaseModel(pb.mech, case, time=tau)
             models.append(cm)
         pb.case_models = models
     return pb.case_models
+
+
+def in_sweep(pb, exprs) -> list:
+    """``exprs`` (a list) with each law in time's tau replaced by its inverse tau(s): graphs of (s, p)."""
+    times = getattr(pb, "case_times", ())
+    if not times:
+        return list(exprs)
+    return ca.substitute(list(exprs), [tau for tau, _ in times], [profile.tau_at(pb.mech.s) for _, profile in times])
 
 
 def _motor(pb):
@@ -278,7 +294,8 @@ def _distinct(pb, per_sample):
     design, to 1e-12 of their size.  [(name, [cases], expression, lower, upper)]"""
     if not per_sample:
         return []
-    f = pb.mech.function("case_constraints", {f"c{j}": e for j, (_, _, e, _, _) in enumerate(per_sample)})
+    exprs = in_sweep(pb, [e for _, _, e, _, _ in per_sample])
+    f = pb.mech.function("case_constraints", {f"c{j}": e for j, e in enumerate(exprs)})
     mapped = f.map(len(pb.s_grid))(pb.s_grid[None, :], pb.mech.parameter_values)
     values = [np.asarray(v, float).ravel() for v in (mapped if isinstance(mapped, (list, tuple)) else [mapped])]
     out = []
@@ -363,14 +380,10 @@ def cycle_integrals(pb, p, quantities):
     """(T, {name: int name^2 dt over the cycle}) as expressions of p (MX): each case's samples'
     quantities weighted by the rule, holds' static loads, dwells' time."""
     plan = _time_plan(pb)
+    cycle = _cycle(pb)
     values, durations = {}, {}
-    for name, (nodes, weights, speed_or_T) in plan.items():
-        # only the rows this case's integrals need, at its samples
-        needed = [k for k in dict.fromkeys(list(quantities) + ["hold_load", "q"]) if k in pb.case_rows[name]]
-        f = pb.mech.function(f"cycle_rows_{len(values)}", {k: pb.rows[pb.case_rows[name][k]] for k in needed})
-        mapped = f.map(len(nodes))   # not expanded: see at_points
-        Q = ca.vertcat(*mapped(ca.DM(nodes).T, p))
-        rows = {k: j for j, k in enumerate(needed)}
+    for name, Q, rows in _cycle_rows(pb, p, quantities, {st.case for st in cycle.steps if st.kind != "dwell"}):
+        nodes, weights, speed_or_T = plan[name]
         if weights is None:    # constant drive speed: the trapezoid rule in time, t = |q - q0| / v
             dt = ca.fabs(Q[rows["q"], 1:] - Q[rows["q"], :-1]) / speed_or_T
             w = ca.horzcat(dt, 0) / 2 + ca.horzcat(0, dt) / 2
@@ -382,7 +395,6 @@ def cycle_integrals(pb, p, quantities):
         values[name]["ends"] = {k: (Q[rows[k], 0], Q[rows[k], -1]) for k in quantities}   # a [quantities] name at a hold
     T, sums = 0, {k: 0 for k in quantities}
     models = {cm.name: cm for cm in case_models(pb)}
-    cycle = _cycle(pb)
     named = [k for k in quantities if k in pb.mech.quantities]
     if named and any(st.kind == "dwell" for st in cycle.steps):
         raise SceneError(f"{pb.scene.path}: [objective] minimise = {pb.objective_text!r}: the RMS over time of "
@@ -414,6 +426,37 @@ def cycle_integrals(pb, p, quantities):
                     ratio = evaluate(pb.scene.gearbox.ratio, pb.mech.resolved.environment(p), {}, "[gearbox] ratio")
                     sums[k] = sums[k] + (gear_factor_at_rest(pb.mech, st.efficiency) * load / ratio) ** 2 * duration
     return T, sums
+
+
+def _cycle_rows(pb, p, quantities, used):
+    """(case name, Q, {row name: index in Q}) of each case in ``used``: the rows its integrals
+    need (MX, rows x its nodes).  Cases whose nodes are nearly the same (one profile run both
+    ways, with and without the payload: the nodes differ only at the profile's phase
+    boundaries) are evaluated by one mapped Function of all their rows on the union of their
+    nodes, each case taking its own, so that the kinematics they share is computed once per
+    node (CSE), not once per case (crane_luffing_drive's four duty cases)."""
+    plan = _time_plan(pb)
+    groups = []   # [union of the nodes, [case names]]
+    for name in (n for n in plan if n in used):
+        nodes = plan[name][0]
+        for group in groups:
+            union = np.union1d(group[0], nodes)
+            if len(union) <= max(len(group[0]), len(nodes)) * 1.1:   # a few nodes more, not another grid
+                group[0], group[1] = union, group[1] + [name]
+                break
+        else:
+            groups.append([np.unique(nodes), [name]])
+    for j, (union, names) in enumerate(groups):
+        # only the rows each case's integrals need, at its samples
+        needed = {name: [k for k in dict.fromkeys(list(quantities) + ["hold_load", "q"]) if k in pb.case_rows[name]]
+                  for name in names}
+        f = pb.mech.function(f"cycle_rows_{j}", {f"{c}:{k}": pb.rows[pb.case_rows[c][k]]
+                                                 for c in names for k in needed[c]})
+        out = iter(f.map(len(union)).call([ca.DM(union).T, p]))   # not expanded: see at_points
+        for name in names:
+            columns = np.searchsorted(union, plan[name][0]).tolist()   # its nodes, in its order
+            Q = ca.vertcat(*[next(out) for _ in needed[name]])
+            yield name, Q[:, columns], {k: i for i, k in enumerate(needed[name])}
 
 
 def case_nlp(pb, Q, p, t, f, add, every):
