@@ -106,3 +106,19 @@ def test_press_with_other_phases_compares_phase_by_phase(change):
     lines = cycle_lines(figures, profile)
     assert any("not analyse's duty cycle" in x for x in lines)
     assert not any("cycle time" in x for x in lines)
+
+
+def test_transfer_arm_torque_speed_plot_gives_each_rms_its_cycle(arm, tmp_path, monkeypatch):
+    """simulate's torque_speed.png draws the simulated RMS (transfer + dwell, 1.05 s) beside the
+    [duty] cycle's (2.11 s): each label gives its cycle's time (they read as one cycle's two RMS)."""
+    import optdesign.report.sized as sized
+    from optdesign.report.simulation import _torque_speed
+
+    _, result, figures, _ = arm
+    labels = []
+    monkeypatch.setattr(sized, "save_figure",
+                        lambda fig, path, label="": labels.extend(t.get_text() for t in fig.axes[0].get_legend().get_texts()))
+    _torque_speed(result, figures, tmp_path)
+    simulated = next(x for x in labels if x.startswith("simulated RMS"))
+    duty = next(x for x in labels if x.startswith("duty cycle RMS"))
+    assert simulated.endswith("over its 1.053 s") and duty.endswith(f"over its {ref.cycle_time():.4g} s")
