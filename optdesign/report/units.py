@@ -145,6 +145,12 @@ def objective_kind_text(result) -> str:
     tolerance, design/certify.py) says so, one of parameters and stroke-end values that it has
     no extreme in it."""
     kind = result.objective_kind
+    if kind in ("rms_time", "mix"):
+        from ..design.cycle_certify import uncertified
+
+        if uncertified(result.scene):
+            return (f"the RMS over the duty cycle's time of {', '.join(uncertified(result.scene))} by the NLP's rule on "
+                    "the cases' samples, not certified")
     if kind == "expression":
         from ..scene.expressions import parse
 
