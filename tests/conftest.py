@@ -23,7 +23,7 @@ SLOW_FILES = {
     "test_usertrial_drivetrain.py", "test_stroke_values.py", "test_compiled.py", "test_study_example.py",
     "test_figure_process.py", "test_study_parallel.py", "test_study_interrupt.py", "test_examples.py",
     "test_level_luffing_design.py", "test_sobol_cache.py", "test_optimise_workers.py",
-    "test_optimise_certificates.py", "test_multistart.py", "test_cases_scenes.py", "test_drive_page.py",
+    "test_optimise_certificates.py", "test_multistart.py", "test_cases_scenes.py",
     "test_study.py", "test_cli_interrupt.py", "test_animation_speed.py", "test_notebook.py",
 }
 SLOW_FOLDERS = {"library", "adversarial"}   # every shipped library scene's global optimum; processes killed

@@ -4,7 +4,8 @@ fixed stroke); their report.html, opened in headless Chromium, shows in its driv
 the numbers result.json holds and summary.txt prints, in the units drive engineers read (rpm,
 bar, mm, l/min: converted here from the JSON's SI numbers), the gear ratio without a unit; the
 torque-speed plot's points are the JSON's peak and RMS; the case figures' governing cases are
-the JSON's, in the unit the scene wrote the sweep in (deg)."""
+the JSON's, in the unit the scene wrote the sweep in (deg).  Each on the shipped results folders
+(fast) and on folders optimised here with 2 starts (slow)."""
 from __future__ import annotations
 
 import json
@@ -23,24 +24,30 @@ PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser") or shutil.which("google-chrome")
 DRIVER = shutil.which("chromedriver")
 
-pytestmark = pytest.mark.slow
+RESULTS = PROBLEMS.parent / "results"
+# each page twice: the shipped results folder (the default suite; `optdesign optimise` wrote it
+# with the default settings) and a folder optimised here with 2 starts (slow)
+WHERE = ["shipped", pytest.param("optimised here", marks=pytest.mark.slow)]
 
 
-def _optimise(tmp_path_factory, name):
-    out = tmp_path_factory.mktemp("drive") / name
-    assert cli.main(["optimise", str(PROBLEMS / f"{name}.toml"), "--starts", "2", "--workers", "2",
-                     "--out", str(out)]) == 0
+def _folder(tmp_path_factory, name, where):
+    if where == "shipped":
+        out = RESULTS / name
+    else:
+        out = tmp_path_factory.mktemp("drive") / name
+        assert cli.main(["optimise", str(PROBLEMS / f"{name}.toml"), "--starts", "2", "--workers", "2",
+                         "--out", str(out)]) == 0
     return out, json.loads((out / "result.json").read_text()), (out / "summary.txt").read_text()
 
 
-@pytest.fixture(scope="module")
-def arm(tmp_path_factory):
-    return _optimise(tmp_path_factory, "transfer_arm")
+@pytest.fixture(scope="module", params=WHERE)
+def arm(request, tmp_path_factory):
+    return _folder(tmp_path_factory, "transfer_arm", request.param)
 
 
-@pytest.fixture(scope="module")
-def hatch(tmp_path_factory):
-    return _optimise(tmp_path_factory, "hatch_cover")
+@pytest.fixture(scope="module", params=WHERE)
+def hatch(request, tmp_path_factory):
+    return _folder(tmp_path_factory, "hatch_cover", request.param)
 
 
 def _g(x, digits=4):

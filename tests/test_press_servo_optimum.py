@@ -119,3 +119,21 @@ def test_twenty_starts_reach_the_independent_optimum():
     assert result.starts_at_best == 20
     for r in result.starts[:3]:
         assert r.objective == pytest.approx(ref.quad_rms(*_design(r.end)), rel=1e-9)
+
+
+def test_an_rms_the_quadrature_does_not_cover_says_it_is_not_certified():
+    """rms_time(motor_speed) has no certified RMS over the cycle (the quadrature covers drive,
+    motor_load_torque, motor_torque and [quantities] names): its objective is the NLP's rule, and
+    the report's kind text says so instead of 'by adaptive quadrature'."""
+    from types import SimpleNamespace
+
+    from optdesign.design.cycle_certify import uncertified
+    from optdesign.report.units import objective_kind_text
+
+    assert uncertified(load(SCENE)) == [] and uncertified(mix_scene()) == []
+    scene = optdesign.loads(SCENE.read_text().replace('minimise = "rms_time(motor_torque)"',
+                                                      'minimise = "rms_time(motor_speed)"'), str(SCENE))
+    assert uncertified(scene) == ["motor_speed"]
+    text = objective_kind_text(SimpleNamespace(objective_kind="rms_time", scene=scene))
+    assert "not certified" in text and "motor_speed" in text
+    assert "adaptive quadrature" in objective_kind_text(SimpleNamespace(objective_kind="rms_time", scene=load(SCENE)))

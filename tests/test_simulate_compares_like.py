@@ -83,6 +83,7 @@ def _press(text=None):
     return result, cycle_figures(result), profile_figures(result)
 
 
+@pytest.mark.slow   # (the press: ~2 s CPU each; the transfer arm's tests above are the fast siblings)
 def test_press_runs_its_duty_cycle_so_the_cycles_compare():
     result, figures, profile = _press()
     assert profile["same_cycle"] is True
@@ -92,7 +93,8 @@ def test_press_runs_its_duty_cycle_so_the_cycles_compare():
     assert "the cycle" in text and "cycle time [s]" in text and "not analyse's duty cycle" not in text
 
 
-@pytest.mark.parametrize("change", ["a longer dwell", pytest.param("no dwell", marks=pytest.mark.slow)])
+@pytest.mark.slow
+@pytest.mark.parametrize("change", ["a longer dwell", "no dwell"])
 def test_press_with_other_phases_compares_phase_by_phase(change):
     text = PRESS.read_text()
     dwell = '[[simulation.phases]]\nname = "dwell"\nhold = "brake"\nuntil = { time = 0.4 }\n'
@@ -104,3 +106,19 @@ def test_press_with_other_phases_compares_phase_by_phase(change):
     lines = cycle_lines(figures, profile)
     assert any("not analyse's duty cycle" in x for x in lines)
     assert not any("cycle time" in x for x in lines)
+
+
+def test_transfer_arm_torque_speed_plot_gives_each_rms_its_cycle(arm, tmp_path, monkeypatch):
+    """simulate's torque_speed.png draws the simulated RMS (transfer + dwell, 1.05 s) beside the
+    [duty] cycle's (2.11 s): each label gives its cycle's time (they read as one cycle's two RMS)."""
+    import optdesign.report.sized as sized
+    from optdesign.report.simulation import _torque_speed
+
+    _, result, figures, _ = arm
+    labels = []
+    monkeypatch.setattr(sized, "save_figure",
+                        lambda fig, path, label="": labels.extend(t.get_text() for t in fig.axes[0].get_legend().get_texts()))
+    _torque_speed(result, figures, tmp_path)
+    simulated = next(x for x in labels if x.startswith("simulated RMS"))
+    duty = next(x for x in labels if x.startswith("duty cycle RMS"))
+    assert simulated.endswith("over its 1.053 s") and duty.endswith(f"over its {ref.cycle_time():.4g} s")

@@ -132,3 +132,58 @@ def test_an_enclosure_with_a_parameter_row_per_interval_bounds_each_as_its_own_v
     for k, one in enumerate(alone):
         for x, y in zip(one, together_):
             np.testing.assert_array_equal(x, y[:, 40 * k:40 * (k + 1)])
+
+
+def test_a_ctrl_c_while_a_case_computes_ends_every_case_of_the_batch():
+    """The interrupt reaches the caller while a case runs (not while the bounds are answered):
+    the caller hands each case still unfinished its turn to end, and none is left waiting."""
+    import signal
+    import time
+
+    def first():
+        signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)
+        time.sleep(0.3)   # still running when the caller sees the interrupt
+        return 1
+
+    before = threading.active_count()
+    with pytest.raises(KeyboardInterrupt):
+        batched.lockstep([first, lambda: 2, lambda: 3])
+    assert threading.active_count() == before
+
+
+@pytest.fixture
+def compiling(tmp_path, monkeypatch):
+    """Compiled code on (a fresh disk cache, compiled on demand), as outside the tests."""
+    from optdesign.model import compiled
+
+    monkeypatch.delenv("OPTDESIGN_NO_COMPILE", raising=False)
+    monkeypatch.setenv("OPTDESIGN_COMPILE", "wait")
+    monkeypatch.setenv("OPTDESIGN_CACHE_DIR", str(tmp_path / "cache"))
+    compiled._compiler.clear()
+    yield
+    compiled._compiler.clear()
+
+
+@pytest.mark.slow   # ~10 s compiling; fast siblings: the lockstep tests above (numpy) and tests/test_compiled.py
+def test_compiled_the_sweep_rms_and_the_lockstep_give_the_virtual_machines_and_each_case_its_own_numbers(
+        compiling, monkeypatch):
+    """With compiled code (the interval programs and the RMS integrand from the disk cache), a
+    lockstep batch still gives each case its own row, and an analyse row's rms:*
+    (Analysis.sweep_rms) equal CasADi's virtual machine's to the last digit."""
+    from optdesign.model.analysis import Analysis
+
+    scene = optdesign.load(ROOT / "problems" / "truck_crane.toml")
+    tasks = _tasks(Study(scene, [grid("mP", 0, 3000, 5)], mode="analyse"))
+    alone = [run_task(t) for t in tasks]
+    assert _rows(run_batch(tasks)) == _rows(alone)
+    compiled = Analysis(scene, certify=False)
+    compiled.sweep_rms(compiled.mech.parameter_values)   # its function made (compiled) at the first call
+    monkeypatch.setenv("OPTDESIGN_NO_COMPILE", "1")
+    machine = Analysis(scene, certify=False)
+    for mP in (0.0, 1234.5, 3000.0):
+        p = np.array(compiled.mech.parameter_values, float)
+        p[compiled.mech.parameter_names.index("mP")] = mP
+        assert compiled.sweep_rms(p) == machine.sweep_rms(p)
+    if not compiled._squares[1].func.is_a("External"):
+        pytest.skip("no compiled library here (no C compiler): only the virtual machine was compared")
+    assert not machine._squares[1].func.is_a("External")

@@ -63,3 +63,21 @@ def test_at_three_samples_the_quadrature_still_resolves_the_sweep():
     value, error = analysis.sweep_rms(analysis.mech.parameter_values)["drive"]
     assert value == pytest.approx(drive, rel=1e-9)
     assert error <= 1e-9 * value
+
+
+def test_the_recheck_refuses_a_wrong_certified_sweep_rms():
+    """An rms(...) objective's certified value (Gauss-Legendre) is rechecked before a start may
+    count (design/certify.ContinuousCheck._recheck_rms: the trapezoid rule 16 and 8 times denser,
+    Richardson): crank_press_rms's passes, one 1e-6 off is refused with the reason.  A guard: it
+    skipped rms objectives before, and no shipped scene's start fails it."""
+    from optdesign.design.certify import ContinuousCheck
+    from optdesign.design.problem import DesignProblem
+
+    pb = DesignProblem(load(SCENE.parent / "crank_press_rms.toml"))
+    fixed = pb.mech.parameter_values[pb.fixed_index]
+    key = next((b.name, "rms") for b in pb.blocks if b.kind == "rms")
+    value = pb.rms(pb.start, fixed, 2 * pb.rms_panels)
+    check = ContinuousCheck(pb)
+    assert check._recheck_rms(pb.start, fixed, {key: value}) is None
+    reason = check._recheck_rms(pb.start, fixed, {key: value * (1 + 1e-6)})
+    assert reason is not None and "trapezoid rule" in reason

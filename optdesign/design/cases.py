@@ -104,20 +104,36 @@ def _split(text):
 
 # --- rows -----------------------------------------------------------------------------------
 def case_models(pb) -> list:
-    """The cases' models, built once, with the power-flow switch smoothed like the problem's."""
+    """The cases' models, built once, with the power-flow switch smoothed like the problem's; a
+    case along a law in time with a symbol tau for its time (``pb.case_times``; :func:`in_sweep`
+    puts its inverse tau(s) in, the continuous check certifies in tau: ``pb.in_time``)."""
     if getattr(pb, "case_models", None) is None:
-        models = []
+        models, pb.case_times = [], []
         for case in pb.scene.cases:
             cm = CaseModel(pb.mech, case)
+            tau = None
+            if cm.profile is not None and cm.profile.in_time:
+                tau = pb.mech.sym.sym(f"tau_{len(pb.case_times)}")
+                pb.case_times.append((tau, cm.profile))
             if cm.model.uses_efficiency and cm.model.flow == "auto":
                 f = pb.mech.function("power", {"power": cm.model.u * cm.model.flow_speed})
                 p_case = cm.case_parameters(pb.mech.parameter_values)
                 power = np.abs(np.asarray(f.map(len(pb.s_grid))(pb.s_grid[None, :], p_case)))
                 width = pb.settings.efficiency_smoothing * max(float(np.nanmax(power)), 1e-12)
-                cm = CaseModel(pb.mech, case, efficiency_smoothing=width)
+                cm = CaseModel(pb.mech, case, efficiency_smoothing=width, time=tau)
+            elif tau is not None:   # (tau(s) at a rest defeats the enclosure, certify.py)
+                cm = CaseModel(pb.mech, case, time=tau)
             models.append(cm)
         pb.case_models = models
     return pb.case_models
+
+
+def in_sweep(pb, exprs) -> list:
+    """``exprs`` (a list) with each law in time's tau replaced by its inverse tau(s): graphs of (s, p)."""
+    times = getattr(pb, "case_times", ())
+    if not times:
+        return list(exprs)
+    return ca.substitute(list(exprs), [tau for tau, _ in times], [profile.tau_at(pb.mech.s) for _, profile in times])
 
 
 def _motor(pb):
@@ -278,7 +294,8 @@ def _distinct(pb, per_sample):
     design, to 1e-12 of their size.  [(name, [cases], expression, lower, upper)]"""
     if not per_sample:
         return []
-    f = pb.mech.function("case_constraints", {f"c{j}": e for j, (_, _, e, _, _) in enumerate(per_sample)})
+    exprs = in_sweep(pb, [e for _, _, e, _, _ in per_sample])
+    f = pb.mech.function("case_constraints", {f"c{j}": e for j, e in enumerate(exprs)})
     mapped = f.map(len(pb.s_grid))(pb.s_grid[None, :], pb.mech.parameter_values)
     values = [np.asarray(v, float).ravel() for v in (mapped if isinstance(mapped, (list, tuple)) else [mapped])]
     out = []

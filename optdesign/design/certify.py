@@ -11,7 +11,7 @@ reported by its true range, not by the samples' or the stroke ends' values."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -106,7 +106,7 @@ class ContinuousCheck:
         self.notes = {}
         if not any(v[0] > 0 for v in out):  # the proof, and what the report shows: every extreme located
             keys, more, full_s = self._extreme_requests(V)
-            found = continuous_maxima_rows(evaluate, grid, V, requests + more, enclosure=self.enclosures.at(p))
+            found = self._certified(evaluate, grid, V, requests + more, p)
             out, certified, sampled = self._compare(checks, found[:len(checks)], V, rms)
             self.notes = {(c.name, c.sense): ext[0].note for c, ext in zip(checks, found) if ext[0].note}
             if not any(v[0] > 0 for v in out):
@@ -117,6 +117,26 @@ class ContinuousCheck:
             if ag.func in ("start", "end"):
                 certified[(ag.name, ag.func)] = sampled[(ag.name, ag.func)] = float(V[ag.index, 0 if ag.func == "start" else -1])
         return out, certified, sampled
+
+    def _certified(self, evaluate, grid, V, requests, p) -> list:
+        """:func:`~optdesign.kinematics.peaks.continuous_maxima_rows` of ``requests`` with the
+        enclosure: a case's rows along a law in time in its time (``pb.in_time``: closed form
+        and smooth at a rest, where the law's inverse in the rows of s defeats the enclosure),
+        the others in s."""
+        owner = {int(row): (g, j) for g, (_, index) in enumerate(self.pb.in_time) for j, row in enumerate(index)}
+        found = [None] * len(requests)
+        plain = [k for k, r in enumerate(requests) if r.row not in owner]
+        if plain:
+            maxima = continuous_maxima_rows(evaluate, grid, V, [requests[k] for k in plain], enclosure=self.enclosures.at(p))
+            for k, ext in zip(plain, maxima):
+                found[k] = ext
+        for g, (in_time, _) in enumerate(self.pb.in_time):
+            mine = [k for k, r in enumerate(requests) if owner.get(r.row, (None,))[0] == g]
+            if mine:
+                local = [replace(requests[k], row=owner[requests[k].row][1]) for k in mine]
+                for k, ext in zip(mine, in_time.maxima(grid, p, local)):
+                    found[k] = ext
+        return found
 
     def _rms(self, checks, x, fixed) -> dict:
         """The rms block's check (its quadrature against one with twice the panels), once."""

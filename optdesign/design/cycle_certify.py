@@ -29,6 +29,20 @@ RESOLVED = 1e-4     # the NLP's RMS within this fraction of the certified one
 RECHECK_REL = 1e-9  # the recheck's floor: certified and dense rule agree within this fraction
 
 
+CERTIFIED = ("drive", "motor_load_torque", "motor_torque")   # with [quantities] names: RMS over time certified
+
+
+def uncertified(scene) -> list:
+    """The names of the scene's rms_time(NAME) objective terms whose RMS over the cycle has no
+    certified value (the cycle's quadrature, ``analyse``'s duty, gives one for CERTIFIED and the
+    [quantities] names): the NLP's rule on the samples stands for them, and the report says so."""
+    import re
+
+    names = re.findall(r"rms_time\s*\(\s*([A-Za-z_]\w*)", scene.objective.minimise or "") if scene.cases else []
+    own = {q.name for q in scene.quantities}
+    return [n for n in dict.fromkeys(names) if n not in CERTIFIED and n not in own]
+
+
 def integrated(pb) -> list:
     """The quantities whose RMS over the duty cycle's time the problem integrates: its
     objective's rms_time terms' and its cycle constraints'."""

@@ -25,7 +25,7 @@ from .phase1 import Phase1
 from .problem import DesignProblem, SolverSettings
 from .repair import Repair
 from .results import OptimisationResult, StartReport
-from .cycle_certify import certify_cycle
+from .cycle_certify import certify_cycle, uncertified
 from .sensitivities import (constraint_report, objective_gradient_factor, objective_value, sensitivities,
                             sensitivity_notes)
 from .solver import Solver
@@ -269,6 +269,10 @@ def summarise(problem, solver, reports, solutions, timings, plan=None, fixed=Non
                "optimal: the best of the starts' local optima; IPOPT converged and the continuous check agrees")
     if sol.notes:   # what the enclosure could not prove (kinematics/enclosure.py): said, never pretended
         message += "; " + "; ".join(f"{name} {sense}: {note}" for (name, sense), note in sorted(sol.notes.items()))
+    if uncertified(pb.scene):   # the NLP's rule on the samples stands for these terms: said, never pretended
+        message += (f"; not certified: the RMS over time of {', '.join(uncertified(pb.scene))} is the NLP's rule on the "
+                    "cases' samples (the cycle's quadrature covers drive, motor_load_torque, motor_torque and "
+                    "[quantities] names)")
     if refused:
         message = f"refused: {refused}"
     return OptimisationResult(

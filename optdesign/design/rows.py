@@ -21,13 +21,14 @@ import casadi as ca
 import numpy as np
 
 from ..errors import ExpressionError, SceneError
+from ..model.certified import InTime
 from ..model.mapped import MappedFunction
 from ..model.quantities import model_value
 from ..scene.expressions import Call, Expression, Name, parse
 from ..scene.cases import is_case_constraint
 from ..scene.where import near_miss
 from .bounds import numeric_bounds
-from .cases import case_constraint_rows, case_objective_rows
+from .cases import case_constraint_rows, case_objective_rows, in_sweep
 
 
 @dataclass(frozen=True)
@@ -136,13 +137,29 @@ def build_quantities(pb):
         rows.append(margin.expr)
     pb.k_row = len(rows)
     rows.append(pb.model.k)
-    pb.rows = rows
+    pb.in_time = rows_in_time(pb, rows)
+    pb.rows = rows = in_sweep(pb, rows)   # the cases' laws in time through their inverse tau(s)
     pb.quantity = mech.function("quantities", {"v": ca.vertcat(*rows)})
     pb._quantity_many = MappedFunction(pb.quantity, compile=True)  # at many samples (evaluate_grid)
     v = ca.vertcat(*rows)
     dv = mech.ds(v)
     pb.quantity_derivatives = mech.function("quantities_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)})
     pb._dv = dv
+
+
+def rows_in_time(pb, rows) -> list:
+    """Per case along a law in time (``pb.case_times``: its symbol tau in the rows, design/cases.py):
+    (:class:`~optdesign.model.certified.InTime` of the rows that hold its tau and no other one,
+    their indices), for the continuous check's enclosure in the law's time."""
+    out = []
+    times = getattr(pb, "case_times", ())
+    for tau, profile in times:
+        others = [t for t, _ in times if t is not tau]
+        index = [i for i, r in enumerate(rows)
+                 if ca.depends_on(r, tau) and not any(ca.depends_on(r, t) for t in others)]
+        if index:
+            out.append((InTime(pb.mech, ca.vertcat(*[rows[i] for i in index]), tau, profile), np.array(index)))
+    return out
 
 
 # the model's columns that a scene may not have, and why (model/reduction.py: ReducedModel.outputs)

@@ -51,6 +51,7 @@ class IntervalProgram:
     dependencies may lie inside the interval."""
 
     def __init__(self, func: ca.Function):
+        self.func = func
         self.n_work = func.sz_w()
         self.shapes = [func.size1_out(j) for j in range(func.n_out())]
         self.rows = [func.sparsity_out(j).row() for j in range(func.n_out())]

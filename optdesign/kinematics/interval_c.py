@@ -258,13 +258,19 @@ def _prelude() -> str:
         "half_pi": _literal(half), "minus_half_pi": _literal(-half), "pi": _literal(math.pi)}
 
 
-def c_source(program, name: str):
-    """(C source, stacked row offset of each output, number of stacked rows) of ``program`` (an
-    IntervalProgram) as the function ``name`` described in the module's docstring."""
+def stacked_rows(program):
+    """(the stacked row offset of each output, the number of stacked rows) of ``program``."""
     offsets, total = [], 0
     for m in program.shapes:
         offsets.append(total)
         total += m
+    return offsets, total
+
+
+def c_source(program, name: str):
+    """(C source, stacked row offset of each output, number of stacked rows) of ``program`` (an
+    IntervalProgram) as the function ``name`` described in the module's docstring."""
+    offsets, total = stacked_rows(program)
     entries = list(program.fixed) + list(program.varying)
     n_fixed = len(program.fixed)
     varying_k = {extra[1] for *_, extra in program.varying}

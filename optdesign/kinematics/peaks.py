@@ -266,7 +266,7 @@ def _first_intervals(s_grid, found, requests, best):
     h = float(np.max(b - a))
     steps = h * 2.0 ** -np.arange(PRESPLIT)
     cut = np.zeros(len(req), bool)
-    pieces = []
+    ks, los, his = [], [], []   # the pieces: (request, lo, hi) arrays
     for k, r in enumerate(requests):
         for e in found[k]:
             if not _target(e.value, r.sense) >= best[k] - 1e-3 * abs(best[k]):
@@ -275,14 +275,17 @@ def _first_intervals(s_grid, found, requests, best):
             if not np.any(near):
                 continue
             cut[k * n_int:(k + 1) * n_int] |= near
-            edges = np.r_[a[near], b[near], e.s - steps, e.s, e.s + steps]
-            for x, y in zip(a[near], b[near]):
-                inside = np.unique(np.r_[x, y, edges[(edges > x) & (edges < y)]])
-                pieces += [(k, u, w) for u, w in zip(inside[:-1], inside[1:])]
-    if not pieces:
+            xs, ys = a[near], b[near]
+            edges = np.unique(np.concatenate((xs, ys, e.s - steps, [e.s], e.s + steps)))   # sorted, distinct
+            # each sample interval [x, y] cut at the edges strictly inside it
+            for x, y, i0, i1 in zip(xs, ys, np.searchsorted(edges, xs, "right"), np.searchsorted(edges, ys, "left")):
+                inside = np.concatenate(([x], edges[i0:i1], [y])) if x < y else np.array([x])
+                ks.append(np.full(len(inside) - 1, k))
+                los.append(inside[:-1])
+                his.append(inside[1:])
+    if not sum(map(len, ks)):
         return req, lo, hi
-    k_, lo_, hi_ = (np.array(c) for c in zip(*pieces))
-    return np.r_[req[~cut], k_.astype(int)], np.r_[lo[~cut], lo_], np.r_[hi[~cut], hi_]
+    return (np.concatenate([req[~cut], *ks]), np.concatenate([lo[~cut], *los]), np.concatenate([hi[~cut], *his]))
 
 
 def _target_bound(L, U, code, upper):

@@ -17,7 +17,7 @@ import casadi as ca
 import numpy as np
 
 from ..kinematics.enclosure import Enclosures
-from ..kinematics.peaks import Request, continuous_maxima_rows, resolving_points
+from ..kinematics.peaks import Extremum, Request, continuous_maxima_rows, resolving_points
 from ..scene.expressions import Expression
 from .intervals_compiled import compile_program
 from .mapped import MappedFunction
@@ -129,73 +129,90 @@ class CertifiedExtremes:
 class CertifiedPeaks:
     """The peaks |v| of named rows of (s, p) over the continuous stroke, located and certified
     as analyse's (:class:`CertifiedExtremes`: the rows' exact s-derivatives, their enclosure):
-    a load case's pin forces (:class:`~optdesign.model.cases.CaseAnalysis`).
-
-    ``time`` = (tau, profile): the rows are graphs of (s, tau, p) along a law in time
-    (:meth:`~.profiles.MotionProfile.graphs` with ``time``), located and enclosed as graphs of
-    tau alone, s = profile.sweep_at(tau): closed form and smooth in tau, also at a rest, where
-    the law's inverse tau(s) has an infinite derivative and defeats the Taylor form."""
+    a load case's pin forces (:class:`~optdesign.model.cases.CaseAnalysis`).  ``time`` = (tau,
+    profile): rows along a law in time, located and certified in its time (:class:`InTime`)."""
 
     def __init__(self, mech, rows: dict, time=None):
         self.names = list(rows)
         v = ca.vertcat(*rows.values())
-        self.profile = None if time is None else time[1]
+        self.in_time = None if time is None else InTime(mech, v, *time)
         if time is None:
-            var, func = mech.s, mech.function
-        else:
-            var = time[0]
-            v = ca.substitute(v, mech.s, self.profile.sweep_at(var))
-            assert not ca.depends_on(v, mech.s), "a case's rows in time still depend on s"
-            opts = {"cse": True} if mech.sym is ca.SX else {}
-            func = lambda name, out: ca.Function(name, [var, mech.p], list(out.values()), ["s", "p"], list(out), opts)  # noqa: E731
-        dv = ca.jacobian(v, var)
-        self.derivatives = MappedFunction(func("peaks_ds", {"v": v, "dv": dv, "d2v": ca.jacobian(dv, var)}))
-        self.enclosures = Enclosures(self.derivatives.func, compile_program)
+            dv = mech.ds(v)
+            self.derivatives = MappedFunction(mech.function("peaks_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)}))
+            self.enclosures = Enclosures(self.derivatives.func, compile_program)
 
     def __call__(self, s_values, p, columns, names=None, certify=True) -> dict:
         """name -> (|peak|, {s, value}, certificate {bound, note}) at parameters ``p``, from the
         sampled ``columns`` on ``s_values`` (ascending or descending), for the rows ``names``
         (all by default); without ``certify`` located only (the refined sample maxima, no
-        enclosure: certificate None).  In time: on the times of ``s_values`` and the law's
-        piece ends, the rows evaluated there."""
+        enclosure: certificate None)."""
         s_values = np.asarray(s_values, float)
         chosen = [n for n in self.names if names is None or n in names]
         if not chosen:
             return {}
-        if self.profile is not None:
-            law = self.profile.shape.motion_law
-            grid = np.unique(np.clip(np.r_[0.0, self.profile.times(s_values) / self.profile.shape.time, law.breaks, 1.0], 0.0, 1.0))
-            V = self.derivatives(grid, p)[0]
-        else:
-            grid, V = s_values, np.array([columns[name] for name in self.names], float)
-            if len(grid) > 1 and grid[-1] < grid[0]:
-                grid, V = grid[::-1], V[:, ::-1]
         requests = [Request(self.names.index(n), "abs", ends=True) for n in chosen]
-        found = continuous_maxima_rows(lambda s: self.derivatives(s, p), grid, V, requests,
-                                       enclosure=self.enclosures.at(p) if certify else None)
-        return {name: (abs(ext[0].value), {"s": self._sweep(ext[0].s), "value": ext[0].value},
-                       _certificate(ext[0], note=self._note) if certify else None)
+        if self.in_time is not None:
+            found = self.in_time.maxima(s_values, p, requests, certify)
+        else:
+            V = np.array([columns[name] for name in self.names], float)
+            if len(s_values) > 1 and s_values[-1] < s_values[0]:
+                s_values, V = s_values[::-1], V[:, ::-1]
+            found = continuous_maxima_rows(lambda s: self.derivatives(s, p), s_values, V, requests,
+                                           enclosure=self.enclosures.at(p) if certify else None)
+        return {name: (abs(ext[0].value), {"s": ext[0].s, "value": ext[0].value}, _certificate(ext[0]) if certify else None)
                 for name, ext in zip(chosen, found)}
 
-    def _sweep(self, x) -> float:
-        """The sweep value at x (in time: x is tau)."""
-        return float(x) if self.profile is None else float(self.profile.law_sweep(np.array([x]))[0])
+
+class InTime:
+    """Rows v of (s, tau, p) along a law in time (a case's graphs with ``time`` = tau:
+    :meth:`~.profiles.MotionProfile.graphs`), located and enclosed as graphs of tau alone, s =
+    profile.sweep_at(tau): closed form and smooth in tau, also at a rest, where the law's
+    inverse tau(s) has an infinite derivative and defeats the Taylor form (the ventilator's
+    squeeze and return never closed through it)."""
+
+    def __init__(self, mech, v, tau, profile):
+        self.profile = profile
+        v = ca.substitute(v, mech.s, profile.sweep_at(tau))
+        assert not ca.depends_on(v, mech.s), "rows in time still depend on s"
+        dv = ca.jacobian(v, tau)
+        opts = {"cse": True} if mech.sym is ca.SX else {}
+        func = ca.Function("rows_in_time", [tau, mech.p], [v, dv, ca.jacobian(dv, tau)], ["s", "p"], ["v", "dv", "d2v"], opts)
+        self.derivatives = MappedFunction(func)
+        self.enclosures = Enclosures(func, compile_program)
+
+    def grid(self, s_values) -> np.ndarray:
+        """The fractions tau of the law's time at ``s_values``, the law's piece ends, 0 and 1."""
+        law = self.profile.shape.motion_law
+        tau = self.profile.times(np.asarray(s_values, float)) / self.profile.shape.time
+        return np.unique(np.clip(np.r_[0.0, tau, law.breaks, 1.0], 0.0, 1.0))
+
+    def maxima(self, s_values, p, requests, certify=True) -> list:
+        """:func:`~optdesign.kinematics.peaks.continuous_maxima_rows` of ``requests`` (rows of v)
+        over the law's time, on :meth:`grid`, certified unless ``certify`` is False; each
+        extremum's s (and a note's position) as a sweep value."""
+        tau = self.grid(s_values)
+        found = continuous_maxima_rows(lambda t: self.derivatives(t, p), tau, self.derivatives(tau, p)[0], requests,
+                                       enclosure=self.enclosures.at(p) if certify else None)
+        return [[Extremum(self.sweep(e.s), e.value, e.bound, self._note(e.note)) for e in ext] for ext in found]
+
+    def sweep(self, tau) -> float:
+        """The sweep value at the fraction ``tau`` of the law's time."""
+        return float(self.profile.law_sweep(np.array([tau]))[0])
 
     def _note(self, note) -> str:
-        """A certificate's note with its position as a sweep value (in time it says tau)."""
-        if self.profile is None or " s = " not in note:
+        """A certificate's note with its position as a sweep value (the branch and bound's is tau)."""
+        if " s = " not in note:
             return note
         head, tail = note.split(" s = ", 1)
         number, rest = tail.split(" ", 1)
-        return f"{head} s = {self._sweep(float(number)):.9g} {rest}"
+        return f"{head} s = {self.sweep(float(number)):.9g} {rest}"
 
 
-def _certificate(e, sign=1.0, note=None) -> dict:
+def _certificate(e, sign=1.0) -> dict:
     """What the enclosure proved of one extremum: ``bound`` (of |v|, of v for a max, of v from
-    below for a min; None without one) and ``note`` (why not, "" when certified; ``note``: a
-    function that rewrites it)."""
+    below for a min; None without one) and ``note`` (why not, "" when certified)."""
     bound = None if e.bound is None else sign * e.bound
-    return {"bound": bound, "note": e.note if note is None else note(e.note)}
+    return {"bound": bound, "note": e.note}
 
 
 def aggregates(expr: Expression) -> list:

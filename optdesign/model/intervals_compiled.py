@@ -19,12 +19,28 @@ import time
 
 import numpy as np
 
-from ..kinematics.interval_c import c_source
+from ..kinematics import enclosure, interval_c, intervals
+from ..kinematics.interval_c import c_source, stacked_rows
 from . import compiled
 
 NAME = "optdesign_intervals"
 RETRY_S = 2.0   # while the library is being compiled, looked for again at most this often
 _loaded = {}     # cache key -> the C function (one dlopen per library and process)
+_generator = []  # the hash of the code that writes the C (part of every entry's key)
+
+
+def generator() -> str:
+    """A hash of the modules that make an interval program and write its C: the key of a
+    library names its graph and this, so that the C is written only when it is compiled."""
+    if not _generator:
+        import hashlib
+        from pathlib import Path
+
+        h = hashlib.sha256()
+        for module in (enclosure, interval_c, intervals):
+            h.update(Path(module.__file__).read_bytes())
+        _generator.append(h.hexdigest()[:16])
+    return _generator[0]
 
 
 def backend() -> str:
@@ -46,26 +62,26 @@ class CompiledProgram:
     def __init__(self, program, wait: bool | None = None):
         self.program, self.wait = program, wait
         self.shapes, self.rows = program.shapes, program.rows
-        self._function, self._tried, self._source = None, -np.inf, None
+        self._function, self._tried = None, -np.inf
+        self._offsets, self._total = stacked_rows(program)
         self._need = {}
 
     def _library(self):
         if self._function is None and time.monotonic() - self._tried > RETRY_S:
             self._tried = time.monotonic()
-            if self._source is None:
-                self._source = c_source(self.program, NAME)
-            source = self._source[0]
-            key = compiled.entry_key("intervals", source)
+            graph = self.program.func.serialize()
+            key = compiled.entry_key("intervals", graph, {"generator": generator()})
             if key is None:
                 self._tried = np.inf   # no compiler: numpy for good
                 return None
             if key not in _loaded:
-                def prepare(folder):
+                def prepare(folder):   # the C written only to be compiled
                     c_file = folder / f"{key}.src{os.getpid()}.c"
-                    compiled.write_atomic(c_file, source.encode())
-                    return {"kind": "source", "name": NAME, "source": str(c_file), "cleanup": [str(c_file)]}
+                    compiled.write_atomic(c_file, c_source(self.program, NAME)[0].encode())
+                    return {"kind": "source", "name": NAME, "source": str(c_file), "cleanup": [str(c_file)],
+                            "own_levels": True}
 
-                path = compiled.library(key, prepare, self.wait)
+                path = compiled.library(key, prepare, self.wait)   # (its C grows as the program: no MAX_GRAPH)
                 if path is None:
                     return None
                 try:
@@ -80,6 +96,9 @@ class CompiledProgram:
                 _loaded[key] = function
             self._function = _loaded[key]
         return self._function
+
+    def __getstate__(self):   # (pickled, e.g. to a figure process: the library is looked up again there)
+        return {**self.__dict__, "_function": None, "_tried": -np.inf}
 
     def need(self, rows):
         """The varying instructions that the outputs of ``rows`` need (all: None), as bytes."""
@@ -108,7 +127,7 @@ class CompiledProgram:
             raise ValueError(f"p: one row of parameters per interval ({n}), or one vector; got {p.shape}")
         if p.size == 0:
             p = np.zeros(1)
-        _, offsets, total = self._source
+        offsets, total = self._offsets, self._total
         out_lo, out_hi = np.full((total, n), np.nan), np.full((total, n), np.nan)
         out_jump = np.zeros((total, n), np.bool_)
         need = self.need(rows)

@@ -158,9 +158,13 @@ class MotionProfile:
     def jerk(self, s, time=None):
         """The sweep's jerk at ``s`` along a law in time: sigma L/T^3 f^(3)(tau); ``time``: :meth:`graphs`."""
         sh = self.shape
-        x = ca.fmin(ca.fmax(self.sigma * (s - self.s_begin), 0.0), self.length)
-        tau = sh.motion_law.inverse(x / self.length) if time is None else time
+        tau = self.tau_at(s) if time is None else time
         return self.sigma * self.length / sh.time**3 * sh.motion_law.derivatives(tau)[3]
+
+    def tau_at(self, s):
+        """A law in time's fraction tau of its duration at sweep value ``s``: its inverse (a CasADi graph)."""
+        x = ca.fmin(ca.fmax(self.sigma * (s - self.s_begin), 0.0), self.length)
+        return self.shape.motion_law.inverse(x / self.length)
 
     @property
     def in_time(self) -> bool:

@@ -108,12 +108,14 @@ def torque_speed_figure(cases, path, title="", motor=None, simulated=None) -> Pa
         t, speed, torque, rms = simulated
         ax.plot(np.asarray(speed) * RPM, torque, color="0.35", lw=0.9, label="simulated cycle (simulate)")
         mean = _mean_abs(t, speed)
+        # each RMS with its cycle's time: the simulated phases need not be [duty]'s cycle
         ax.plot([mean * RPM], [rms], "D", color="0.35", ms=7, mec="k",
-                label=f"simulated RMS {rms:.4g} N m at {mean * RPM:.4g} rpm (mean)")
+                label=f"simulated RMS {rms:.4g} N m at {mean * RPM:.4g} rpm (mean), over its {t[-1] - t[0]:.4g} s")
     if pts["cycle"] is not None:
         speed, torque = pts["cycle"]
         ax.plot([speed * RPM], [torque], "s", color="k", ms=8,
-                label=f"duty cycle RMS {torque:.4g} N m at {speed * RPM:.4g} rpm (mean)")
+                label=f"duty cycle RMS {torque:.4g} N m at {speed * RPM:.4g} rpm (mean), over its "
+                      f"{cases.duty['cycle_time']:.4g} s")
     if pts["peak"] is not None:
         p = pts["peak"]
         ax.plot([p["speed"] * RPM], [p["torque"]], "*", color="k", ms=14,

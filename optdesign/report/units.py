@@ -128,14 +128,32 @@ def peak_quantity(result) -> str:
 
 KIND_TEXT = {
     "peak": "certified over the continuous stroke",
-    "rms": "an RMS over the sweep's samples: an integral, checked against twice as many panels, not certified",
-    "rms_time": "an RMS over the duty cycle's time by adaptive quadrature to 1e-10 at the optimum; the NLP's rule "
-                "on the cases' samples gave objective_sampled",
-    "mix": "a certified peak plus an RMS over the duty cycle's time (the NLP's integral on the cases' sample grid)",
+    "rms": "an RMS over the sweep by Gauss-Legendre quadrature, checked against twice as many panels and rechecked "
+           "by the trapezoid rule on 16 and 8 times denser samples (Richardson)",
+    "rms_time": "an RMS over the duty cycle's time by adaptive quadrature to 1e-10, at every start's design; the NLP's "
+                "rule on the cases' samples gave objective_sampled",
+    "mix": "a certified peak plus an RMS over the duty cycle's time by adaptive quadrature to 1e-10; the NLP's rule "
+           "on the cases' samples gave objective_sampled",
     "expression": "a value of the design, no stroke in it",
+    "extremes": "an expression of extremes over the stroke, each certified over the continuous stroke",
 }
 
 
 def objective_kind_text(result) -> str:
-    """What the objective's value is, honestly: a certified peak or an integral."""
-    return KIND_TEXT.get(result.objective_kind, "certified over the continuous stroke")
+    """What the objective's value is, honestly: a certified peak or an integral; an expression
+    of min/max over the stroke (each checked over the continuous stroke to the objective's
+    tolerance, design/certify.py) says so, one of parameters and stroke-end values that it has
+    no extreme in it."""
+    kind = result.objective_kind
+    if kind in ("rms_time", "mix"):
+        from ..design.cycle_certify import uncertified
+
+        if uncertified(result.scene):
+            return (f"the RMS over the duty cycle's time of {', '.join(uncertified(result.scene))} by the NLP's rule on "
+                    "the cases' samples, not certified")
+    if kind == "expression":
+        from ..scene.expressions import parse
+
+        if parse(result.scene.objective.minimise, "[objective] minimise").aggregate_calls():
+            kind = "extremes"
+    return KIND_TEXT.get(kind, KIND_TEXT["peak"])

@@ -34,7 +34,8 @@ class _Case:
     """One job of the lockstep, its thread and its turn."""
 
     def __init__(self, job):
-        self.job, self.turn, self.asked, self.answer = job, threading.Event(), None, None
+        self.job, self.asked, self.answer = job, None, None
+        self.turn, self.parked = threading.Event(), threading.Event()   # its turn given; handed back
         self.result, self.error, self.done, self.abandoned = None, None, False, False
 
 
@@ -43,12 +44,11 @@ def lockstep(jobs: list) -> list:
     enclosure bounds gathered (module docstring).  Returns, per job in order, ``(value, None)`` or
     ``(None, exception)`` for a job that raised."""
     cases = [_Case(job) for job in jobs]
-    parked = threading.Event()   # the running case handed its turn back
 
     def run(case):
         def gather(enclosure, lo, hi, rows):
             case.asked = (enclosure, np.asarray(lo, float), np.asarray(hi, float), rows)
-            parked.set()
+            case.parked.set()
             case.turn.wait()
             case.turn.clear()
             if case.abandoned:   # an exception in the caller (Ctrl-C): this case ends here
@@ -66,12 +66,12 @@ def lockstep(jobs: list) -> list:
             case.error = exc
         finally:
             case.done = True
-            parked.set()
+            case.parked.set()
 
     def give_turn(case):
-        parked.clear()
+        case.parked.clear()
         case.turn.set()
-        parked.wait()
+        case.parked.wait()
 
     threads = [threading.Thread(target=run, args=(case,), daemon=True) for case in cases]
     for t in threads:

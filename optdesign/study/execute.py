@@ -82,8 +82,12 @@ def execute(study, folder: Path, workers, scheduler, progress, restart, figures)
                     executor.close()
             del todo
             rows = table.finish()
+            # the cases' list let go once cases.csv is complete (~280 MB at a million cases, not held
+            # while the figures are drawn): the folder needs only their count and chains
+            total, chains = len(cases), (cases[-1].chain + 1 if cases else 0)
+            cases = table.cases = None
             try:
-                result = write_folder(study, cases, folder, rows, table, figures, computed, reused, t0, where,
+                result = write_folder(study, (total, chains), folder, rows, table, figures, computed, reused, t0, where,
                                       [f"journal: {note}" for note in journal.notes])
             except OptdesignError as exc:
                 raise OptdesignError(f"{exc}; the {len(rows)} finished cases are kept in {journal.path}: run the "
@@ -92,27 +96,27 @@ def execute(study, folder: Path, workers, scheduler, progress, restart, figures)
             table.discard()   # its files moved into the folder, or not to be left there
     if lost is not None:
         raise ClusterLost(
-            f"{lost}: {len(rows)} of {len(cases)} cases are finished and kept in {folder / study_journal.JOURNAL}; "
+            f"{lost}: {len(rows)} of {total} cases are finished and kept in {folder / study_journal.JOURNAL}; "
             "run the same study again with the same folder to resume (finished cases are not redone)",
-            len(rows), len(cases), folder / study_journal.JOURNAL, result)
+            len(rows), total, folder / study_journal.JOURNAL, result)
     if interrupted:
         raise StudyInterrupted(
-            f"study interrupted: {len(rows)} of {len(cases)} cases are finished and kept in "
+            f"study interrupted: {len(rows)} of {total} cases are finished and kept in "
             f"{folder / study_journal.JOURNAL} ({folder / study_table.CSV} holds them); run the same study "
             "again with the same folder to resume (finished cases are not redone)", result)
     return result
 
 
-def write_folder(study, cases, folder, rows, table, figures, computed, reused, t0, where, notes) -> StudyResult:
+def write_folder(study, counts, folder, rows, table, figures, computed, reused, t0, where, notes) -> StudyResult:
     """The derived files (study.json, cases.csv, figures, summary.txt) swapped in as a whole,
     with the journal held (its lock too) and carried into the new folder as the same file by a
     hard link: a kill at any instant leaves the old whole folder or the new whole one, and the
     journal at its place.  Where the filesystem has no hard links, written in place one by one."""
-    complete = len(rows) == len(cases)
+    complete = len(rows) == counts[0]   # counts: (cases, chains)
     made = []
 
     def write(tmp) -> list:
-        paths = [write_file(tmp / "study.json", json.dumps(definition(study, cases), indent=1) + "\n"),
+        paths = [write_file(tmp / "study.json", json.dumps(definition(study, *counts), indent=1) + "\n"),
                  *study_table.write_tables(tmp, table)]
         pareto = bool(study.axes) and study.axes[-1].kind == "pareto"
         if complete and figures:
@@ -139,11 +143,11 @@ def merged_row(case, row) -> dict:
     return {"case": case.index, "id": case.id, "chain": case.chain, "link": case.link, **dict(case.inputs), **row}
 
 
-def definition(study, cases) -> dict:
+def definition(study, cases: int, chains: int) -> dict:
     """study.json: what the study is (not how long it took)."""
     return {"schema": "optdesign/study/1", "title": study.scene.title, "file": study.scene.path,
-            "scene_digest": scene_digest(study.scene), "mode": study.mode, "cases": len(cases),
-            "chains": cases[-1].chain + 1 if cases else 0,
+            "scene_digest": scene_digest(study.scene), "mode": study.mode, "cases": cases,
+            "chains": chains,
             "axes": [{"kind": a.kind, "columns": list(a.columns), "constraint": a.constraint, "side": a.side,
                       "points": [[v for _, v in p] for p in a.points]} for a in study.axes],
             "starts": study.starts, "seed": study.seed, "warm": study.warm, "warm_starts": study.warm_starts,

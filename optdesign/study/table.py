@@ -80,8 +80,8 @@ class CsvWriter:
     def finish(self) -> Rows:
         """Append the finished cases after the first unfinished one too, and close the file;
         returns the rows (once finished, it stays so)."""
-        if self.fh is not None and self.fh.closed:
-            return self.rows
+        if self.cases is None or (self.fh is not None and self.fh.closed):
+            return self.rows   # finished (and its cases let go: execute)
         for i in range(self.next, len(self.cases)):
             row = self.finished(self.cases[i])
             if row is not None:
