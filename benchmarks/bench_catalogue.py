@@ -32,6 +32,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from benchfile import ROOT, SCALING_MD, cpu_model, git_state, write_section  # noqa: E402
 
 
+NOT_WARMED = ("the compile cache not warmed by this run (--no-warm: what earlier runs left in it; a library "
+              "missing is compiled in the background while that run evaluates on CasADi's virtual machine)")
+
+
 def run(tree: Path, scene: str, out: Path, env: dict, starts: int):
     """(wall, child CPU, answer) of ``optdesign optimise`` with the code of ``tree``."""
     env = dict(env, PYTHONPATH=str(tree), MPLBACKEND="Agg")
@@ -88,7 +92,8 @@ def main(argv=None):
         f"--starts {args.starts}{' --no-warm' if args.no_warm else ''}` "
         f"({time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; {cpu_model()}, {os.cpu_count()} cores; "
         f"load {load0[0]:.1f} -> {load1[0]:.1f}): `optdesign optimise {args.scene} --no-animation --starts "
-        f"{args.starts}` with the default workers (the machine's cores), warm compile cache; old = {old_commit}, "
+        f"{args.starts}` with the default workers (the machine's cores), "
+        f"{NOT_WARMED if args.no_warm else 'warm compile cache'}; old = {old_commit}, "
         f"new = {git}; rounds interleaved (old, new).",
         "",
         "| round | old wall s | new wall s | old CPU s | new CPU s |",

@@ -81,3 +81,20 @@ def test_cycle_integrals_equal_the_cases_evaluated_one_by_one(problem, seed):
     # gearbox (0.94), over the gear ratio, held for 20 s
     assert hold == pytest.approx((end / 0.92 / 0.94 / ratio) ** 2 * 20, rel=1e-9)
     assert I_c == pytest.approx(moving + hold, rel=1e-12)
+
+
+@pytest.mark.slow
+def test_the_catalogue_keeps_its_answer():
+    """The whole catalogue with the default settings (20 starts, 2 workers), as
+    results/crane_luffing_drive/ holds it from before the cases shared their map (e832500): the
+    7.5 kW motor, its optimum to 1e-6, as many starts at it; the two smaller motors infeasible."""
+    import json
+
+    from optdesign.design.catalogue import optimise_catalogue
+
+    before = json.loads((ROOT / "results" / "crane_luffing_drive" / "result.json").read_text())
+    cat = optimise_catalogue(load(ROOT / "problems" / "crane_luffing_drive.toml"), starts=20, seed=0, workers=2)
+    assert cat.chosen == before["chosen_motor"] == "7.5 kW"
+    assert cat.best.objective == pytest.approx(before["objective"], rel=1e-6)
+    assert cat.best.starts_at_best >= before["starts_at_best"]
+    assert [cat.results[m].success for m in ("4 kW", "5.5 kW")] == [False, False]

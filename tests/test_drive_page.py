@@ -45,14 +45,6 @@ def arm(request, tmp_path_factory):
     return _folder(tmp_path_factory, "transfer_arm", request.param)
 
 
-@pytest.fixture(scope="module", params=WHERE[1:])
-def arm_here(request, tmp_path_factory):
-    """The transfer arm optimised here only: the shipped results/transfer_arm/result.json
-    predates the per-case motor peaks located between the samples (its drive train's peak is
-    the sampled 2.38859804, analyse's now 2.38891921)."""
-    return _folder(tmp_path_factory, "transfer_arm", request.param)
-
-
 @pytest.fixture(scope="module", params=WHERE)
 def hatch(request, tmp_path_factory):
     return _folder(tmp_path_factory, "hatch_cover", request.param)
@@ -163,13 +155,13 @@ def test_hatch_page_shows_the_cylinder_the_json_holds(hatch):
     assert c[2] == "0.4"
 
 
-def test_torque_speed_points_are_the_jsons(arm_here):
+def test_torque_speed_points_are_the_jsons(arm):
     """The torque-speed plot's governing peak and the duty cycle's RMS point
     (report/sized.operating_points) are the JSON's peak and RMS; the per-case RMS points
     combine to the cycle's RMS over time (the dwells carry no torque)."""
     from optdesign.report.sized import operating_points
 
-    folder, doc, _ = arm_here
+    folder, doc, _ = arm
     check_png(folder / "torque_speed.png", min_size=(600, 400))
     scene = optdesign.load(PROBLEMS / "transfer_arm.toml").with_parameters(**doc["design"])
     cases = optdesign.analyse(scene).cases

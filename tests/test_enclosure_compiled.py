@@ -8,6 +8,7 @@ figures of the shipped scenes, computed with either backend."""
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import os
 import pickle
@@ -165,6 +166,17 @@ def test_a_compiled_program_pickles_and_finds_its_library_again(programs):
     for mine, theirs in zip(again(lo, hi, [0.7, 0.4]), c_program(lo, hi, [0.7, 0.4])):
         assert all(np.array_equal(a, b, equal_nan=True) for a, b in zip(mine, theirs))
     assert again._function is not None
+
+
+def test_a_large_program_is_compiled_with_its_operations_optimised(cache, monkeypatch):
+    """The cache compiles a large source at -O0 (model/compiled.LARGE_SOURCE); an interval
+    program's C sets its own levels (its operations at O3, which -O0 would undo: 10 times
+    slower), so it is compiled with the cache's optimising flags whatever its size."""
+    monkeypatch.setattr(compiled, "LARGE_SOURCE", 1000)
+    program = CompiledProgram(interval_program(function())[0], wait=True)
+    assert program._library() is not None
+    metas = [json.loads(p.read_text()) for p in Path(os.environ["OPTDESIGN_CACHE_DIR"]).glob("intervals-*.json")]
+    assert metas and all(m["flags"][0] == compiled.FLAGS[0] != "-O0" for m in metas)
 
 
 def test_without_a_compiler_or_when_asked_the_numpy_program_runs(cache, monkeypatch):

@@ -371,7 +371,8 @@ def run_job(job: dict, block: bool = True) -> bool:
             size = c_file.stat().st_size
             if size > MAX_SOURCE:
                 raise OSError(f"{size / 1e6:.1f} MB of C is more than this cache compiles ({MAX_SOURCE / 1e6:g} MB)")
-            flags = flags_for(size)
+            # (an interval program's C sets its own levels: its operations O3, its list of calls O0)
+            flags = FLAGS if job.get("own_levels") else flags_for(size)
             out = subprocess.run([cc["path"], *flags, str(c_file), "-o", f"{stem}.so", "-lm"],
                                  capture_output=True, text=True, timeout=COMPILE_TIMEOUT_S,
                                  preexec_fn=_limit_memory if os.name == "posix" else None)

@@ -78,7 +78,8 @@ class CompiledProgram:
                 def prepare(folder):   # the C written only to be compiled
                     c_file = folder / f"{key}.src{os.getpid()}.c"
                     compiled.write_atomic(c_file, c_source(self.program, NAME)[0].encode())
-                    return {"kind": "source", "name": NAME, "source": str(c_file), "cleanup": [str(c_file)]}
+                    return {"kind": "source", "name": NAME, "source": str(c_file), "cleanup": [str(c_file)],
+                            "own_levels": True}
 
                 path = compiled.library(key, prepare, self.wait)   # (its C grows as the program: no MAX_GRAPH)
                 if path is None:
