@@ -157,7 +157,7 @@ class ParquetWriter:
 def _array(values, kind):
     import pyarrow as pa
 
-    from .table import cell
+    from .rows import cell
 
     if kind == "string":
         values = [None if v is None else v if isinstance(v, str) else cell(v) for v in values]

@@ -202,3 +202,17 @@ def _as_float(v):
         return float(v)
     except (TypeError, ValueError):
         return math.nan
+
+
+def cell(value) -> str:
+    """A CSV cell: floats in their shortest exact form (repr), None as empty."""
+    kind = type(value)
+    if kind is float:
+        return repr(value)   # nan, inf, -inf included
+    if value is None:
+        return ""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return repr(float(value))
+    return str(value)

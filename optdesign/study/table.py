@@ -9,7 +9,7 @@ from pathlib import Path
 
 from ..report.files import write_file
 from .parquet import PARQUET, ParquetWriter
-from .rows import Rows
+from .rows import Rows, cell
 
 CSV = "cases.csv"
 PARTIAL = f".{CSV}.partial.tmp"   # cases.csv while the study runs (a produced file's temporary name)
@@ -30,20 +30,6 @@ def columns(input_names, rows) -> list:
         out += [k for k in seen if k.startswith(prefix)]
     out += [k for k in seen if k not in out]
     return out
-
-
-def cell(value) -> str:
-    """A CSV cell: floats in their shortest exact form (repr), None as empty."""
-    kind = type(value)
-    if kind is float:
-        return repr(value)   # nan, inf, -inf included
-    if value is None:
-        return ""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, float):
-        return repr(float(value))
-    return str(value)
 
 
 class CsvWriter:
