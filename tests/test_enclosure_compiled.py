@@ -16,6 +16,7 @@ import warnings
 from pathlib import Path
 
 import casadi as ca
+import mpmath
 import numpy as np
 import pytest
 
@@ -247,3 +248,29 @@ SCENES = sorted(str(p.relative_to(ROOT)) for p in (ROOT / "problems").glob("*.to
 @pytest.mark.parametrize("scene_file", SCENES)
 def test_every_shipped_scene_certified_the_same_with_the_compiled_programs(cache, monkeypatch, scene_file):
     _same_figures(scene_file, monkeypatch)
+
+
+@pytest.mark.parametrize("backend", ["numpy", "C"])
+def test_overflow_and_negative_even_powers_hold_their_values(cache, backend):
+    """Two enclosures a review found wrong (lead, 2026-11-28): 1/(p0 p0 s) with p0 = 1e160 on
+    s in [0, 1] (p0 p0 s overflows; C's outward rounding took inf - inf, a NaN that the quotient's
+    fmin/fmax dropped, and enclosed [-1e-300, 1e-300] where the values run from 1e-320 to inf),
+    and s ** p with p = -2 or -4 on [1, 2] (the even-power cap took max|x| ** n with n < 0, giving
+    [1, 4] for [0.25, 1], in numpy as in C).  Reference: the values themselves, mpmath where they
+    leave the doubles."""
+    s, p = ca.SX.sym("s"), ca.SX.sym("p", 2)
+    v = ca.vertcat(1 / (p[0] * p[0] * s), s ** p[1])
+    f = ca.Function("f", [s, p], [v, ca.jacobian(v, s), ca.jacobian(ca.jacobian(v, s), s)], ["s", "p"],
+                    ["v", "dv", "d2v"], {"cse": True})
+    program = interval_program(f)[0]
+    if backend == "C":
+        program = CompiledProgram(program, wait=True)
+        assert program._library() is not None
+    for n in (-2, -4, 2, -3):
+        lo, hi, _ = program(np.array([0.0, 1.0]), np.array([1.0, 2.0]), np.array([1e160, float(n)]))[0]
+        assert not np.isnan(lo[0, 0]) and not np.isnan(lo[1, 1]) and not np.isnan(hi[1, 1]), (n, lo, hi)
+        # row 0 on the first interval, [0, 1]: 1/(1e320 s) from 1e-320 (s = 1) up to inf
+        assert lo[0, 0] <= 1e-320 and hi[0, 0] == np.inf, (lo[0, 0], hi[0, 0])
+        # row 1 on the second, [1, 2]: s^n between 1 and 2^n
+        exact = sorted([1.0, float(mpmath.mpf(2) ** n)])
+        assert lo[1, 1] <= exact[0] and exact[1] <= hi[1, 1], (n, lo[1, 1], hi[1, 1], exact)

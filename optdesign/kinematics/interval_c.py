@@ -37,6 +37,7 @@ BLOCK = 32
 
 _PRELUDE = r"""
 #include <math.h>
+#include <float.h>
 #include <stdlib.h>
 #include <string.h>
 #pragma GCC push_options
@@ -44,10 +45,14 @@ _PRELUDE = r"""
 #define B %(block)d
 #define TWO_PI %(two_pi)s
 typedef double slot[2][B];
-static inline double dn(double x) { return x - (fabs(x) * %(round)s + %(tiny)s); }
-static inline double up(double x) { return x + (fabs(x) * %(round)s + %(tiny)s); }
-static inline double dnl(double x) { return x - (fabs(x) * %(round_lib)s + %(tiny)s); }
-static inline double upl(double x) { return x + (fabs(x) * %(round_lib)s + %(tiny)s); }
+/* as intervals.py's _down/_up: a lower bound that overflowed to +inf stands for a finite value
+   above DBL_MAX, so DBL_MAX is its bound (inf - inf would give NaN); an upper -inf likewise */
+static inline double capd(double x) { return x > DBL_MAX ? DBL_MAX : x; }
+static inline double capu(double x) { return x < -DBL_MAX ? -DBL_MAX : x; }
+static inline double dn(double x) { x = capd(x); return x - (fabs(x) * %(round)s + %(tiny)s); }
+static inline double up(double x) { x = capu(x); return x + (fabs(x) * %(round)s + %(tiny)s); }
+static inline double dnl(double x) { x = capd(x); return x - (fabs(x) * %(round_lib)s + %(tiny)s); }
+static inline double upl(double x) { x = capu(x); return x + (fabs(x) * %(round_lib)s + %(tiny)s); }
 /* numpy's minimum/maximum (a NaN wins) and fmin/fmax (a NaN loses); written as two flat selects
    (the compiler vectorises these, not the nested form) */
 static inline double nmin(double x, double y) { double m = x < y ? x : y; return x != x ? x : m; }
@@ -90,7 +95,7 @@ static inline void iv_powi(double a, double b, int n, double *l, double *h) {   
   if (n %% 2 == 0) {
     lo = nmax(lo, 0.0);
     lo = ((a <= 0) & (b >= 0)) ? 0.0 : lo;
-    hi = nmin(hi, upl(pow(nmax(fabs(a), fabs(b)), (double)n)));
+    hi = nmin(hi, upl(pow(nmax(fabs(a), fabs(b)), (double)(n < 0 ? -n : n))));   /* x^|n| before 1/x */
   }
   if (n < 0) iv_div(1.0, 1.0, lo, hi, l, h); else { *l = lo; *h = hi; }
 }

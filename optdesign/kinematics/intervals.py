@@ -128,7 +128,7 @@ def _pow(a, b, c, d):
             lo = np.maximum(lo, 0.0)
             lo = np.where((a <= 0) & (b >= 0), 0.0, lo)
             # x^n for even n over an interval holding 0 is [0, max]; as products it may be wider
-            hi = np.minimum(hi, _up(np.maximum(np.abs(a), np.abs(b)) ** n, 2))
+            hi = np.minimum(hi, _up(np.maximum(np.abs(a), np.abs(b)) ** abs(n), 2))   # x^|n| before 1/x
         return _div(1.0, 1.0, lo, hi) if n < 0 else (lo, hi)
     la, lb = _monotone(np.log, np.maximum(a, 0.0), np.maximum(b, 0.0))
     lo, hi = _monotone(np.exp, *_mul(la, lb, c, d))
