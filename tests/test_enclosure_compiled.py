@@ -214,7 +214,7 @@ def _figures(x, name=""):
         yield name, x
 
 
-def _same_figures(scene_file, monkeypatch):
+def check_same_figures(scene_file, monkeypatch):
     scene = optdesign.load(ROOT / scene_file)
     monkeypatch.setenv("OPTDESIGN_INTERVALS", "numpy")
     theirs = dict(_figures(Analysis(scene).run()))
@@ -236,7 +236,7 @@ def _same_figures(scene_file, monkeypatch):
 def test_certified_figures_are_the_same_with_the_compiled_programs(cache, monkeypatch):
     """analyse's certified peaks, their places, bounds and notes: the same (within 1e-12) with
     the interval programs compiled as with numpy's (every shipped scene: the slow test below)."""
-    figures = _same_figures("problems/seed1_slider_crank.toml", monkeypatch)
+    figures = check_same_figures("problems/seed1_slider_crank.toml", monkeypatch)
     assert any("peaks" in k for k in figures)
 
 
@@ -247,7 +247,7 @@ SCENES = sorted(str(p.relative_to(ROOT)) for p in (ROOT / "problems").glob("*.to
 @pytest.mark.slow
 @pytest.mark.parametrize("scene_file", SCENES)
 def test_every_shipped_scene_certified_the_same_with_the_compiled_programs(cache, monkeypatch, scene_file):
-    _same_figures(scene_file, monkeypatch)
+    check_same_figures(scene_file, monkeypatch)
 
 
 @pytest.mark.parametrize("backend", ["numpy", "C"])
