@@ -20,7 +20,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
 import statistics
 import subprocess
 import sys
@@ -29,6 +28,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_commands import run as run_command  # noqa: E402
 from benchfile import ROOT, SCALING_MD, cpu_model, git_state, write_section  # noqa: E402
 
 
@@ -41,17 +41,11 @@ def run(tree: Path, scene: str, out: Path, env: dict, starts: int):
     env = dict(env, PYTHONPATH=str(tree), MPLBACKEND="Agg")
     cmd = [sys.executable, "-m", "optdesign", "optimise", str(ROOT / scene), "--out", str(out), "--no-animation", "-q",
            "--starts", str(starts)]
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    t0 = time.perf_counter()
-    proc = subprocess.run(cmd, cwd=tree, env=env, capture_output=True, text=True)
-    wall = time.perf_counter() - t0
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if proc.returncode != 0:
-        raise SystemExit(f"{' '.join(cmd)} in {tree} failed ({proc.returncode}): {proc.stderr[-800:]}")
+    wall, cpu = run_command(cmd, env, cwd=tree)
     result = json.loads((out / "result.json").read_text())
     answer = {"motor": result.get("chosen_motor"), "objective": result["objective"],
               "starts_at_best": result["starts_at_best"], "starts": result["starts_total"]}
-    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), answer
+    return wall, cpu, answer
 
 
 def main(argv=None):

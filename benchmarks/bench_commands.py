@@ -31,15 +31,15 @@ CRANE = "problems/level_luffing_crane.toml"
 GOAL_ANALYSE_S = 2.0
 
 
-def run(cmd, env):
-    """(wall, CPU of the child) of one command, which must succeed."""
+def run(cmd, env, cwd=ROOT):
+    """(wall, CPU of the child) of one command, run in ``cwd``, which must succeed."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    proc = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
+    proc = subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True)
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if proc.returncode != 0:
-        raise SystemExit(f"{' '.join(cmd)} failed ({proc.returncode}): {proc.stderr[-600:]}")
+        raise SystemExit(f"{' '.join(cmd)} in {cwd} failed ({proc.returncode}): {proc.stderr[-600:]}")
     return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
