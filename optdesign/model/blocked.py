@@ -245,6 +245,34 @@ class BlockedFunction:
         run()
         return {name: out[:n] for name, out in zip(self.names, outs)}
 
+    def many(self, s_row, P) -> dict:
+        """{output name: array cases x sweep values}: the row ``s_row`` for every parameter row
+        of ``P`` (cases x parameters) in one call, each case padded to whole blocks as
+        :meth:`__call__` pads it, every block with its case's parameters: a case's numbers are
+        those of its own call, whatever the other cases."""
+        s = np.asarray(s_row, float).ravel()
+        P = np.atleast_2d(np.asarray(P, float))
+        n, cases = len(s), P.shape[0]
+        per = max(-(-n // self.block), 1)
+        blocks = per * cases
+        key = ("many", blocks)
+        if key not in self._maps:
+            mapped = self.external.map(f"{self.external.name()}_many_{blocks}", "serial", blocks, [], [])
+            self._maps[key] = mapped.buffer()
+        buffer, run = self._maps[key]
+        row = np.empty(per * self.block)
+        row[:n] = s
+        row[n:] = s[-1] if n else 0.0
+        s_in = np.ascontiguousarray(np.tile(row, cases))
+        p_in = np.ascontiguousarray(np.repeat(P, per, axis=0).ravel())   # one parameter column per block
+        buffer.set_arg(0, memoryview(s_in))
+        buffer.set_arg(1, memoryview(p_in))
+        outs = [np.empty(blocks * self.block) for _ in self.names]
+        for j, out in enumerate(outs):
+            buffer.set_res(j, memoryview(out))
+        run()
+        return {name: out.reshape(cases, per * self.block)[:, :n] for name, out in zip(self.names, outs)}
+
 
 def stroke_evaluator(func: ca.Function, wait: bool | None = None):
     """The fastest evaluator of ``func`` (s, p) over a whole stroke that is at hand: the
