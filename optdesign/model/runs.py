@@ -90,13 +90,11 @@ def run_cases(a, P):
         r.peaks, r.stroke = dict(r.peaks_sampled), dict(r.stroke_sampled)
     extra = [None] * n
     if a.certified is not None:
-        for i in (i for i in range(n) if runs[i].error is None):
+        live = [i for i in range(n) if runs[i].error is None]
+        for i, got in zip(live, _certified(a, s, P, columns, constraints, narrow, live)):
             r = runs[i]
-            try:
-                got = a.certified(s, P[i], {k: v[i] for k, v in columns.items()},
-                                  {k: v[i] for k, v in constraints.items()}, narrow[i])
-            except OptdesignError as exc:
-                r.error = exc
+            if isinstance(got, OptdesignError):
+                r.error = got
                 continue
             r.peaks, r.peak_at, r.certificates = got["peaks"], got["peak_at"], got["certificates"]
             located = sorted({x for where in got["aggregates"].values() for x in where})
@@ -132,6 +130,30 @@ def run_cases(a, P):
         if a.certified is not None:
             r.timings["certify_s"] = (t2 - t1) / n
     return runs, values
+
+
+def _certified(a, s, P, columns, constraints, narrow, live) -> list:
+    """The certified extremes of the cases ``live`` (:meth:`~.certified.CertifiedExtremes.many`),
+    or per case its OptdesignError: a batch in which one case fails is certified again case by
+    case (each case's result is the same alone)."""
+    if not live:
+        return []
+
+    def rows(which):
+        return ({k: v[which] for k, v in columns.items()}, {k: v[which] for k, v in constraints.items()})
+
+    try:
+        return a.certified.many(s, P[live], *rows(live), [narrow[i] for i in live])
+    except OptdesignError as exc:
+        if len(live) == 1:
+            return [exc]
+    out = []
+    for i in live:
+        try:
+            out += a.certified.many(s, P[[i]], *rows([i]), [narrow[i]])
+        except OptdesignError as exc:
+            out.append(exc)
+    return out
 
 
 def _model_values(a, P):
