@@ -159,15 +159,20 @@ class Analysis:
         if not self._squares:
             return [{} for _ in P]
         if not isinstance(self._squares, tuple):
-            # compiled from the disk cache where it is there (the same numbers; a study's case
-            # spent 13 ms of its ~35 here in CasADi's virtual machine, 3 ms compiled: measured)
-            function = MappedFunction(self.mech.function("sweep_squares", self._squares), compile=True)
-            self._squares = (list(self._squares), function)
+            # the compiled blocks from the disk cache where they are there, else numpy or
+            # CasADi's map (model/blocked.py): each case's quadrature nodes in blocks of its own
+            func = self.mech.function("sweep_squares", self._squares)
+            self._squares = (list(self._squares), stroke_evaluator(func) or MappedFunction(func, compile=True))
         names, function = self._squares
         s = np.sort(self.s_values)
 
         def f(x, d, piece, case):
-            return np.vstack([row.reshape(1, -1) ** 2 for row in function.many(x, P[case])])
+            if isinstance(function, MappedFunction):
+                rows = function.many(x, P[case])
+            else:   # the nodes come case after case (integrate_many keeps its intervals so)
+                got = function.ragged(x, np.bincount(case, minlength=len(P)), P)
+                rows = [got[k] for k in names]
+            return np.vstack([np.reshape(row, (1, -1)) ** 2 for row in rows])
 
         found = integrate_many(f, [(float(s[0]), float(s[-1]), 1.0)], [s[1:-1]], TOLERANCE, cases=len(P))
         span = float(s[-1] - s[0])
