@@ -54,6 +54,24 @@ class CertifiedExtremes:
         self.values = MappedFunction(mech.function("certified_v", {"v": v}))
         self.q = MappedFunction(mech.function("q", {"q": mech.q}))
 
+    def many(self, s_values, P, columns, constraints, narrow=None) -> list:
+        """The continuous extremes of N cases of this analysis that differ only in their
+        parameters: case i at parameters ``P[i]`` (``P``: N x parameters), all sampled on the
+        same ``s_values`` (S values, ascending or descending).  ``columns`` and ``constraints``:
+        name -> array N x S, case i's sampled columns (``q`` and the peaks' names) and per-sample
+        constraints in row i.  ``narrow``: None, or one sequence of (s, width) per case (as
+        :meth:`__call__`'s).  Returns one dict per case, in order, each exactly what
+        :meth:`__call__` returns for that case alone: every decision of the certification is
+        taken per case, so a case's numbers do not depend on the other cases of the batch or on
+        its position in it (a study's serial, pool and Dask rows stay byte-identical)."""
+        P = np.atleast_2d(np.asarray(P, float))
+        n = P.shape[0]
+        narrow = [()] * n if narrow is None else list(narrow)
+        if len(narrow) != n:
+            raise ValueError(f"narrow: one sequence per case ({n}), got {len(narrow)}")
+        return [self(s_values, P[i], {k: np.asarray(v)[i] for k, v in columns.items()},
+                     {k: np.asarray(v)[i] for k, v in constraints.items()}, narrow[i]) for i in range(n)]
+
     def __call__(self, s_values, p, columns, constraints, narrow=()):
         """The continuous extremes at parameters ``p``, given the sampled ``columns`` and
         per-sample ``constraints`` of a run on ``s_values``.  ``narrow``: (s, width) of the

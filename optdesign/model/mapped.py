@@ -9,6 +9,9 @@ import numpy as np
 from ..errors import check_interrupt
 
 
+CHUNK = 4096   # points per mapped call of :meth:`MappedFunction.many` at most
+
+
 class MappedFunction:
     """A CasADi Function (s, p) evaluated at a row of sweep values with one parameter vector.
 
@@ -51,6 +54,45 @@ class MappedFunction:
                 check_interrupt(exc)   # a Ctrl-C, not a failed evaluation (errors.py)
         # CasADi's ordinary call: it reports a failure (or returns its NaNs) as it always has
         return [np.asarray(o) for o in mapped(s[None, :], p)]
+
+    def many(self, s, P) -> list:
+        """Every output at each sweep value ``s[i]`` with its own parameter row ``P[i]`` (cases
+        stacked: point i of case c has c's parameters): a list of arrays (output rows x len(s)).
+        Mapped calls of at most CHUNK points (padded with the last point to a power of two, so
+        that the mapped Functions are few); a point's numbers do not depend on the others."""
+        s = np.asarray(s, float).ravel()
+        n = len(s)
+        P = np.asarray(P, float).reshape(n, -1)
+        if n > CHUNK:
+            parts = [self.many(s[i:i + CHUNK], P[i:i + CHUNK]) for i in range(0, n, CHUNK)]
+            return [np.concatenate([part[j] for part in parts], axis=1) for j in range(len(parts[0]))]
+        if n == 0:
+            return [np.zeros((rows, 0)) for rows, _ in self._dense]
+        size = max(64, 1 << (n - 1).bit_length())
+        key = ("many", size)
+        if key not in self._maps:
+            mapped = self.func.map(f"{self.func.name()}_many_{size}", "serial", size, [], [])
+            buffer, run = mapped.buffer()
+            s_in, p_in = np.zeros(size), np.zeros(size * self.func.nnz_in(1))
+            outs = [np.zeros(mapped.nnz_out(j)) for j in range(mapped.n_out())]
+            buffer.set_arg(0, memoryview(s_in))
+            buffer.set_arg(1, memoryview(p_in))
+            for j, out in enumerate(outs):
+                buffer.set_res(j, memoryview(out))
+            self._maps[key] = (mapped, buffer, run, s_in, p_in, outs)
+        mapped, buffer, run, s_in, p_in, outs = self._maps[key]
+        width = P.shape[1]
+        s_in[:n], s_in[n:] = s, s[-1]
+        p_in[:n * width] = P.ravel()
+        p_in[n * width:] = np.tile(P[-1], size - n)
+        if self._buffered:
+            try:
+                run()
+                if buffer.ret() == 0:
+                    return [self._densify(o, j, size)[:, :n].copy() for j, o in enumerate(outs)]
+            except RuntimeError as exc:
+                check_interrupt(exc)
+        return [np.asarray(o)[:, :n] for o in mapped(s_in[None, :], p_in.reshape(size, width).T)]
 
     def _densify(self, nonzeros, j, n):
         """Output j (rows x n, dense) from the n evaluations' structural nonzeros."""
