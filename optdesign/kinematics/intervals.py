@@ -3,8 +3,11 @@
 Each operation returns an interval holding every value it takes when its operands range over
 theirs, moved outward by the rounding of the operation (:func:`_out`); the operations whose
 outcome jumps (comparisons, if_else, sign, floor, atan2's branch cut) also say where it is not
-decided over the interval.  Used by :mod:`.enclosure`, which runs a Function's instruction
-program with them.
+decided over the interval.  NaN (at both ends) is no enclosure: a function undefined on the
+whole interval (sqrt, log, asin... outside their domain), and the arithmetic and functions of
+it (a comparison with it is undecided, [0, 1], as CasADi's comparison with NaN is false), so that
+no interval where the function is undefined ever closes.  Used by
+:mod:`.enclosure`, which runs a Function's instruction program with them.
 """
 from __future__ import annotations
 
