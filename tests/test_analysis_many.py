@@ -88,15 +88,15 @@ def _dead_centre_row(analysis, theta=30 * DEG):
 
 
 def test_truck_crane_batches_give_each_case_its_own_run():
-    analysis, P = _crane_cases(7, seed=3)
-    P = np.insert(P, 3, _dead_centre_row(analysis), axis=0)   # a dead centre mid-batch
+    analysis, P = _crane_cases(4, seed=3)
+    P = np.insert(P, 2, _dead_centre_row(analysis), axis=0)   # a dead centre mid-batch
     alone = [_alone(analysis, p) for p in P]
-    assert alone[3].startswith("error:") and "dead centre" in alone[3]
-    assert sum(not a.startswith("error") for a in alone) == 7
+    assert alone[2].startswith("error:") and "dead centre" in alone[2]
+    assert sum(not a.startswith("error") for a in alone) == 4
     assert _batch(analysis, P) == alone
     # another composition: reversed, in two batches of other sizes
     order = np.arange(len(P))[::-1]
-    parts = _batch(analysis, P[order[:5]]) + _batch(analysis, P[order[5:]])
+    parts = _batch(analysis, P[order[:3]]) + _batch(analysis, P[order[3:]])
     assert parts == [alone[i] for i in order]
     ok = [i for i, a in enumerate(alone) if not a.startswith("error")]
     many = analysis.sweep_rms_many(P[ok])
@@ -128,7 +128,7 @@ def _fourbar(params, extra=""):
 
 
 def test_per_stroke_constraints_and_rms_of_a_four_bar_batch_are_each_cases_own():
-    points = designs(8, seed=11)[:3]
+    points = designs(8, seed=11)[:2]
     analysis = _analysis(_fourbar(points[0], CONSTRAINTS), FOURBAR)
     names = analysis.mech.parameter_names
     P = np.array([[p.get(n, v) for n, v in zip(names, analysis.mech.parameter_values)] for p in points], float)
@@ -160,21 +160,29 @@ def _rocker_pin(phi, a, b, c, branch, d=1.0):
     return bx + (along * ex - across * ey) / e, by + (along * ey + across * ex) / e
 
 
+def test_two_four_bars_and_one_that_does_not_assemble_in_one_batch_against_virtual_work():
+    """The fast sibling of the family below: two four-bars around one that does not assemble."""
+    check_family_batch(designs(8, seed=23)[:2])
+
+
+@pytest.mark.slow
 def test_a_sobol_family_of_four_bars_in_one_batch_against_virtual_work():
+    check_family_batch(designs(32, seed=29)[:10])
+
+
+def check_family_batch(points):
     """Each four-bar's certified peak drive torque and its RMS over the sweep against the numpy
     model (virtual work on 20,001 points); the one that does not assemble, mid-batch, says so
     and leaves the others as they are alone."""
-    points = designs(16, seed=23)[:5]
     bad = dict(points[0], a=4.0)   # not a crank-rocker: does not assemble over the sweep
-    cases = points[:2] + [bad] + points[2:]
+    cases = points[:1] + [bad] + points[1:]
     analysis = _analysis(_fourbar(points[0]), FOURBAR)
     names = analysis.mech.parameter_names
     P = np.array([[c.get(n, v) for n, v in zip(names, analysis.mech.parameter_values)] for c in cases], float)
     runs = analysis.run_many(P)
-    assert runs[2].error is not None and "assemble" in str(runs[2].error)
-    assert [_figures(r) if r.error is None else f"error: {r.error}" for r in runs] == \
-        [_alone(analysis, p) if i != 2 else f"error: {runs[2].error}" for i, p in enumerate(P)]
-    ok = [i for i in range(len(cases)) if i != 2]
+    assert runs[1].error is not None and "assemble" in str(runs[1].error)
+    assert [_figures(r) if r.error is None else f"error: {r.error}" for r in runs] == [_alone(analysis, p) for p in P]
+    ok = [i for i in range(len(cases)) if i != 1]
     rms = dict(zip(ok, analysis.sweep_rms_many(P[ok])))
     phi = np.linspace(20 * DEG, 160 * DEG, 20001)
     for i in ok:

@@ -168,7 +168,7 @@ class Analysis:
 
         def f(x, d, piece, case):
             if isinstance(function, MappedFunction):
-                rows = function.many(x, P[case])
+                rows = function(x, P[case])
             else:   # the nodes come case after case (integrate_many keeps its intervals so)
                 got = function.ragged(x, np.bincount(case, minlength=len(P)), P)
                 rows = [got[k] for k in names]
@@ -226,7 +226,7 @@ class Analysis:
         if self._stroke_rows is None:
             self._stroke_rows = MappedFunction(self.mech.function("stroke_rows", {"v": ca.vertcat(
                 *self.stroke.rows.values())}))
-        return self._stroke_rows.many(s, P)[0]
+        return self._stroke_rows(s, P)[0]
 
 
 def analyse(scene: Scene | ResolvedScene, samples: int | None = None, certify: bool = True,

@@ -328,7 +328,7 @@ class ReducedModel:
         P = np.atleast_2d(np.asarray(P, float))
         if K is None:
             n = len(s_values)
-            K = self._k_derivatives.many(np.tile(s_values, len(P)), np.repeat(P, n, axis=0))[0].reshape(len(P), n)
+            K = self._k_derivatives(np.tile(s_values, len(P)), np.repeat(P, n, axis=0))[0].reshape(len(P), n)
         out = [None] * len(P)
         for first, members in same_cases(P, self._k_uses):
             try:

@@ -163,7 +163,7 @@ def _model_values(a, P):
     if a.vectorised is not None:
         raw = a.vectorised.many(s, P)
     else:
-        out = a.mapped.many(np.tile(s, len(P)), np.repeat(P, n, axis=0))
+        out = a.mapped(np.tile(s, len(P)), np.repeat(P, n, axis=0))
         raw = {k: v.reshape(len(P), n) for k, v in zip(a.names, out)}
     values = {k: np.ascontiguousarray(np.broadcast_to(np.asarray(v, float), (len(P), n))) for k, v in raw.items()}
     if a.scene.drive.kind == "rotary":

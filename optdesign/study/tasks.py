@@ -106,7 +106,7 @@ def _dependencies(scene, names: set) -> set:
 # --- per-process caches ----------------------------------------------------------------------
 def _cache():
     if not hasattr(_LOCAL, "scenes"):
-        _LOCAL.scenes, _LOCAL.models = {}, {}
+        _LOCAL.scenes, _LOCAL.models, _LOCAL.unbounded = {}, {}, {}
     return _LOCAL
 
 
@@ -115,6 +115,19 @@ def _scene(task: Task):
     if task.scene_digest not in c.scenes:
         c.scenes[task.scene_digest] = pickle.loads(task.scene_blob)
     return c.scenes[task.scene_digest]
+
+
+def _unbounded(task: Task, base):
+    """``base`` without the bounds of the case's parameters in mode 'analyse' (see
+    :func:`case_scene`), made once per process for a study's parameters: a case's scene is then
+    validated once, when its values are set, not twice."""
+    if task.mode != "analyse" or not task.overrides:
+        return base
+    c = _cache()
+    key = (task.scene_digest, tuple(sorted(k for k, _ in task.overrides)))
+    if key not in c.unbounded:
+        c.unbounded[key] = base.without_bounds(*key[1])
+    return c.unbounded[key]
 
 
 def _model(task: Task, base, structural: dict):
@@ -186,7 +199,12 @@ def _prepare(task: Task):
     vector = task.checked and all(type(v) is float for v in overrides.values())
     try:
         model = _model(task, base, structural)
-        scene = overrides if vector else case_scene(base, task.mode, overrides) if overrides else None
+        if vector or not overrides:
+            scene = overrides or None
+        elif task.mode == "analyse":   # case_scene's, its bounds dropped once per process
+            scene = _unbounded(task, base).with_parameters(**overrides)
+        else:
+            scene = case_scene(base, task.mode, overrides)
     except OptdesignError as exc:
         return task, exc, None
     return task, model, scene
