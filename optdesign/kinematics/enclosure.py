@@ -246,25 +246,49 @@ class Enclosure:
 
     ``bounds(lo, hi)`` returns (L, U), rows x intervals: L <= v(s) <= U for every s in [lo, hi]
     and every row, the tightest of the plain enclosure, the mean-value form v(m) + v'([lo, hi])
-    (s - m) (where no jump of v may lie inside) and the Taylor form v(m) + v'(m) (s - m) +
-    v''([lo, hi]) (s - m)^2 / 2 (where no jump of v or v' may lie inside), m the midpoint."""
+    (s - m) (where no jump of v may lie inside), the Taylor form v(m) + v'(m) (s - m) +
+    v''([lo, hi]) (s - m)^2 / 2 (where no jump of v or v' may lie inside), m the midpoint, and
+    the monotone form: where no jump of v may lie inside and v' is proven of one sign over
+    [lo, hi] (its plain enclosure, or where v' is continuous too v'(m) + v''([lo, hi]) (s - m)),
+    v lies between its enclosures at the interval's two ends (an interval far from any maximum
+    of v then bounds it by the larger end value, however wide)."""
 
     def __init__(self, program: IntervalProgram, p):
-        """``p``: the parameter vector, or (intervals x parameters) each interval's own."""
+        """``p``: the parameter vector; or an array (cases x parameters) of many cases' own,
+        with ``cases`` given to :meth:`bounds` (each interval's case: a row of p), or without
+        it one row per interval (:mod:`optdesign.study.batched`)."""
         p = np.asarray(p, float)
         self.program, self.p = program, p if p.ndim == 2 else p.ravel()
 
-    def bounds(self, lo, hi, rows=None):
+    def bounds(self, lo, hi, rows=None, cases=None):
+        """(L, U, vm_lo, vm_hi), rows x intervals: the bounds of v over [lo, hi] and the
+        enclosure of v at the midpoint; ``rows``: those rows only (the others NaN); ``cases``:
+        each interval's row of the parameters (an Enclosure of many cases)."""
         gather = getattr(GATHER, "bounds", None)
-        if gather is not None:   # this thread's calls are gathered with other cases' (study.batched)
+        if gather is not None and cases is None:   # this thread's calls are gathered with other cases' (study.batched)
             return gather(self, lo, hi, rows)
         lo, hi = np.asarray(lo, float), np.asarray(hi, float)
         n = len(lo)
         m = 0.5 * (lo + hi)
         r = _up(np.maximum(hi - m, m - lo))
-        p = self.p if self.p.ndim == 1 else np.r_[self.p, self.p]   # for [lo, m]
-        (v_lo, v_hi, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(np.r_[lo, m], np.r_[hi, m], p, rows)
-        whole, mid = slice(0, n), slice(n, 2 * n)
+        # the ends, each (case, value) once: neighbouring intervals share them
+        if self.p.ndim == 1:
+            ends, where_end = np.unique(np.r_[lo, hi], return_inverse=True)
+            p = self.p
+        elif cases is None:   # one parameter row per interval: no sharing
+            ends, where_end, p = np.r_[lo, hi], np.arange(2 * n), np.r_[self.p, self.p, self.p, self.p]
+        else:
+            cases = np.asarray(cases, int)
+            key_case, key_s = np.r_[cases, cases], np.r_[lo, hi]
+            order = np.lexsort((key_s, key_case))
+            first = np.r_[True, (np.diff(key_case[order]) != 0) | (np.diff(key_s[order]) != 0)]
+            where_end = np.empty(2 * n, int)
+            where_end[order] = np.cumsum(first) - 1
+            ends, end_case = key_s[order][first], key_case[order][first]
+            p = self.p[np.r_[cases, cases, end_case]]
+        (v_lo, v_hi, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(
+            np.r_[lo, m, ends], np.r_[hi, m, ends], p, rows)
+        whole, mid, at = slice(0, n), slice(n, 2 * n), slice(2 * n, None)
         L, U = v_lo[:, whole], v_hi[:, whole]
         vm_lo, vm_hi = v_lo[:, mid], v_hi[:, mid]
         smooth0 = ~v_jump[:, whole]
@@ -277,10 +301,22 @@ class Enclosure:
             # Taylor form, for v and for -v
             U_t = _up(vm_hi + _upper_correction(d_lo[:, mid], d_hi[:, mid], e_hi[:, whole], r))
             L_t = _down(vm_lo - _upper_correction(-d_hi[:, mid], -d_lo[:, mid], -e_lo[:, whole], r))
+            # monotone form: v' of one sign over the interval (its mean-value form where v' is continuous)
+            de = r * np.maximum(e_hi[:, whole], -e_lo[:, whole])
+            de = de + np.abs(de) * 1e-12
+            dv_lo = np.where(smooth1 & (_down(d_lo[:, mid] - de) > d_lo[:, whole]), _down(d_lo[:, mid] - de), d_lo[:, whole])
+            dv_hi = np.where(smooth1 & (_up(d_hi[:, mid] + de) < d_hi[:, whole]), _up(d_hi[:, mid] + de), d_hi[:, whole])
+            rising, falling = smooth0 & (dv_lo >= 0), smooth0 & (dv_hi <= 0)
+            a_lo, a_hi = v_lo[:, at][:, where_end[:n]], v_hi[:, at][:, where_end[:n]]   # v at lo
+            b_lo, b_hi = v_lo[:, at][:, where_end[n:]], v_hi[:, at][:, where_end[n:]]   # v at hi
+            U_m = np.where(rising, b_hi, np.where(falling, a_hi, np.inf))
+            L_m = np.where(rising, a_lo, np.where(falling, b_lo, -np.inf))
         U = np.where(smooth0 & (U_mv < U), U_mv, U)
         L = np.where(smooth0 & (L_mv > L), L_mv, L)
         U = np.where(smooth1 & (U_t < U), U_t, U)
         L = np.where(smooth1 & (L_t > L), L_t, L)
+        U = np.where(U_m < U, U_m, U)
+        L = np.where(L_m > L, L_m, L)
         return L, U, vm_lo, vm_hi
 
 
@@ -319,8 +355,8 @@ class Selected:
         self.sign = np.asarray(sign, float)[:, None]
         self.reason = getattr(enclosure, "reason", None)
 
-    def bounds(self, lo, hi, rows=None):
+    def bounds(self, lo, hi, rows=None, cases=None):
         inner = None if rows is None else self.rows[np.asarray(rows, int)]
-        L, U, m_lo, m_hi = (a[self.rows] for a in self.enclosure.bounds(lo, hi, inner))
+        L, U, m_lo, m_hi = (a[self.rows] for a in self.enclosure.bounds(lo, hi, inner, cases))
         up = self.sign > 0
         return (np.where(up, L, -U), np.where(up, U, -L), np.where(up, m_lo, -m_hi), np.where(up, m_hi, -m_lo))
