@@ -72,7 +72,7 @@ class IntervalProgram:
                 where = slot if varies[slot] else self.n_work + made_by[slot]
                 prog.append((k, op, (o[0], o[1], deps[slot] if varies[slot] else 0), None, [where], True, None, None))
                 producers[k] = [made_by[slot]] if varies[slot] else []
-                outputs.append((k, self.rows[o[0]][o[1]]))
+                outputs.append((k, o[0], self.rows[o[0]][o[1]]))
                 continue
             if op not in (ca.OP_INPUT, ca.OP_CONST) and op not in _BINARY_OPS and op not in _UNARY_OPS:
                 raise NotImplementedError(f"operation {_name(op)} has no interval enclosure here")
@@ -106,13 +106,14 @@ class IntervalProgram:
         self._p_key, self._p_work = None, None
         self._producers, self._outputs, self._subsets = producers, outputs, {}
 
-    def _subset(self, rows):
+    def _subset(self, rows, outputs=None):
         """The varying program cut to what the outputs of ``rows`` need (in the same order: an
-        instruction left out wrote nothing that a kept one reads), cached per set of rows."""
-        key = frozenset(int(r) for r in rows)
+        instruction left out wrote nothing that a kept one reads), cached per set of rows;
+        ``outputs``: of those outputs only (indices: 0 v, 1 dv/ds, 2 d2v/ds2), else all."""
+        key = (frozenset(int(r) for r in rows), None if outputs is None else frozenset(outputs))
         if key not in self._subsets:
             needed = set()
-            stack = [k for k, row in self._outputs if row in key]
+            stack = [k for k, j, row in self._outputs if row in key[0] and (outputs is None or j in key[1])]
             while stack:
                 k = stack.pop()
                 if k not in needed:
@@ -170,17 +171,22 @@ class IntervalProgram:
                 if bit is not None and undecided is not None:
                     undecided[bit] = und
 
-    def __call__(self, lo, hi, p, rows=None):
+    def __call__(self, lo, hi, p, rows=None, outputs=None):
         """Every output over the intervals [lo, hi]; ``rows``: only those rows of the outputs
-        (the others NaN), with only the instructions they need.  ``p``: the parameter vector, or
-        an array (intervals x parameters) of each interval's own (point intervals per interval:
-        many parameter vectors in one call, :mod:`optdesign.study.batched`)."""
+        (the others NaN), with only the instructions they need; ``outputs``: only those outputs
+        (indices), idem.  ``p``: the parameter vector, or an array (intervals x parameters) of
+        each interval's own (point intervals per interval: many parameter vectors in one
+        call)."""
         lo, hi = np.asarray(lo, float).ravel(), np.asarray(hi, float).ravel()
         n = len(lo)
         work = list(self._fixed_work(p))
         undecided = [None] * self.n_jumps
         self._store, self._branches = [], {}
-        self._run(self.varying if rows is None else self._subset(rows), work, (lo, hi), p, undecided)
+        if rows is None and outputs is None:
+            program = self.varying
+        else:
+            program = self._subset(range(max(self.shapes, default=0)) if rows is None else rows, outputs)
+        self._run(program, work, (lo, hi), p, undecided)
         out = [(np.full((m, n), np.nan), np.full((m, n), np.nan), np.zeros((m, n), bool)) for m in self.shapes]
         for (j, nz, deps), (a, b) in self._store:
             row = self.rows[j][nz]
@@ -286,29 +292,33 @@ class Enclosure:
             where_end[order] = np.cumsum(first) - 1
             ends, end_case = key_s[order][first], key_case[order][first]
             p = self.p[np.r_[cases, cases, end_case]]
-        (v_lo, v_hi, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(
-            np.r_[lo, m, ends], np.r_[hi, m, ends], p, rows)
-        whole, mid, at = slice(0, n), slice(n, 2 * n), slice(2 * n, None)
-        L, U = v_lo[:, whole], v_hi[:, whole]
-        vm_lo, vm_hi = v_lo[:, mid], v_hi[:, mid]
-        smooth0 = ~v_jump[:, whole]
-        smooth1 = smooth0 & ~d_jump[:, whole]
+        # over [lo, hi] everything; at the midpoints v and v' (the Taylor form's); at the ends v
+        # (the monotone form's): each call runs only the instructions its outputs need
+        if p.ndim == 2:
+            p_whole, p_mid, p_ends = p[:n], p[n:2 * n], p[2 * n:]
+        else:
+            p_whole = p_mid = p_ends = p
+        (L, U, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(lo, hi, p_whole, rows)
+        (vm_lo, vm_hi, _), (dm_lo, dm_hi, _), _ = self.program(m, m, p_mid, rows, (0, 1))
+        (at_lo, at_hi, _), _, _ = self.program(ends, ends, p_ends, rows, (0,))
+        smooth0 = ~v_jump
+        smooth1 = smooth0 & ~d_jump
         with np.errstate(all="ignore"):
             # mean-value form
-            mv = r * np.maximum(d_hi[:, whole], -d_lo[:, whole])
+            mv = r * np.maximum(d_hi, -d_lo)
             mv = mv + np.abs(mv) * 1e-12
             U_mv, L_mv = _up(vm_hi + mv), _down(vm_lo - mv)
             # Taylor form, for v and for -v
-            U_t = _up(vm_hi + _upper_correction(d_lo[:, mid], d_hi[:, mid], e_hi[:, whole], r))
-            L_t = _down(vm_lo - _upper_correction(-d_hi[:, mid], -d_lo[:, mid], -e_lo[:, whole], r))
+            U_t = _up(vm_hi + _upper_correction(dm_lo, dm_hi, e_hi, r))
+            L_t = _down(vm_lo - _upper_correction(-dm_hi, -dm_lo, -e_lo, r))
             # monotone form: v' of one sign over the interval (its mean-value form where v' is continuous)
-            de = r * np.maximum(e_hi[:, whole], -e_lo[:, whole])
+            de = r * np.maximum(e_hi, -e_lo)
             de = de + np.abs(de) * 1e-12
-            dv_lo = np.where(smooth1 & (_down(d_lo[:, mid] - de) > d_lo[:, whole]), _down(d_lo[:, mid] - de), d_lo[:, whole])
-            dv_hi = np.where(smooth1 & (_up(d_hi[:, mid] + de) < d_hi[:, whole]), _up(d_hi[:, mid] + de), d_hi[:, whole])
+            dv_lo = np.where(smooth1 & (_down(dm_lo - de) > d_lo), _down(dm_lo - de), d_lo)
+            dv_hi = np.where(smooth1 & (_up(dm_hi + de) < d_hi), _up(dm_hi + de), d_hi)
             rising, falling = smooth0 & (dv_lo >= 0), smooth0 & (dv_hi <= 0)
-            a_lo, a_hi = v_lo[:, at][:, where_end[:n]], v_hi[:, at][:, where_end[:n]]   # v at lo
-            b_lo, b_hi = v_lo[:, at][:, where_end[n:]], v_hi[:, at][:, where_end[n:]]   # v at hi
+            a_lo, a_hi = at_lo[:, where_end[:n]], at_hi[:, where_end[:n]]   # v at lo
+            b_lo, b_hi = at_lo[:, where_end[n:]], at_hi[:, where_end[n:]]   # v at hi
             U_m = np.where(rising, b_hi, np.where(falling, a_hi, np.inf))
             L_m = np.where(rising, a_lo, np.where(falling, b_lo, -np.inf))
         U = np.where(smooth0 & (U_mv < U), U_mv, U)
