@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .extrema import newton, target
+from .extrema import _starts, newton, target
 
 CERTIFY_TOL = 1e-9   # the certificate's tolerance, relative to the row's scale (its largest |v|)
 MAX_PASSES = 60      # subdivision passes of the branch and bound before a case gives up
@@ -54,7 +54,7 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
         case = tasks.case[task]
         # the distinct intervals of each case (the tasks of a case share them)
         order = np.lexsort((hi, lo, case))
-        first = np.r_[True, (np.diff(case[order]) != 0) | (np.diff(lo[order]) != 0) | (np.diff(hi[order]) != 0)]
+        first = _starts((np.diff(case[order]) != 0) | (np.diff(lo[order]) != 0) | (np.diff(hi[order]) != 0), len(order))
         where = np.empty(len(task), int)
         where[order] = np.cumsum(first) - 1
         pick = order[first]
@@ -82,9 +82,15 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
             left.append((task[stopping], lo[stopping], hi[stopping], left_ub[stopping]))
             task, lo, hi, left_ub = task[~stopping], lo[~stopping], hi[~stopping], left_ub[~stopping]
             width = hi - lo
-        middle = lo + width * 0.5   # halved
-        task, left_ub = np.repeat(task, 2), np.repeat(left_ub, 2)
-        lo, hi = np.c_[lo, middle].ravel(), np.c_[middle, hi].ravel()
+        # halved; one that holds its task's best located maximum cut towards it as in the first pass
+        top, _ = found.best(tasks.code)
+        centre = found.s[top[task]]
+        around = (lo < centre) & (centre < hi)
+        cuts = np.full((len(task), 2 * PRESPLIT + 1), np.nan)
+        cuts[~around, 0] = lo[~around] + width[~around] * 0.5
+        steps = width[around, None] * 2.0 ** -np.arange(1, PRESPLIT + 1)[None, :]
+        cuts[around] = centre[around, None] + np.concatenate((-steps, np.zeros((len(steps), 1)), steps[:, ::-1]), axis=1)
+        task, lo, hi, left_ub = split(task, lo, hi, left_ub, cuts)
     if left:
         task, lo, hi, left_ub = (np.concatenate(a) for a in zip(*left))
         np.maximum.at(bound, task, left_ub)
@@ -93,6 +99,20 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
             notes[k] = (f"not certified: the enclosure did not close within {tol_abs[k]:.3g} of the located value "
                         f"near s = {0.5 * (lo[i] + hi[i]):.9g} (bound {bound[k]:.9g} against {best[k]:.9g})")
     return np.maximum(bound, best), notes
+
+
+def split(task, lo, hi, left_ub, cuts):
+    """Each interval [lo, hi] cut at its row of ``cuts`` (ascending, NaN: none) strictly inside
+    it; the pieces keep their interval's task and bound.  Returns (task, lo, hi, left_ub)."""
+    with np.errstate(invalid="ignore"):
+        inside = (cuts > lo[:, None]) & (cuts < hi[:, None])
+    inside[:, 1:] &= cuts[:, 1:] != cuts[:, :-1]   # each cut once
+    edges = np.concatenate((lo[:, None], cuts, hi[:, None]), axis=1)
+    keep = np.concatenate((np.ones((len(lo), 1), bool), inside, np.ones((len(lo), 1), bool)), axis=1)
+    flat, row = edges[keep], np.nonzero(keep)[0]
+    piece = np.flatnonzero(row[:-1] == row[1:])   # consecutive edges of one interval
+    owner = row[piece]
+    return task[owner], flat[piece], flat[piece + 1], left_ub[owner]
 
 
 def first_intervals(tasks, s_grid, found, best):
@@ -125,7 +145,7 @@ def first_intervals(tasks, s_grid, found, best):
     case, s = np.concatenate(cut_case), np.concatenate(cut_s)
     order = np.lexsort((s, case))
     case, s = case[order], s[order]
-    distinct = np.r_[True, (np.diff(case) != 0) | (np.diff(s) != 0)]
+    distinct = _starts((np.diff(case) != 0) | (np.diff(s) != 0), len(s))
     case, s = case[distinct], s[distinct]
     pair = np.flatnonzero(case[:-1] == case[1:])   # consecutive cuts of one case: an interval
     i_case, i_lo, i_hi = case[pair], s[pair], s[pair + 1]
@@ -154,7 +174,7 @@ def locate_better(evaluate, tasks, found, best, task, lo, hi, at_mid, v_mid, s_t
     if not len(better):
         return
     order = np.lexsort((better, -at_mid[better], task[better]))   # per task: largest midpoint, then first
-    chosen = better[order][np.r_[True, np.diff(task[better][order]) != 0]]
+    chosen = better[order][_starts(np.diff(task[better][order]) != 0, len(order))]
     k = task[chosen]
     w, m = hi[chosen] - lo[chosen], 0.5 * (lo[chosen] + hi[chosen])
     code = tasks.code[k]

@@ -31,6 +31,7 @@ from .intervals import INF, JUMPS, PERIODIC, _binary, _down, _op, _out, _unary, 
 # per thread: ``GATHER.bounds(enclosure, lo, hi, rows)``, when set, answers Enclosure.bounds (the
 # calls of many cases' analyses gathered into one: optdesign.study.batched)
 GATHER = threading.local()
+CHUNK = 2048   # intervals per evaluation of Enclosure.bounds at most
 
 _BINARY_OPS = {_op(n) for n in ("OP_ADD", "OP_SUB", "OP_MUL", "OP_DIV", "OP_POW", "OP_CONSTPOW", "OP_ATAN2",
                                 "OP_FMIN", "OP_FMAX", "OP_HYPOT", "OP_LT", "OP_LE", "OP_EQ", "OP_NE",
@@ -275,32 +276,43 @@ class Enclosure:
             return gather(self, lo, hi, rows)
         lo, hi = np.asarray(lo, float), np.asarray(hi, float)
         n = len(lo)
+        if self.p.ndim == 2 and cases is None:   # one parameter row per interval
+            cases = np.arange(n)
+        if n > CHUNK:   # in pieces whose arrays stay in the processor's cache (each interval on its own)
+            parts = [self.bounds(lo[i:i + CHUNK], hi[i:i + CHUNK], rows, None if cases is None else cases[i:i + CHUNK])
+                     for i in range(0, n, CHUNK)]
+            return tuple(np.concatenate(a, axis=1) for a in zip(*parts))
         m = 0.5 * (lo + hi)
         r = _up(np.maximum(hi - m, m - lo))
         # the ends, each (case, value) once: neighbouring intervals share them
         if self.p.ndim == 1:
-            ends, where_end = np.unique(np.r_[lo, hi], return_inverse=True)
+            ends, where_end = np.unique(np.concatenate((lo, hi)), return_inverse=True)
             p = self.p
-        elif cases is None:   # one parameter row per interval: no sharing
-            ends, where_end, p = np.r_[lo, hi], np.arange(2 * n), np.r_[self.p, self.p, self.p, self.p]
         else:
             cases = np.asarray(cases, int)
-            key_case, key_s = np.r_[cases, cases], np.r_[lo, hi]
+            key_case, key_s = np.concatenate((cases, cases)), np.concatenate((lo, hi))
             order = np.lexsort((key_s, key_case))
-            first = np.r_[True, (np.diff(key_case[order]) != 0) | (np.diff(key_s[order]) != 0)]
+            first = np.concatenate(([True], (np.diff(key_case[order]) != 0) | (np.diff(key_s[order]) != 0)))
             where_end = np.empty(2 * n, int)
             where_end[order] = np.cumsum(first) - 1
             ends, end_case = key_s[order][first], key_case[order][first]
-            p = self.p[np.r_[cases, cases, end_case]]
+            p = self.p[np.concatenate((cases, cases, end_case))]
         # over [lo, hi] everything; at the midpoints v and v' (the Taylor form's); at the ends v
         # (the monotone form's): each call runs only the instructions its outputs need
-        if p.ndim == 2:
-            p_whole, p_mid, p_ends = p[:n], p[n:2 * n], p[2 * n:]
+        # (numpy runs a program instruction by instruction, at a fixed cost per instruction and
+        # call: there all of them in one call)
+        if getattr(self.program, "subsets_pay", False):
+            p_whole, p_mid, p_ends = (p[:n], p[n:2 * n], p[2 * n:]) if p.ndim == 2 else (p, p, p)
+            (L, U, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(lo, hi, p_whole, rows)
+            (vm_lo, vm_hi, _), (dm_lo, dm_hi, _), _ = self.program(m, m, p_mid, rows, (0, 1))
+            (at_lo, at_hi, _), _, _ = self.program(ends, ends, p_ends, rows, (0,))
         else:
-            p_whole = p_mid = p_ends = p
-        (L, U, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(lo, hi, p_whole, rows)
-        (vm_lo, vm_hi, _), (dm_lo, dm_hi, _), _ = self.program(m, m, p_mid, rows, (0, 1))
-        (at_lo, at_hi, _), _, _ = self.program(ends, ends, p_ends, rows, (0,))
+            (v_lo, v_hi, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(
+                np.concatenate((lo, m, ends)), np.concatenate((hi, m, ends)), p, rows)
+            L, U, vm_lo, vm_hi, at_lo, at_hi = (v_lo[:, :n], v_hi[:, :n], v_lo[:, n:2 * n], v_hi[:, n:2 * n],
+                                                v_lo[:, 2 * n:], v_hi[:, 2 * n:])
+            dm_lo, dm_hi = d_lo[:, n:2 * n], d_hi[:, n:2 * n]
+            v_jump, d_lo, d_hi, d_jump, e_lo, e_hi = (a[:, :n] for a in (v_jump, d_lo, d_hi, d_jump, e_lo, e_hi))
         smooth0 = ~v_jump
         smooth1 = smooth0 & ~d_jump
         with np.errstate(all="ignore"):

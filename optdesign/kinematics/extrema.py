@@ -27,7 +27,7 @@ def distinct(s, cases):
     s, cases = np.asarray(s, float), np.asarray(cases, np.int64)
     bits = s.view(np.int64)
     order = np.lexsort((bits, cases))
-    first = np.r_[True, (np.diff(cases[order]) != 0) | (np.diff(bits[order]) != 0)] if len(s) else np.zeros(0, bool)
+    first = _starts((np.diff(cases[order]) != 0) | (np.diff(bits[order]) != 0), len(s))
     group = np.empty(len(s), int)
     group[order] = np.cumsum(first) - 1
     # the groups in the order of their first appearance (a stable sort: order[first] is each
@@ -53,7 +53,7 @@ def newton(evaluate, cases, rows, lo, hi, s0, sign, s_tol=1e-13):
     n = len(s0)
     if not n:
         return np.zeros(0), np.zeros(0)
-    points, point_case, index = distinct(np.r_[lo, hi, s0], np.r_[cases, cases, cases])
+    points, point_case, index = distinct(np.concatenate((lo, hi, s0)), np.concatenate((cases, cases, cases)))
     V, D1, D2 = (np.asarray(a, float) for a in evaluate(points, point_case))
     i_lo, i_hi, i_0 = index[:n], index[n:2 * n], index[2 * n:]
     s_out, v_out = s0.copy(), V[rows, i_0]
@@ -83,6 +83,13 @@ def newton(evaluate, cases, rows, lo, hi, s0, sign, s_tol=1e-13):
         k, s, lo, hi = k[keep], s_new[keep], lo[keep], hi[keep]
         d1, d2 = D1[rows[k], at[keep]], D2[rows[k], at[keep]]
     return s_out, v_out
+
+
+def _starts(changes, n):
+    """Where a run of equal sorted keys starts: True, then ``changes`` (n - 1 of them; n = 0: none)."""
+    out = np.ones(n, bool)
+    out[1:] = changes
+    return out
 
 
 class Tasks:
@@ -125,15 +132,15 @@ class Found:
         self.task, self.s, self.v = np.zeros(0, int), np.zeros(0), np.zeros(0)
 
     def add(self, task, s, v):
-        self.task = np.r_[self.task, np.asarray(task, int)]
-        self.s, self.v = np.r_[self.s, np.asarray(s, float)], np.r_[self.v, np.asarray(v, float)]
+        self.task = np.concatenate((self.task, np.asarray(task, int)))
+        self.s, self.v = np.concatenate((self.s, np.asarray(s, float))), np.concatenate((self.v, np.asarray(v, float)))
 
     def best(self, code):
         """Per task: the index into the arrays of its largest target (the first among equals),
         and that target (-inf where a task has none)."""
         t = target(self.v, code[self.task])
         order = np.lexsort((np.arange(len(t)), -t, self.task))   # per task: largest first, then first found
-        head = np.r_[True, np.diff(self.task[order]) != 0] if len(order) else np.zeros(0, bool)
+        head = _starts(np.diff(self.task[order]) != 0, len(order))
         top = np.full(self.n_tasks, -1)
         top[self.task[order][head]] = order[head]
         best = np.full(self.n_tasks, -np.inf)

@@ -97,12 +97,21 @@ class CompiledProgram:
             self._function = _loaded[key]
         return self._function
 
+    @property
+    def subsets_pay(self) -> bool:
+        """Whether a call on a subset of the outputs costs less (the C runs only the instructions
+        they need; numpy's cost is mostly per instruction and call)."""
+        return self._function is not None or self._library() is not None
+
     def __getstate__(self):   # (pickled, e.g. to a figure process: the library is looked up again there)
         return {**self.__dict__, "_function": None, "_tried": -np.inf}
 
     def need(self, rows, outputs=None):
         """The varying instructions that the outputs of ``rows`` (all: None) need, of the
         outputs ``outputs`` (all: None), as bytes."""
+        fast = (None if rows is None else np.asarray(rows).tobytes(), outputs)   # (the same rows often asked again)
+        if fast in self._need:
+            return self._need[fast]
         key = (None if rows is None else frozenset(int(r) for r in rows), None if outputs is None else frozenset(outputs))
         if key not in self._need:
             varying = self.program.varying
@@ -113,6 +122,7 @@ class CompiledProgram:
                 kept = {entry[-1][1] for entry in self.program._subset(every if rows is None else rows, outputs)}
                 mask = np.array([entry[-1][1] in kept for entry in varying], np.uint8)
             self._need[key] = np.ascontiguousarray(mask)
+        self._need[fast] = self._need[key]
         return self._need[key]
 
     def __call__(self, lo, hi, p, rows=None, outputs=None):
