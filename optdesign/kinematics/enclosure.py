@@ -272,8 +272,8 @@ class Enclosure:
         enclosure of v at the midpoint; ``rows``: those rows only (the others NaN); ``cases``:
         each interval's row of the parameters (an Enclosure of many cases)."""
         gather = getattr(GATHER, "bounds", None)
-        if gather is not None and cases is None:   # this thread's calls are gathered with other cases' (study.batched)
-            return gather(self, lo, hi, rows)
+        if gather is not None and (self.p.ndim == 1 or len(self.p) == 1):
+            return gather(self, lo, hi, rows)   # this thread's (one case's) calls gathered with other cases' (study.batched)
         lo, hi = np.asarray(lo, float), np.asarray(hi, float)
         n = len(lo)
         if self.p.ndim == 2 and cases is None:   # one parameter row per interval
