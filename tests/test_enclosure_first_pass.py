@@ -44,7 +44,8 @@ def test_the_first_pass_tiles_the_stroke(samples, descending, where, senses, see
     for k, f in enumerate(found):
         flat.add([k] * len(f), [e.s for e in f], [e.value for e in f])
     _, best = flat.best(tasks.code)
-    req, lo, hi = branch_bound.first_intervals(tasks, grid, flat, best)
+    req, lo, hi, where, first = branch_bound.first_intervals(tasks, grid, flat, best)
+    assert np.array_equal(lo[first][where], lo) and np.array_equal(hi[first][where], hi)
     samples_sorted = np.sort(grid)
     blocks = samples_sorted[::branch_bound.BLOCK]
     for k in range(len(requests)):

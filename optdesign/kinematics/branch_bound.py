@@ -45,19 +45,20 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
     bound = np.full(n, -np.inf)
     span = abs(float(s_grid[-1] - s_grid[0])) if len(s_grid) > 1 else 0.0
     limits = (float(s_grid.min()), float(s_grid.max())) if len(s_grid) else (0.0, 0.0)
-    task, lo, hi = first_intervals(tasks, s_grid, found, best)
+    task, lo, hi, where, pick = first_intervals(tasks, s_grid, found, best)
     left_ub = np.full(len(task), np.inf)   # bounds of the intervals still open (inf: not bounded yet)
     left = []   # (task, lo, hi, bound) of the intervals of the cases that stopped
     for pass_ in range(MAX_PASSES):
         if not len(task):
             break
         case = tasks.case[task]
-        # the distinct intervals of each case (the tasks of a case share them)
-        order = np.lexsort((hi, lo, case))
-        first = _starts((np.diff(case[order]) != 0) | (np.diff(lo[order]) != 0) | (np.diff(hi[order]) != 0), len(order))
-        where = np.empty(len(task), int)
-        where[order] = np.cumsum(first) - 1
-        pick = order[first]
+        if pass_:   # the distinct intervals of each case (the tasks of a case share them)
+            order = np.lexsort((hi, lo, case))
+            first = _starts((np.diff(case[order]) != 0) | (np.diff(lo[order]) != 0) | (np.diff(hi[order]) != 0),
+                            len(order))
+            where = np.empty(len(task), int)
+            where[order] = np.cumsum(first) - 1
+            pick = order[first]
         L, U, vm_lo, vm_hi = enclosure.bounds(lo[pick], hi[pick], np.unique(tasks.row[task]), case[pick])
         r_of, code = tasks.row[task], tasks.code[task]
         ub = target_bound(L[r_of, where], U[r_of, where], code, upper=True)
@@ -120,11 +121,12 @@ def first_intervals(tasks, s_grid, found, best):
     located maximum strictly inside the stroke within 1e-3 of its task's best (where the bound
     must come within the tolerance of the located value), at s* and s* +- h 2^-k, k = 0 ..
     PRESPLIT - 1 (h the largest sample spacing); every task of the case gets all its case's
-    intervals.  Returns (task, lo, hi) arrays."""
+    intervals.  Returns (task, lo, hi) arrays, the index of each entry's interval among the
+    distinct ones and, per distinct interval, the index of its first entry."""
     grid = np.unique(s_grid)
     n_cases, k = tasks.n_cases, len(tasks.requests)
     if len(grid) < 2:
-        return np.zeros(0, int), np.zeros(0), np.zeros(0)
+        return np.zeros(0, int), np.zeros(0), np.zeros(0), np.zeros(0, int), np.zeros(0, int)
     a, b = grid[0], grid[-1]
     blocks = grid[np.unique(np.r_[np.arange(0, len(grid), BLOCK), len(grid) - 1])]
     cut_case = [np.repeat(np.arange(n_cases), len(blocks))]
@@ -155,7 +157,9 @@ def first_intervals(tasks, s_grid, found, best):
     task = np.repeat(np.arange(n_cases * k), np.repeat(counts, k))
     within = np.arange(len(task)) - np.repeat(np.r_[0, np.cumsum(np.repeat(counts, k))[:-1]], np.repeat(counts, k))
     index = starts[tasks.case[task]] + within
-    return task, i_lo[index], i_hi[index]
+    first = np.full(len(i_lo), -1)
+    first[index[::-1]] = np.arange(len(index))[::-1]   # (the smallest entry of each interval)
+    return task, i_lo[index], i_hi[index], index, first
 
 
 def target_bound(L, U, code, upper):
