@@ -65,12 +65,14 @@ class CompiledProgram:
         self._function, self._tried = None, -np.inf
         self._offsets, self._total = stacked_rows(program)
         self._need = {}
+        self.n_p = program.func.nnz_in(1) if program.func.n_in() > 1 else 0
 
     def _library(self):
         if self._function is None and time.monotonic() - self._tried > RETRY_S:
             self._tried = time.monotonic()
             graph = self.program.func.serialize()
-            key = compiled.entry_key("intervals", graph, {"generator": generator()})
+            # (the key names the levels: a library compiled before they were its own, at -O0, is not reused)
+            key = compiled.entry_key("intervals", graph, {"generator": generator(), "levels": "own"})
             if key is None:
                 self._tried = np.inf   # no compiler: numpy for good
                 return None
@@ -137,6 +139,9 @@ class CompiledProgram:
         stride = p.shape[-1] if p.ndim == 2 else 0
         if p.ndim == 2 and p.shape[0] != n:
             raise ValueError(f"p: one row of parameters per interval ({n}), or one vector; got {p.shape}")
+        if (p.shape[-1] if p.ndim == 2 else p.size) != self.n_p or p.ndim > 2:   # (C would read past its end)
+            raise ValueError(f"p: {self.n_p} parameters per vector (the Function's second input); got shape "
+                             f"{p.shape}")
         if p.size == 0:
             p = np.zeros(1)
         offsets, total = self._offsets, self._total
