@@ -335,3 +335,30 @@ def test_a_large_axis_is_validated_at_its_corners_not_a_scene_per_point(monkeypa
     # the boom length enters the boom's inertia as mB*L^2/12: each point of its axis is a scene
     Study(scene, [grid("L", 5.0, 7.0, 30), grid("mP", 500, 3000, 50)], mode="analyse")
     assert len(calls) >= 2 * 80
+
+
+def test_study_json_streams_the_rows_and_prints_what_to_json_of_all_rows_gave(tmp_path, monkeypatch, capsys):
+    """`optdesign study --json` writes its rows a few hundred at a time (json_chunks over a lazy
+    list), the very text to_json of the whole list gave."""
+    from optdesign.cli.main import main
+    from optdesign.report.output import to_json
+
+    monkeypatch.setattr(study_execute, "_executor", lambda workers, scheduler, n: StandIn(5))
+    made = []
+    real = Rows.__getitem__
+
+    def getitem(self, i):
+        made.append(i)
+        return real(self, i)
+
+    monkeypatch.setattr(Rows, "__getitem__", getitem)
+    out = tmp_path / "s"
+    assert main(["study", str(JIB), "--mode", "analyse", "--grid", "mC=100:900:1200", "--workers", "1",
+                 "--no-figures", "--json", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    got = json.loads(text)
+    assert len(got["rows"]) == 1200 and made[-1200:] == list(range(1200))   # one row at a time, each once
+    monkeypatch.setattr(Rows, "__getitem__", real)
+    rows = [study_execute.merged_row(c, synthetic_row(c.index))
+            for c in Study(optdesign.load(JIB), [grid("mC", 100, 900, 1200)], mode="analyse").cases()]
+    assert text == to_json({**{k: got[k] for k in got if k != "rows"}, "rows": rows}) + "\n"
