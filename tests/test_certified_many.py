@@ -77,3 +77,79 @@ def test_many_checks_its_arguments(crane):
     columns, constraints = stacked(analysis, P)
     with pytest.raises(ValueError, match="narrow"):
         analysis.certified.many(analysis.s_values, P, columns, constraints, narrow=[()])
+
+
+# --- generated families: each case of a batch against an independent reference ---
+
+def four_bar_batch(n, seed, count=None):
+    """Crank-rockers with a torque bump between two samples (tests/test_enclosure_fourbars.py's
+    family) as one built analysis and a parameter row per four-bar."""
+    from test_enclosure_fourbars import G, M2, M3, OMEGA, SCENE, designs
+
+    points = designs(n, seed)[:count]
+    text = SCENE.format(side="left", m2=M2, m3=M3, g=G, omega=OMEGA, **{k: float(v) for k, v in points[0].items()})
+    analysis = Analysis(optdesign.loads(text, "four-bar family"))
+    names = list(analysis.mech.parameter_names)
+    P = np.tile(analysis.mech.parameter_values, (len(points), 1))
+    for i, params in enumerate(points):
+        for k, v in params.items():
+            P[i, names.index(k)] = v
+    return analysis, points, P
+
+
+def check_four_bars(n, seed, count=None):
+    from test_enclosure_fourbars import reference_peak, torque
+
+    analysis, points, P = four_bar_batch(n, seed, count)
+    columns, constraints = stacked(analysis, P)
+    found = analysis.certified.many(analysis.s_values, P, columns, constraints)
+    wrong, missed = [], 0
+    for params, f, sampled in zip(points, found, columns["drive"]):
+        branch = min((1.0, -1.0), key=lambda br: float(np.max(np.abs(torque(analysis.s_values, branch=br, **params)
+                                                                      - sampled))))
+        ref = reference_peak(params, branch)   # numpy on 20,001 angles, refined by scipy
+        peak, cert = f["peaks"]["drive"], f["certificates"]["peak |drive|"]
+        missed += float(np.max(np.abs(sampled))) < 0.9 * ref   # the samples do not see the bump
+        if not (ref * (1 - 1e-9) <= peak <= ref * (1 + 2e-9) and cert["note"] == "" and peak <= cert["bound"]
+                <= peak * (1 + 1e-9)):
+            wrong.append(f"{params}: certified {peak!r} (bound {cert['bound']}, {cert['note']!r}) against {ref!r}")
+    assert not wrong, "\n".join(wrong)
+    assert missed >= len(points) // 2   # the family exercises the certificate
+    # and one alone gives the same numbers
+    for i in (len(points) - 1,):
+        alone = analysis.certified(analysis.s_values, P[i], {k: v[i] for k, v in columns.items()},
+                                   {k: v[i] for k, v in constraints.items()})
+        assert alone == found[i]
+
+
+def test_a_batch_of_four_bars_with_narrow_torque_bumps():
+    """The fast sibling: 4 generated four-bars in one batch."""
+    check_four_bars(8, 4, 4)
+
+
+@pytest.mark.slow
+def test_a_family_of_four_bars_with_narrow_torque_bumps_in_one_batch():
+    check_four_bars(64, 44)
+
+
+def test_a_batch_of_truck_cranes_holds_a_denser_sampling():
+    """16 Sobol truck cranes (mB, mP, xD, yD, b) in one batch: every certified peak and constraint
+    extreme lies at or beyond every sample of a 16x denser sampling of its case, and its bound
+    beyond those too (the bound holds between the samples)."""
+    analysis = Analysis(optdesign.load(PROBLEMS / "truck_crane.toml"))
+    dense = Analysis(optdesign.load(PROBLEMS / "truck_crane.toml"), samples=16 * (len(analysis.s_values) - 1) + 1,
+                     certify=False)
+    P = crane_parameters(analysis, 16, 11)
+    columns, constraints = stacked(analysis, P)
+    found = analysis.certified.many(analysis.s_values, P, columns, constraints)
+    d_columns, d_constraints = stacked(dense, P)
+    for i, f in enumerate(found):
+        for name, peak in f["peaks"].items():
+            top = float(np.max(np.abs(d_columns[name][i])))
+            bound = f["certificates"][f"peak |{name}|"]["bound"]
+            assert top <= bound and top <= peak * (1 + 1e-12), (i, name, top, peak, bound)
+            assert peak <= bound <= peak + 1e-9 * max(peak, float(np.max(np.abs(columns[name][i])))) * 1.000001
+        for name, e in f["constraint_extremes"].items():
+            hi, lo = float(np.max(d_constraints[name][i])), float(np.min(d_constraints[name][i]))
+            assert hi <= e["max"] + 1e-12 * abs(e["max"]) and lo >= e["min"] - 1e-12 * abs(e["min"]), (i, name)
+            assert hi <= f["certificates"][f"{name} max"]["bound"] and lo >= f["certificates"][f"{name} min"]["bound"]
