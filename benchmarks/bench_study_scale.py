@@ -6,11 +6,14 @@ size, on the local pool of 2 processes and on a Dask LocalCluster of 2 worker pr
 and the journal's throughput with group commit against one fsync per case.
 
     python benchmarks/bench_study_scale.py [--sizes 2000,20000]
-    python benchmarks/bench_study_scale.py --batched 400 [--repeats 3]
+    python benchmarks/bench_study_scale.py --batched 2000 [--repeats 3] [--batch 256]
 
-``--batched N``: one study of N cases one case at a time and in lockstep batches in one process,
-on the pool and on Dask (2 processes each), interleaved, medians of cases/s, and whether the
-cases.csv files are identical (section study_batched).
+``--batched N``: one study of N cases one case at a time and in batches of ``--batch`` cases
+(``Analysis.run_many``: every stage over the batch's cases at once) in one process, on the pool
+and on Dask (2 processes each), interleaved, medians of cases/s and client CPU per case, and
+whether the cases.csv files are identical; then the CPU per case of ``Analysis.run_many`` (its
+certification apart) and ``sweep_rms_many`` in this process at N = 1, 32, 256, 1024 (section
+study_batched).
 
 Each study runs in a fresh Python process (``optdesign.study`` from a script) that reports its
 wall time and its peak resident memory (``ru_maxrss``: imports included, so the growth between
@@ -58,13 +61,12 @@ import hashlib, json, sys, time
 import optdesign
 from optdesign.study import Study, grid
 from optdesign.study import execute
-n, out, where = int(sys.argv[1]), sys.argv[2], sys.argv[3]
-if where == "one by one":
-    execute.LOCKSTEP = 1   # batches of one case: each case's analysis alone (tasks.run_task)
+n, out, where, batch = int(sys.argv[1]), sys.argv[2], sys.argv[3], int(sys.argv[5])
+execute.LOCKSTEP = 1 if where == "one by one" else batch   # 1: each case's analysis alone (tasks.run_task)
 masses = 10
 study = Study(optdesign.load(sys.argv[4]), [grid("mB", 500, 800, masses), grid("mP", 500, 3000, n // masses)],
               mode="analyse")
-kw = {"workers": 2} if where == "pool" else {"workers": 1} if where in ("one by one", "lockstep") else {"scheduler": where}
+kw = {"workers": 2} if where == "pool" else {"workers": 1} if where in ("one by one", "batches") else {"scheduler": where}
 t0, c0 = time.perf_counter(), time.process_time()
 result = study.run(out=out, restart=True, figures=False, **kw)
 wall, cpu = time.perf_counter() - t0, time.process_time() - c0
@@ -74,20 +76,75 @@ print(json.dumps({"wall": wall, "cpu": cpu, "csv": digest}))
 """
 
 
-def run_batched(n, where, folder):
+def run_batched(n, where, folder, batch):
     """One study of ``n`` cases in a fresh process: wall and client CPU seconds, cases.csv's digest."""
     done = subprocess.run([sys.executable, "-c", BATCHED_CHILD, str(n), str(folder), where,
-                           str(ROOT / "problems" / "truck_crane.toml")],
+                           str(ROOT / "problems" / "truck_crane.toml"), str(batch)],
                           capture_output=True, text=True, cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)})
     if done.returncode:
         raise SystemExit(f"study of {n} cases ({where}) failed:\n{done.stderr[-3000:]}")
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 
-def batched_section(n, repeats, tmp) -> str:
-    """Cases/s of one study of ``n`` cases one by one and in lockstep in this process, on the pool
+def run_many_costs(sizes=(1, 32, 256, 1024), repeats=3) -> list:
+    """CPU ms per case of Analysis.run_many (and of its certification) and sweep_rms_many on
+    the truck crane at each batch size, warm, medians of ``repeats``: random boom and payload
+    masses (leaf parameters)."""
+    import statistics
+
+    import numpy as np
+
+    import optdesign
+    from optdesign.model.analysis import Analysis
+    from optdesign.model import runs as runs_module
+    from optdesign.scene.resolved import ResolvedScene
+
+    scene = optdesign.load(ROOT / "problems" / "truck_crane.toml")
+    varied = ["mB", "mP"]
+    analysis = Analysis(ResolvedScene(scene.without_bounds(*varied), variable=varied))
+    names = analysis.mech.parameter_names
+    certified = runs_module._certified
+    spent = []
+
+    def timed(*args):
+        c0 = time.process_time()
+        try:
+            return certified(*args)
+        finally:
+            spent.append(time.process_time() - c0)
+
+    runs_module._certified = timed
+    rows = []
+    try:
+        for n in sizes:
+            rng = np.random.default_rng(n)
+            P = np.tile(np.asarray(analysis.mech.parameter_values, float), (n, 1))
+            P[:, names.index("mB")] = rng.uniform(500, 800, n)
+            P[:, names.index("mP")] = rng.uniform(500, 3000, n)
+            analysis.run_many(P)
+            analysis.sweep_rms_many(P)   # warm: every mapped Function made
+            run, cert, rms = [], [], []
+            for _ in range(repeats):
+                spent.clear()
+                c0 = time.process_time()
+                runs = analysis.run_many(P)
+                run.append(time.process_time() - c0)
+                cert.append(sum(spent))
+                c0 = time.process_time()
+                analysis.sweep_rms_many(P)
+                rms.append(time.process_time() - c0)
+                assert all(r.error is None for r in runs)
+            rows.append((n, *(1e3 * statistics.median(x) / n for x in (run, cert, rms))))
+            print("run_many", rows[-1], flush=True)
+    finally:
+        runs_module._certified = certified
+    return rows
+
+
+def batched_section(n, repeats, tmp, batch) -> str:
+    """Cases/s of one study of ``n`` cases one by one and in batches in this process, on the pool
     and on a Dask LocalCluster (2 processes each), the four interleaved ``repeats`` times
-    (medians), and whether their cases.csv are identical."""
+    (medians), whether their cases.csv are identical, and :func:`run_many_costs`."""
     import statistics
 
     import distributed
@@ -96,33 +153,43 @@ def batched_section(n, repeats, tmp) -> str:
     runs = {}
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                                   dashboard_address=None) as cluster:
-        wheres = {"in process, one case at a time": "one by one", "in process, lockstep batches": "lockstep",
+        wheres = {"in process, one case at a time": "one by one", "in process, run_many batches": "batches",
                   "pool, 2 processes": "pool", "Dask LocalCluster, 2 workers": cluster.scheduler_address}
-        run_batched(min(n, 40), cluster.scheduler_address, Path(tmp) / "warm")   # helpers started
+        run_batched(min(n, 40), cluster.scheduler_address, Path(tmp) / "warm", batch)   # helpers started
         for k in range(repeats):
             for label, where in wheres.items():
-                r = run_batched(n, where, Path(tmp) / f"b{k}-{label[:6]}")
+                r = run_batched(n, where, Path(tmp) / f"b{k}-{label[:6]}", batch)
                 runs.setdefault(label, []).append(r)
                 print(n, label, r, flush=True)
+    costs = run_many_costs()
     load1 = os.getloadavg()
     rate = {label: statistics.median(n / r["wall"] for r in rs) for label, rs in runs.items()}
     cpu = {label: statistics.median(1e3 * r["cpu"] / n for r in rs) for label, rs in runs.items()}
     digests = {r["csv"] for rs in runs.values() for r in rs}
     base = rate["in process, one case at a time"]
-    lines = ["## Analyse cases in lockstep (`python benchmarks/bench_study_scale.py --batched N`)", "",
-             f"Written by `python benchmarks/bench_study_scale.py --batched {n} --repeats {repeats}` on "
-             f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; {git_state()}; machine {cpu_model()}, nproc "
+    lines = ["## Analyse cases in batches (`python benchmarks/bench_study_scale.py --batched N`)", "",
+             f"Written by `python benchmarks/bench_study_scale.py --batched {n} --repeats {repeats} --batch {batch}` "
+             f"on {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; {git_state()}; machine {cpu_model()}, nproc "
              f"{os.cpu_count()}; load average {load0[0]:.2f} before, {load1[0]:.2f} after (shared).", "",
              f"An analyse study of the truck crane ({n:,} cases: 10 boom masses x {n // 10} payloads), each run in a "
              f"fresh process, the four ways interleaved {repeats} times; medians.  One case at a time is each "
-             "case's own `Analysis.run`; lockstep runs up to 32 cases side by side with their enclosure bounds "
-             "answered by one interval-program call (optdesign/study/batched.py); the pool and Dask run lockstep "
-             "batches.  Client CPU is the study's own process (the pool's and Dask's processes not counted).", "",
+             f"case's own `Analysis.run`; in batches, up to {batch} cases (`execute.LOCKSTEP`, fewer so that every "
+             "batch in flight has some) go through one `Analysis.run_many` and one `sweep_rms_many` "
+             "(optdesign/model/runs.py: every stage over the batch's cases at once, each case's figures its own); "
+             "the pool and Dask run such batches.  Client CPU is the study's own process (the pool's and Dask's "
+             "processes not counted).", "",
              "| where | cases/s | x one at a time | client CPU per case [ms] |", "|---|---|---|---|"]
     for label in runs:
         lines.append(f"| {label} | {rate[label]:.1f} | {rate[label] / base:.2f}x | {cpu[label]:.2f} |")
     lines += ["", f"cases.csv of all {sum(len(rs) for rs in runs.values())} runs: "
-              + ("byte-identical." if len(digests) == 1 else f"{len(digests)} different files (NOT identical).")]
+              + ("byte-identical." if len(digests) == 1 else f"{len(digests)} different files (NOT identical)."), "",
+              "CPU per case in this process (warm; random boom and payload masses; medians of 3): "
+              "`Analysis.run_many` with its certification (`CertifiedExtremes.many`) shown apart, and "
+              "`Analysis.sweep_rms_many`.", "",
+              "| cases per call | run_many [ms] | of which certification [ms] | run_many without it [ms] | "
+              "sweep_rms_many [ms] |", "|---|---|---|---|---|"]
+    for size, run, cert, rms in costs:
+        lines.append(f"| {size:,} | {run:.3f} | {cert:.3f} | {run - cert:.3f} | {rms:.3f} |")
     return "\n".join(lines) + "\n"
 
 
@@ -158,12 +225,13 @@ def main():
     ap.add_argument("--journal", type=int, default=20000, help="records written per journal run")
     ap.add_argument("--group", type=int, default=50, help="records per fsync with group commit")
     ap.add_argument("--batched", type=int, default=0,
-                    help="only the lockstep comparison, on a study of this many cases (section study_batched)")
+                    help="only the batches' comparison, on a study of this many cases (section study_batched)")
+    ap.add_argument("--batch", type=int, default=256, help="cases per batch at most for --batched")
     ap.add_argument("--repeats", type=int, default=3, help="runs of each way for --batched (medians)")
     args = ap.parse_args()
     if args.batched:
         with tempfile.TemporaryDirectory() as tmp:
-            text = batched_section(args.batched, args.repeats, tmp)
+            text = batched_section(args.batched, args.repeats, tmp, args.batch)
         write_section("study_batched", text, SCALING_MD)
         print(text)
         return

@@ -1,12 +1,13 @@
-"""The branch and bound's first pass (kinematics/peaks._first_intervals): the sample intervals
-around each located maximum cut towards it, so that the Taylor form closes there in one
-evaluation of the interval program.  A faster certificate must be the same certificate.
+"""The branch and bound's first pass (kinematics/branch_bound.first_intervals): the stroke in
+blocks of samples, cut around each located maximum towards it, so that the Taylor form closes
+there in one evaluation of the interval program.  A faster certificate must be the same
+certificate.
 
 References: the stroke itself (the first pass's intervals of every request must tile it, none
-lost, none crossing a sample), dense numpy samples of generated functions written here from
-their parameters (the bound must hold each of them), and the same branch and bound without
-the cuts (peaks.PRESPLIT = 0, the code before them): the same located maximum, both bounds
-within the tolerance of it."""
+lost, and every block edge and located maximum an edge), dense numpy samples of generated
+functions written here from their parameters (the bound must hold each of them), and the same
+branch and bound without the cuts (branch_bound.PRESPLIT = 0): the same located maximum, both
+bounds within the tolerance of it."""
 from __future__ import annotations
 
 import casadi as ca
@@ -14,7 +15,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from optdesign.kinematics import peaks
+from optdesign.kinematics import branch_bound, peaks
+from optdesign.kinematics.extrema import Found, Tasks
 from optdesign.kinematics.enclosure import Enclosures
 from optdesign.kinematics.peaks import CERTIFY_TOL, Extremum, Request, continuous_maxima_rows
 
@@ -37,17 +39,29 @@ def test_the_first_pass_tiles_the_stroke(samples, descending, where, senses, see
     s_at = [a + (b - a) * w for w in where] + [float(grid[len(grid) // 2])]
     requests = [Request(0, sense) for sense in senses]
     found = [[Extremum(s, 1.0 + 1e-4 * k) for k, s in enumerate(s_at)] for _ in requests]
-    best = np.array([max(peaks._target(e.value, r.sense) for e in f) for f, r in zip(found, requests)])
-    req, lo, hi = peaks._first_intervals(grid, found, requests, best)
+    tasks = Tasks(requests, 1)
+    flat = Found(len(requests))
+    for k, f in enumerate(found):
+        flat.add([k] * len(f), [e.s for e in f], [e.value for e in f])
+    _, best = flat.best(tasks.code)
+    req, lo, hi, where, first = branch_bound.first_intervals(tasks, grid, flat, best)
+    assert np.array_equal(lo[first][where], lo) and np.array_equal(hi[first][where], hi)
     samples_sorted = np.sort(grid)
+    blocks = samples_sorted[::branch_bound.BLOCK]
     for k in range(len(requests)):
         mine = req == k
         order = np.argsort(lo[mine], kind="stable")
         x, y = lo[mine][order], hi[mine][order]
         assert np.all(x < y)
         assert x[0] == a and y[-1] == b and np.array_equal(y[:-1], x[1:])
-        cell = np.searchsorted(samples_sorted, x, side="right") - 1   # the sample interval of each piece
-        assert np.all(y <= samples_sorted[np.minimum(cell + 1, len(samples_sorted) - 1)])
+        edges = set(x) | set(y)
+        assert set(blocks) <= edges   # the blocks' edges, whatever else is cut
+        for s in s_at:   # every located maximum inside the stroke is an edge, its pieces shrinking to it
+            if a < s < b:
+                assert s in edges
+                closest = min(abs(e - s) for e in edges if e != s)
+                h = (samples_sorted[1:] - samples_sorted[:-1]).max()
+                assert closest <= h * 2.0 ** (1 - branch_bound.PRESPLIT) * (1 + 1e-9)
 
 
 def _bumps(params):
@@ -95,12 +109,12 @@ def test_generated_functions_are_certified_as_without_the_cuts(bumps, wave, samp
                                       enclosure=Enclosures(F).at([0.0]))[0][0]
 
     fast = certified()
-    saved = peaks.PRESPLIT
-    peaks.PRESPLIT = 0
+    saved = branch_bound.PRESPLIT
+    branch_bound.PRESPLIT = 0
     try:
         plain = certified()
     finally:
-        peaks.PRESPLIT = saved
+        branch_bound.PRESPLIT = saved
     sign = {"abs": None, "max": 1.0, "min": -1.0}[sense]
     dense = numpy_v(np.linspace(0.0, 2.0, 20001))
     target = np.abs(dense) if sign is None else sign * dense
@@ -129,14 +143,14 @@ def test_a_sweep_that_runs_down_is_certified():
     def ev(x):
         return [np.asarray(a) for a in F.map(len(x))(np.asarray(x, float)[None, :], [0.0])]
 
-    saved = peaks.PRESPLIT
+    saved = branch_bound.PRESPLIT
     try:
         for cuts in (saved, 0):
-            peaks.PRESPLIT = cuts
+            branch_bound.PRESPLIT = cuts
             for grid in (np.array([2.0, 1.0, 0.0]), np.array([0.0, 1.0, 2.0])):
                 top = continuous_maxima_rows(ev, grid, ev(grid)[0], [Request(0, "abs", ends=True)],
                                              enclosure=Enclosures(F).at([0.0]))[0][0]
                 assert top.note == "" and round(top.value, 3) == 4.720 and round(top.s, 3) == 1.398, (cuts, grid, top)
                 assert top.value <= top.bound <= top.value * (1 + CERTIFY_TOL)
     finally:
-        peaks.PRESPLIT = saved
+        branch_bound.PRESPLIT = saved

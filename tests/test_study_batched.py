@@ -1,15 +1,14 @@
-"""Analyse cases run in lockstep (optdesign/study/batched.py: their enclosure bounds answered by
-one interval-program call over all their intervals, each with its case's parameters) give each
-case exactly the row of its own run: the truck crane over boom and payload masses and its
+"""Analyse cases run together (tasks.run_batch: one Analysis.run_many and sweep_rms_many over
+the cases that share a build, optdesign/model/runs.py) give each case exactly the row of its own
+run: the truck crane over boom and payload masses and its
 geometry, a generated family of crank-rocker four-bars (Sobol, with a torque bump narrower than
 the samples, as in tests/test_enclosure_fourbars.py) with one that does not assemble, and the
-cases.csv of a study run case by case, in lockstep, on the process pool and on Dask, byte for
+cases.csv of a study run case by case, in batches, on the process pool and on Dask, byte for
 byte."""
 from __future__ import annotations
 
 import json
 import os
-import threading
 from pathlib import Path
 
 import numpy as np
@@ -17,7 +16,7 @@ import pytest
 
 import optdesign
 from optdesign.study import Study, grid, together
-from optdesign.study import batched, execute as study_execute
+from optdesign.study import execute as study_execute
 from optdesign.study.tasks import run_batch, run_task
 
 from test_enclosure_fourbars import G, M2, M3, OMEGA, SCENE, designs
@@ -33,7 +32,7 @@ def _rows(outs):
     return [json.dumps(o["row"], sort_keys=True) for o in outs]   # floats to their last digit
 
 
-def test_truck_crane_cases_in_lockstep_give_each_case_its_own_row():
+def test_truck_crane_cases_in_a_batch_give_each_case_its_own_row():
     scene = optdesign.load(ROOT / "problems" / "truck_crane.toml")
     u = np.random.default_rng(3).random((10, 5))
     rows = [{"mB": 400 + 500 * a, "mP": 300 + 3000 * b, "b": 0.6 + 1.5 * c, "xD": -0.1 + 0.6 * d, "yD": -1.8 + 1.2 * e}
@@ -44,7 +43,7 @@ def test_truck_crane_cases_in_lockstep_give_each_case_its_own_row():
     assert _rows(run_batch(tasks)) == _rows(alone)
 
 
-def test_a_family_of_four_bars_in_lockstep_gives_each_its_own_row():
+def test_a_family_of_four_bars_in_a_batch_gives_each_its_own_row():
     cases = [{k: float(v) for k, v in d.items()} for d in designs(8, seed=11)]
     scene = optdesign.loads(SCENE.format(side="left", g=G, omega=OMEGA, m2=M2, m3=M3, **cases[0]), "four-bars")
     cases.append(dict(cases[0], a=4.0))   # not a crank-rocker: does not assemble over the sweep
@@ -73,7 +72,7 @@ def one_by_one(crane_study, tmp_path_factory):
 
 
 @pytest.mark.parametrize("where", ["serial", "pool"])
-def test_cases_csv_in_lockstep_is_the_one_by_one_file(crane_study, one_by_one, tmp_path, where):
+def test_cases_csv_in_batches_is_the_one_by_one_file(crane_study, one_by_one, tmp_path, where):
     result = crane_study.run(out=tmp_path, workers=1 if where == "serial" else 2, figures=False)
     assert result.computed == 24 and all(r["success"] for r in result.rows)
     assert (tmp_path / "cases.csv").read_bytes() == one_by_one
@@ -86,29 +85,6 @@ def test_cases_csv_on_dask_is_the_one_by_one_file(crane_study, one_by_one, tmp_p
         result = crane_study.run(out=tmp_path, scheduler=cluster.scheduler_address, figures=False)
     assert result.computed == 24
     assert (tmp_path / "cases.csv").read_bytes() == one_by_one
-
-
-def test_lockstep_hands_back_each_jobs_exception_and_leaves_no_thread_behind(monkeypatch):
-    def fails():
-        raise ValueError("this case")
-
-    out = batched.lockstep([lambda: 1, fails, lambda: 3])
-    assert out[0] == (1, None) and out[2] == (3, None)
-    assert isinstance(out[1][1], ValueError)
-
-    # an exception in the caller while the cases wait for their bounds (Ctrl-C): every case
-    # ends, no thread is left waiting
-    scene = optdesign.load(ROOT / "problems" / "truck_crane.toml")
-    tasks = _tasks(Study(scene, [grid("mP", 500, 900, 3)], mode="analyse"))
-    before = threading.active_count()
-
-    def interrupted(cases):
-        raise KeyboardInterrupt
-
-    monkeypatch.setattr(batched, "_answer", interrupted)
-    with pytest.raises(KeyboardInterrupt):
-        run_batch(tasks)
-    assert threading.active_count() == before
 
 
 def test_an_enclosure_with_a_parameter_row_per_interval_bounds_each_as_its_own_vector():
@@ -135,23 +111,6 @@ def test_an_enclosure_with_a_parameter_row_per_interval_bounds_each_as_its_own_v
             np.testing.assert_array_equal(x, y[:, 40 * k:40 * (k + 1)])
 
 
-def test_a_ctrl_c_while_a_case_computes_ends_every_case_of_the_batch():
-    """The interrupt reaches the caller while a case runs (not while the bounds are answered):
-    the caller hands each case still unfinished its turn to end, and none is left waiting."""
-    import signal
-    import time
-
-    def first():
-        signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)
-        time.sleep(0.3)   # still running when the caller sees the interrupt
-        return 1
-
-    before = threading.active_count()
-    with pytest.raises(KeyboardInterrupt):
-        batched.lockstep([first, lambda: 2, lambda: 3])
-    assert threading.active_count() == before
-
-
 @pytest.fixture
 def compiling(tmp_path, monkeypatch):
     """Compiled code on (a fresh disk cache, compiled on demand), as outside the tests."""
@@ -165,12 +124,13 @@ def compiling(tmp_path, monkeypatch):
     compiled._compiler.clear()
 
 
-@pytest.mark.slow   # ~10 s compiling; fast siblings: the lockstep tests above (numpy) and tests/test_compiled.py
-def test_compiled_the_sweep_rms_and_the_lockstep_give_the_virtual_machines_and_each_case_its_own_numbers(
+@pytest.mark.slow   # ~10 s compiling; fast siblings: the batch tests above (numpy) and tests/test_compiled.py
+def test_compiled_the_sweep_rms_and_a_batch_give_the_virtual_machines_and_each_case_its_own_numbers(
         compiling, monkeypatch):
-    """With compiled code (the interval programs and the RMS integrand from the disk cache), a
-    lockstep batch still gives each case its own row, and an analyse row's rms:*
-    (Analysis.sweep_rms) equal CasADi's virtual machine's to the last digit."""
+    """With compiled code (the interval programs, the model's blocks and the RMS integrand from
+    the disk cache), a batch still gives each case its own row, and an analyse row's rms:*
+    (Analysis.sweep_rms) equal those of numpy's evaluation instruction by instruction (without
+    compiled code) to the last digit."""
     from optdesign.model import compiled as compiled_module
     from optdesign.model.analysis import Analysis
 
@@ -188,6 +148,9 @@ def test_compiled_the_sweep_rms_and_the_lockstep_give_the_virtual_machines_and_e
         p = np.array(compiled.mech.parameter_values, float)
         p[compiled.mech.parameter_names.index("mP")] = mP
         assert compiled.sweep_rms(p) == machine.sweep_rms(p)
-    # the comparison is between a compiled library and the virtual machine (a compiler is here)
-    assert compiled._squares[1].func.is_a("External")
-    assert not machine._squares[1].func.is_a("External")
+    # the comparison is between the compiled blocks and numpy's evaluation (a compiler is here)
+    from optdesign.model.blocked import BlockedFunction
+    from optdesign.model.vectorised import VectorisedSX
+
+    assert isinstance(compiled._squares[1], BlockedFunction)
+    assert isinstance(machine._squares[1], VectorisedSX)

@@ -39,7 +39,7 @@ from ..errors import SceneError
 from ..model.cases import CaseModel, case_nodes
 from ..model.duty import time_weights
 from ..model.profiles import case_profile
-from ..model.train import gear_factor_at_rest, motor_numbers
+from ..model.train import cylinder_outputs, gear_factor_at_rest, motor_numbers
 from ..scene.expressions import evaluate
 from .bounds import numeric_bounds
 
@@ -150,6 +150,8 @@ def case_outputs(pb, cm) -> dict:
     if motor is not None:
         out["motor_torque"] = out["motor_load_torque"] + motor["inertia"] * out["motor_acceleration"]
     out["hold_load"] = cm.static_load() + 0 * pb.mech.s
+    if "rod_buckling" in out:   # at a hold: linear in the (pushing) force, this per newton
+        out["hold_rod"] = cylinder_outputs(pb.mech, 1.0)["rod_buckling"]   # (cycle_integrals)
     out.update({name: q + 0 * pb.mech.s for name, q in pb.mech.quantities.items()})   # [quantities], in the case
     names = list(out)
     p = pb.mech.p
@@ -184,9 +186,7 @@ def case_objective_rows(pb, rows, Block, k_ref) -> bool:
     if terms is None:
         return False
     models = case_models(pb)
-    pb.case_rows = {}           # case name -> {column: row}
-    for cm in models:
-        pb.case_rows[cm.name] = {}
+    pb.case_rows = {cm.name: {} for cm in models}   # case name -> {column: row}
     pb.case_terms = terms
     peaks = [t for t in terms if t[1] == "peak"]
     if len(terms) == 1 and peaks and peaks[0][0] == 1.0:
@@ -274,8 +274,9 @@ def case_constraint_rows(pb, rows, Block):
                 rows.append(out["motor_torque"])
         if "rod_buckling" in out:
             per_sample.append(("rod buckling", cm.name, out["rod_buckling"], -math.inf, 1.0))
-        pb.case_rows.setdefault(cm.name, {})["hold_load"] = len(rows)
-        rows.append(out["hold_load"])
+        for k in ("hold_load", "hold_rod")[:1 + ("hold_rod" in out)]:
+            pb.case_rows.setdefault(cm.name, {})[k] = len(rows)
+            rows.append(out[k])
         if "q" not in pb.case_rows[cm.name]:
             pb.case_rows[cm.name]["q"] = len(rows)
             rows.append(pb.mech.q)
@@ -344,7 +345,6 @@ def at_points(pb):
     return pb.quantity.map(pb.n_points)
 
 
-
 def needs_mx(pb) -> bool:
     """True when the NLP holds the cycle's integrals: mapped over many samples, in MX (inlined
     into SX, crane_luffing_drive's build took 55 s and its constraint Jacobian 69 ms)."""
@@ -392,7 +392,7 @@ def cycle_integrals(pb, p, quantities):
             w, durations[name] = ca.DM(weights).T, speed_or_T
         values[name] = {k: ca.sum2(w * Q[rows[k], :] ** 2) for k in quantities}
         values[name]["hold"] = Q[rows["hold_load"], 0], Q[rows["hold_load"], -1]
-        values[name]["ends"] = {k: (Q[rows[k], 0], Q[rows[k], -1]) for k in quantities}   # a [quantities] name at a hold
+        values[name]["ends"] = {k: (Q[rows[k], 0], Q[rows[k], -1]) for k in rows}   # (a [quantities] name at a hold)
     T, sums = 0, {k: 0 for k in quantities}
     models = {cm.name: cm for cm in case_models(pb)}
     named = [k for k in quantities if k in pb.mech.quantities]
@@ -417,9 +417,11 @@ def cycle_integrals(pb, p, quantities):
             load = last if end else first
             eta = cm.model.eta if cm.model.uses_efficiency else 1.0
             load = load * (1 / eta if st.efficiency == "driving" else eta)
-            for k in quantities:
-                if k == "drive":
+            for k in quantities:   # at rest: the drive and static load the held load, no power, no speed
+                if k in ("drive", "static_load"):
                     sums[k] = sums[k] + load**2 * duration
+                elif k == "rod_buckling":   # the rod's utilisation under the held (pushing) load
+                    sums[k] = sums[k] + (ca.fmax(load, 0) * values[st.case]["ends"]["hold_rod"][1 if end else 0]) ** 2 * duration
                 elif k in named:
                     sums[k] = sums[k] + values[st.case]["ends"][k][1 if end else 0] ** 2 * duration
                 elif k in ("motor_torque", "motor_load_torque"):
@@ -448,8 +450,8 @@ def _cycle_rows(pb, p, quantities, used):
             groups.append([np.unique(nodes), [name]])
     for j, (union, names) in enumerate(groups):
         # only the rows each case's integrals need, at its samples
-        needed = {name: [k for k in dict.fromkeys(list(quantities) + ["hold_load", "q"]) if k in pb.case_rows[name]]
-                  for name in names}
+        extra = ["hold_load", "q"] + ["hold_rod"] * ("rod_buckling" in quantities)
+        needed = {name: [k for k in dict.fromkeys(list(quantities) + extra) if k in pb.case_rows[name]] for name in names}
         f = pb.mech.function(f"cycle_rows_{j}", {f"{c}:{k}": pb.rows[pb.case_rows[c][k]]
                                                  for c in names for k in needed[c]})
         out = iter(f.map(len(union)).call([ca.DM(union).T, p]))   # not expanded: see at_points

@@ -34,6 +34,7 @@ import numpy as np
 
 from ..errors import AssemblyError
 from ..scene.written import sweep_unit
+from .batches import parameters_used, same_cases
 from .enclosure import Enclosures, Selected
 from .peaks import Request, continuous_maxima_rows, narrow_minima
 
@@ -153,13 +154,37 @@ class AssemblyCheck:
         """Raise :class:`AssemblyError` at the earliest place along the sweep where a
         construction does not assemble or reaches its limit position, at or between samples.
         Else return the margins' minima that the samples do not resolve, as (s, width) (what
-        a certified peak must sample more finely: :func:`~.peaks.resolving_points`)."""
+        a certified peak must sample more finely: :func:`~.peaks.resolving_points`).  The one
+        case of :meth:`many` (its notes in :attr:`notes`)."""
+        found = self.many(s_values, np.asarray(p_values, float)[None, :])[0]
+        if isinstance(found, AssemblyError):
+            raise found
+        narrow, self.notes = found
+        return narrow
+
+    def many(self, s_values, P) -> list:
+        """Per case (a row of the parameters ``P``): ``(narrow, notes)`` (the minima the samples
+        do not resolve; construction -> why its margin has no enclosure's proof) or the case's
+        :class:`AssemblyError`.  The margins depend on the geometry alone: cases equal in its
+        parameters are checked once (:func:`~.batches.same_cases`)."""
+        P = np.atleast_2d(np.asarray(P, float))
         if not self.rows and not self.mech.loops:
-            return []
-        s_values = np.asarray(s_values, float)
-        p = np.asarray(p_values, float)
+            return [([], {}) for _ in P]
         if self._sampled is None:
             self._sampled = self._sampled_function()
+            self._uses = parameters_used(self.mech, *self._sampled[0].call([self.mech.s, self.mech.p]))
+        out = [None] * len(P)
+        for first, members in same_cases(P, self._uses):
+            try:
+                found = self._check(np.asarray(s_values, float), P[first])
+            except AssemblyError as exc:
+                found = exc
+            for i in members:
+                out[i] = found
+        return out
+
+    def _check(self, s_values, p):
+        """(narrow, notes) of one case, or its AssemblyError raised."""
         f, closing = self._sampled
         n = len(s_values)
         if n not in self._maps:  # built once per stroke length, not on every call
@@ -168,12 +193,12 @@ class AssemblyCheck:
         R = np.asarray(res["r"], float).reshape(len(self.rows), n)
         direction = 1.0 if n < 2 or s_values[-1] >= s_values[0] else -1.0
         failures = self._loops(res, closing, s_values, direction)
-        more, narrow = self._margins(R, s_values, p, direction)
+        more, narrow, notes = self._margins(R, s_values, p, direction)
         failures += more
         if failures:
             first = min(failures, key=lambda x: (x.at, x.order))
             raise AssemblyError(first.message, construction=first.construction, s=first.s)
-        return narrow
+        return narrow, notes
 
     def _margins(self, R, s_values, p, direction):
         """Failures of the relative margins, at the samples and between them, and the minima
@@ -185,7 +210,7 @@ class AssemblyCheck:
                 finite = R[i][np.isfinite(R[i])]
                 sign[i] = 1.0 if not finite.size or finite[0] >= 0 else -1.0
         T = sign[:, None] * R
-        failures, narrow = [], []
+        failures, narrow, notes = [], [], {}
         first_bad = {}
         for i, (m, _, limit) in enumerate(self.rows):
             bad = np.flatnonzero(~(T[i] > limit))
@@ -207,8 +232,8 @@ class AssemblyCheck:
             self._build_derivatives()
             enclosure = Selected(self._enclosures.at(p), rows, sign[rows])   # the proof between the samples
             extrema = continuous_maxima_rows(evaluate_many, s_grid, V, requests, enclosure=enclosure)
-            self.notes = {self.rows[i][0].construction: extrema[j][0].note for j, i in enumerate(rows)
-                          if extrema[j][0].note}
+            notes = {self.rows[i][0].construction: extrema[j][0].note for j, i in enumerate(rows)
+                     if extrema[j][0].note}
             for j, i in enumerate(rows):
                 m, _, limit = self.rows[i]
                 low = [e for e in extrema[j] if e.value <= limit]
@@ -226,7 +251,7 @@ class AssemblyCheck:
                         failures.append(self._touch(i, e.s, e.value, direction))
                     continue
                 failures.append(self._continuous_failure(i, e, s_values, p, sign, direction))
-        return failures, narrow
+        return failures, narrow, notes
 
     def _sampled_failure(self, i, k, T, s_values, p, sign, direction):
         m, _, limit = self.rows[i]

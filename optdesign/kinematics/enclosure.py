@@ -31,6 +31,7 @@ from .intervals import INF, JUMPS, PERIODIC, _binary, _down, _op, _out, _unary, 
 # per thread: ``GATHER.bounds(enclosure, lo, hi, rows)``, when set, answers Enclosure.bounds (the
 # calls of many cases' analyses gathered into one: optdesign.study.batched)
 GATHER = threading.local()
+CHUNK = 2048   # intervals per evaluation of Enclosure.bounds at most
 
 _BINARY_OPS = {_op(n) for n in ("OP_ADD", "OP_SUB", "OP_MUL", "OP_DIV", "OP_POW", "OP_CONSTPOW", "OP_ATAN2",
                                 "OP_FMIN", "OP_FMAX", "OP_HYPOT", "OP_LT", "OP_LE", "OP_EQ", "OP_NE",
@@ -72,7 +73,7 @@ class IntervalProgram:
                 where = slot if varies[slot] else self.n_work + made_by[slot]
                 prog.append((k, op, (o[0], o[1], deps[slot] if varies[slot] else 0), None, [where], True, None, None))
                 producers[k] = [made_by[slot]] if varies[slot] else []
-                outputs.append((k, self.rows[o[0]][o[1]]))
+                outputs.append((k, o[0], self.rows[o[0]][o[1]]))
                 continue
             if op not in (ca.OP_INPUT, ca.OP_CONST) and op not in _BINARY_OPS and op not in _UNARY_OPS:
                 raise NotImplementedError(f"operation {_name(op)} has no interval enclosure here")
@@ -106,13 +107,14 @@ class IntervalProgram:
         self._p_key, self._p_work = None, None
         self._producers, self._outputs, self._subsets = producers, outputs, {}
 
-    def _subset(self, rows):
+    def _subset(self, rows, outputs=None):
         """The varying program cut to what the outputs of ``rows`` need (in the same order: an
-        instruction left out wrote nothing that a kept one reads), cached per set of rows."""
-        key = frozenset(int(r) for r in rows)
+        instruction left out wrote nothing that a kept one reads), cached per set of rows;
+        ``outputs``: of those outputs only (indices: 0 v, 1 dv/ds, 2 d2v/ds2), else all."""
+        key = (frozenset(int(r) for r in rows), None if outputs is None else frozenset(outputs))
         if key not in self._subsets:
             needed = set()
-            stack = [k for k, row in self._outputs if row in key]
+            stack = [k for k, j, row in self._outputs if row in key[0] and (outputs is None or j in key[1])]
             while stack:
                 k = stack.pop()
                 if k not in needed:
@@ -170,17 +172,22 @@ class IntervalProgram:
                 if bit is not None and undecided is not None:
                     undecided[bit] = und
 
-    def __call__(self, lo, hi, p, rows=None):
+    def __call__(self, lo, hi, p, rows=None, outputs=None):
         """Every output over the intervals [lo, hi]; ``rows``: only those rows of the outputs
-        (the others NaN), with only the instructions they need.  ``p``: the parameter vector, or
-        an array (intervals x parameters) of each interval's own (point intervals per interval:
-        many parameter vectors in one call, :mod:`optdesign.study.batched`)."""
+        (the others NaN), with only the instructions they need; ``outputs``: only those outputs
+        (indices), idem.  ``p``: the parameter vector, or an array (intervals x parameters) of
+        each interval's own (point intervals per interval: many parameter vectors in one
+        call)."""
         lo, hi = np.asarray(lo, float).ravel(), np.asarray(hi, float).ravel()
         n = len(lo)
         work = list(self._fixed_work(p))
         undecided = [None] * self.n_jumps
         self._store, self._branches = [], {}
-        self._run(self.varying if rows is None else self._subset(rows), work, (lo, hi), p, undecided)
+        if rows is None and outputs is None:
+            program = self.varying
+        else:
+            program = self._subset(range(max(self.shapes, default=0)) if rows is None else rows, outputs)
+        self._run(program, work, (lo, hi), p, undecided)
         out = [(np.full((m, n), np.nan), np.full((m, n), np.nan), np.zeros((m, n), bool)) for m in self.shapes]
         for (j, nz, deps), (a, b) in self._store:
             row = self.rows[j][nz]
@@ -246,41 +253,92 @@ class Enclosure:
 
     ``bounds(lo, hi)`` returns (L, U), rows x intervals: L <= v(s) <= U for every s in [lo, hi]
     and every row, the tightest of the plain enclosure, the mean-value form v(m) + v'([lo, hi])
-    (s - m) (where no jump of v may lie inside) and the Taylor form v(m) + v'(m) (s - m) +
-    v''([lo, hi]) (s - m)^2 / 2 (where no jump of v or v' may lie inside), m the midpoint."""
+    (s - m) (where no jump of v may lie inside), the Taylor form v(m) + v'(m) (s - m) +
+    v''([lo, hi]) (s - m)^2 / 2 (where no jump of v or v' may lie inside), m the midpoint, and
+    the monotone form: where no jump of v may lie inside and v' is proven of one sign over
+    [lo, hi] (its plain enclosure, or where v' is continuous too v'(m) + v''([lo, hi]) (s - m)),
+    v lies between its enclosures at the interval's two ends (an interval far from any maximum
+    of v then bounds it by the larger end value, however wide)."""
 
     def __init__(self, program: IntervalProgram, p):
-        """``p``: the parameter vector, or (intervals x parameters) each interval's own."""
+        """``p``: the parameter vector; or an array (cases x parameters) of many cases' own,
+        with ``cases`` given to :meth:`bounds` (each interval's case: a row of p), or without
+        it one row per interval (:mod:`optdesign.study.batched`)."""
         p = np.asarray(p, float)
         self.program, self.p = program, p if p.ndim == 2 else p.ravel()
 
-    def bounds(self, lo, hi, rows=None):
+    def bounds(self, lo, hi, rows=None, cases=None):
+        """(L, U, vm_lo, vm_hi), rows x intervals: the bounds of v over [lo, hi] and the
+        enclosure of v at the midpoint; ``rows``: those rows only (the others NaN); ``cases``:
+        each interval's row of the parameters (an Enclosure of many cases)."""
         gather = getattr(GATHER, "bounds", None)
-        if gather is not None:   # this thread's calls are gathered with other cases' (study.batched)
-            return gather(self, lo, hi, rows)
+        if gather is not None and (self.p.ndim == 1 or len(self.p) == 1):
+            return gather(self, lo, hi, rows)   # this thread's (one case's) calls gathered with other cases' (study.batched)
         lo, hi = np.asarray(lo, float), np.asarray(hi, float)
         n = len(lo)
+        if self.p.ndim == 2 and cases is None:   # one parameter row per interval
+            cases = np.arange(n)
+        if n > CHUNK:   # in pieces whose arrays stay in the processor's cache (each interval on its own)
+            parts = [self.bounds(lo[i:i + CHUNK], hi[i:i + CHUNK], rows, None if cases is None else cases[i:i + CHUNK])
+                     for i in range(0, n, CHUNK)]
+            return tuple(np.concatenate(a, axis=1) for a in zip(*parts))
         m = 0.5 * (lo + hi)
         r = _up(np.maximum(hi - m, m - lo))
-        p = self.p if self.p.ndim == 1 else np.r_[self.p, self.p]   # for [lo, m]
-        (v_lo, v_hi, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(np.r_[lo, m], np.r_[hi, m], p, rows)
-        whole, mid = slice(0, n), slice(n, 2 * n)
-        L, U = v_lo[:, whole], v_hi[:, whole]
-        vm_lo, vm_hi = v_lo[:, mid], v_hi[:, mid]
-        smooth0 = ~v_jump[:, whole]
-        smooth1 = smooth0 & ~d_jump[:, whole]
+        # the ends, each (case, value) once: neighbouring intervals share them
+        if self.p.ndim == 1:
+            ends, where_end = np.unique(np.concatenate((lo, hi)), return_inverse=True)
+            p = self.p
+        else:
+            cases = np.asarray(cases, int)
+            key_case, key_s = np.concatenate((cases, cases)), np.concatenate((lo, hi))
+            order = np.lexsort((key_s, key_case))
+            first = np.concatenate(([True], (np.diff(key_case[order]) != 0) | (np.diff(key_s[order]) != 0)))
+            where_end = np.empty(2 * n, int)
+            where_end[order] = np.cumsum(first) - 1
+            ends, end_case = key_s[order][first], key_case[order][first]
+            p = self.p[np.concatenate((cases, cases, end_case))]
+        # over [lo, hi] everything; at the midpoints v and v' (the Taylor form's); at the ends v
+        # (the monotone form's): each call runs only the instructions its outputs need
+        # (numpy runs a program instruction by instruction, at a fixed cost per instruction and
+        # call: there all of them in one call)
+        if getattr(self.program, "subsets_pay", False):
+            p_whole, p_mid, p_ends = (p[:n], p[n:2 * n], p[2 * n:]) if p.ndim == 2 else (p, p, p)
+            (L, U, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(lo, hi, p_whole, rows)
+            (vm_lo, vm_hi, _), (dm_lo, dm_hi, _), _ = self.program(m, m, p_mid, rows, (0, 1))
+            (at_lo, at_hi, _), _, _ = self.program(ends, ends, p_ends, rows, (0,))
+        else:
+            (v_lo, v_hi, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(
+                np.concatenate((lo, m, ends)), np.concatenate((hi, m, ends)), p, rows)
+            L, U, vm_lo, vm_hi, at_lo, at_hi = (v_lo[:, :n], v_hi[:, :n], v_lo[:, n:2 * n], v_hi[:, n:2 * n],
+                                                v_lo[:, 2 * n:], v_hi[:, 2 * n:])
+            dm_lo, dm_hi = d_lo[:, n:2 * n], d_hi[:, n:2 * n]
+            v_jump, d_lo, d_hi, d_jump, e_lo, e_hi = (a[:, :n] for a in (v_jump, d_lo, d_hi, d_jump, e_lo, e_hi))
+        smooth0 = ~v_jump
+        smooth1 = smooth0 & ~d_jump
         with np.errstate(all="ignore"):
             # mean-value form
-            mv = r * np.maximum(d_hi[:, whole], -d_lo[:, whole])
+            mv = r * np.maximum(d_hi, -d_lo)
             mv = mv + np.abs(mv) * 1e-12
             U_mv, L_mv = _up(vm_hi + mv), _down(vm_lo - mv)
             # Taylor form, for v and for -v
-            U_t = _up(vm_hi + _upper_correction(d_lo[:, mid], d_hi[:, mid], e_hi[:, whole], r))
-            L_t = _down(vm_lo - _upper_correction(-d_hi[:, mid], -d_lo[:, mid], -e_lo[:, whole], r))
+            U_t = _up(vm_hi + _upper_correction(dm_lo, dm_hi, e_hi, r))
+            L_t = _down(vm_lo - _upper_correction(-dm_hi, -dm_lo, -e_lo, r))
+            # monotone form: v' of one sign over the interval (its mean-value form where v' is continuous)
+            de = r * np.maximum(e_hi, -e_lo)
+            de = de + np.abs(de) * 1e-12
+            dv_lo = np.where(smooth1 & (_down(dm_lo - de) > d_lo), _down(dm_lo - de), d_lo)
+            dv_hi = np.where(smooth1 & (_up(dm_hi + de) < d_hi), _up(dm_hi + de), d_hi)
+            rising, falling = smooth0 & (dv_lo >= 0), smooth0 & (dv_hi <= 0)
+            a_lo, a_hi = at_lo[:, where_end[:n]], at_hi[:, where_end[:n]]   # v at lo
+            b_lo, b_hi = at_lo[:, where_end[n:]], at_hi[:, where_end[n:]]   # v at hi
+            U_m = np.where(rising, b_hi, np.where(falling, a_hi, np.inf))
+            L_m = np.where(rising, a_lo, np.where(falling, b_lo, -np.inf))
         U = np.where(smooth0 & (U_mv < U), U_mv, U)
         L = np.where(smooth0 & (L_mv > L), L_mv, L)
         U = np.where(smooth1 & (U_t < U), U_t, U)
         L = np.where(smooth1 & (L_t > L), L_t, L)
+        U = np.where(U_m < U, U_m, U)
+        L = np.where(L_m > L, L_m, L)
         return L, U, vm_lo, vm_hi
 
 
@@ -319,8 +377,8 @@ class Selected:
         self.sign = np.asarray(sign, float)[:, None]
         self.reason = getattr(enclosure, "reason", None)
 
-    def bounds(self, lo, hi, rows=None):
+    def bounds(self, lo, hi, rows=None, cases=None):
         inner = None if rows is None else self.rows[np.asarray(rows, int)]
-        L, U, m_lo, m_hi = (a[self.rows] for a in self.enclosure.bounds(lo, hi, inner))
+        L, U, m_lo, m_hi = (a[self.rows] for a in self.enclosure.bounds(lo, hi, inner, cases))
         up = self.sign > 0
         return (np.where(up, L, -U), np.where(up, U, -L), np.where(up, m_lo, -m_hi), np.where(up, m_hi, -m_lo))

@@ -5,12 +5,12 @@ Each operation of :mod:`.intervals` is an inline C function here with the same c
 same formulas in the same order of IEEE operations (no fast-math, no fused multiply-adds: the
 compile cache's flags), the same outward rounding (2^-50 of the value plus 1e-300 after +, -,
 *, /, sqrt; 2^-48 after the C library's elementary functions, as after numpy's: both assumed
-accurate to 16 ulp), numpy's NaN rules (``np.minimum`` keeps a NaN, ``np.fmin`` drops it), and
-the same jump tracking (comparisons, if_else, sign, floor, atan2's branch cut: per interval,
-where the outcome is not decided; an output's flag is the OR over the jumps it depends on).  The
-one difference: a product or quotient by a point is taken by the general four-product formula
-(numpy takes two products); for finite operands the two are the same numbers, and where an end
-is infinite (0 x inf) the general formula's is the tighter, still enclosing.
+accurate to 16 ulp), numpy's NaN rules (``np.minimum`` keeps a NaN, ``np.fmin`` drops it; an
+interval outside a function's domain, and a product or quotient with an operand that has a NaN
+end, NaN at both ends), and the same jump tracking (comparisons, if_else, sign, floor, atan2's
+branch cut: per interval, where the outcome is not decided; an output's flag is the OR over the
+jumps it depends on).  A product or quotient by a nonzero point is taken by the general
+four-product formula (numpy takes two products): the same numbers.
 
 The program runs as loops over blocks of ``BLOCK`` intervals, one loop per instruction (the
 compiler vectorises the loops without library calls), the parameters' own work redone per block
@@ -68,15 +68,20 @@ static inline int contains(double a, double b, double centre) {
 #define ARGS1 double a, double b, double *l, double *h
 static inline void iv_add(ARGS2) { *l = dn(a + c); *h = up(b + d); }
 static inline void iv_sub(ARGS2) { *l = dn(a - d); *h = up(b - c); }
+/* intervals.py's _undefined: an operand with a NaN end (no enclosure) gives NaN at both ends */
+#define UNDEFINED(a, b, c, d) (((a) != (a)) | ((b) != (b)) | ((c) != (c)) | ((d) != (d)))
 static inline void iv_mul(ARGS2) {
   double p1 = a * c, p2 = a * d, p3 = b * c, p4 = b * d;
-  *l = dn(fmn(fmn(p1, p2), fmn(p3, p4))); *h = up(fmx(fmx(p1, p2), fmx(p3, p4)));
+  double lo = dn(fmn(fmn(p1, p2), fmn(p3, p4))), hi = up(fmx(fmx(p1, p2), fmx(p3, p4)));
+  int bad = UNDEFINED(a, b, c, d);
+  *l = bad ? NAN : lo; *h = bad ? NAN : hi;
 }
 static inline void iv_div(ARGS2) {
   double q1 = a / c, q2 = a / d, q3 = b / c, q4 = b / d;
   double lo = dn(fmn(fmn(q1, q2), fmn(q3, q4))), hi = up(fmx(fmx(q1, q2), fmx(q3, q4)));
-  int zero = (c <= 0) & (d >= 0);
-  *l = zero ? -INFINITY : lo; *h = zero ? INFINITY : hi;
+  int zero = (c <= 0) & (d >= 0), bad = UNDEFINED(a, b, c, d);
+  lo = zero ? -INFINITY : lo; hi = zero ? INFINITY : hi;
+  *l = bad ? NAN : lo; *h = bad ? NAN : hi;
 }
 static inline void iv_sq(ARGS1) {
   double a2 = a * a, b2 = b * b;
@@ -146,9 +151,10 @@ static inline unsigned char iv_atan2_periodic(ARGS2) { return iv_atan2(a, b, c, 
 static inline void iv_neg(ARGS1) { *l = -b; *h = -a; }
 static inline void iv_assign(ARGS1) { *l = a; *h = b; }
 static inline void iv_twice(ARGS1) { *l = 2.0 * a; *h = 2.0 * b; }
+/* a function over an interval outside its domain: NaN at both ends (intervals.py's _outside) */
 static inline void iv_sqrt(ARGS1) {
   double lo = dn(sqrt(nmax(a, 0.0))), hi = up(sqrt(b));
-  *l = nmax(lo, 0.0); *h = b < 0 ? NAN : hi;
+  *l = b < 0 ? NAN : nmax(lo, 0.0); *h = b < 0 ? NAN : hi;
 }
 static inline void iv_inv(ARGS1) { iv_div(1.0, 1.0, a, b, l, h); }
 static inline void iv_fabs(ARGS1) {
@@ -168,14 +174,18 @@ static inline void iv_cos(ARGS1) { iv_sin_(a, b, 1, %(cos_top)s, %(cos_bottom)s,
 #define MONOTONE(name, f) static inline void name(ARGS1) { *l = dnl(f(a)); *h = upl(f(b)); }
 MONOTONE(iv_exp, exp) MONOTONE(iv_atan, atan) MONOTONE(iv_tanh, tanh) MONOTONE(iv_sinh, sinh)
 MONOTONE(iv_expm1, expm1) MONOTONE(iv_erf, erf)
-static inline void iv_log(ARGS1) { *l = dnl(log(nmax(a, 0.0))); *h = upl(log(b)); }
-static inline void iv_log1p(ARGS1) { *l = dnl(log1p(nmax(a, -1.0))); *h = upl(log1p(b)); }
+static inline void iv_log(ARGS1) { *l = b < 0 ? NAN : dnl(log(nmax(a, 0.0))); *h = b < 0 ? NAN : upl(log(b)); }
+static inline void iv_log1p(ARGS1) {
+  *l = b < -1 ? NAN : dnl(log1p(nmax(a, -1.0))); *h = b < -1 ? NAN : upl(log1p(b));
+}
 static inline double clip1(double x) { return nmin(nmax(x, -1.0), 1.0); }
 static inline void iv_asin(ARGS1) {
-  *l = dnl(asin(clip1(a))); *h = ((a > 1) | (b < -1)) ? NAN : upl(asin(clip1(b)));
+  int out = (a > 1) | (b < -1);
+  *l = out ? NAN : dnl(asin(clip1(a))); *h = out ? NAN : upl(asin(clip1(b)));
 }
 static inline void iv_acos(ARGS1) {
-  *l = dnl(acos(clip1(b))); *h = ((a > 1) | (b < -1)) ? NAN : upl(acos(clip1(a)));
+  int out = (a > 1) | (b < -1);
+  *l = out ? NAN : dnl(acos(clip1(b))); *h = out ? NAN : upl(acos(clip1(a)));
 }
 static inline void iv_tan(ARGS1) {
   int pole = contains(a, b, %(half_pi)s) | contains(a, b, %(minus_half_pi)s) | ((b - a) >= %(pi)s);

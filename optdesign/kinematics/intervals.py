@@ -3,8 +3,11 @@
 Each operation returns an interval holding every value it takes when its operands range over
 theirs, moved outward by the rounding of the operation (:func:`_out`); the operations whose
 outcome jumps (comparisons, if_else, sign, floor, atan2's branch cut) also say where it is not
-decided over the interval.  Used by :mod:`.enclosure`, which runs a Function's instruction
-program with them.
+decided over the interval.  NaN (at both ends) is no enclosure: a function undefined on the
+whole interval (sqrt, log, asin... outside their domain), and the arithmetic and functions of
+it (a comparison with it is undecided, [0, 1], as CasADi's comparison with NaN is false), so that
+no interval where the function is undefined ever closes.  Used by
+:mod:`.enclosure`, which runs a Function's instruction program with them.
 """
 from __future__ import annotations
 
@@ -62,25 +65,50 @@ def _hull(*xs):
     return np.minimum.reduce(xs), np.maximum.reduce(xs)
 
 
+# A NaN end of an operand (no enclosure: a function undefined on the whole interval, e.g. sqrt
+# of a negative interval) gives NaN at both ends of a product or quotient: the four products'
+# fmin/fmax, which take 0 * inf as 0, would drop it, and a NaN at one end only would be lost by a
+# later negation.  numpy's minimum/maximum keep a NaN: the products' fmin/fmax (and the test of
+# the operands) are taken only where they give one, which is rare.
+def _both_nan(lo, hi):
+    """[lo, hi] with NaN at both ends where either end is NaN."""
+    if not np.isnan(lo + hi).any():   # (NaN where either is, or -inf + inf)
+        return lo, hi
+    bad = np.isnan(lo) | np.isnan(hi)
+    return np.where(bad, np.nan, lo), np.where(bad, np.nan, hi)
+
+
+def _four(a, b, c, d, p1, p2, p3, p4):
+    """The hull of four products (or quotients) of [a, b] and [c, d], outward; 0 * inf (inf /
+    inf) taken as 0 (dropped), NaN where an operand has a NaN end."""
+    lo = np.minimum(np.minimum(p1, p2), np.minimum(p3, p4))
+    hi = np.maximum(np.maximum(p1, p2), np.maximum(p3, p4))
+    if np.isnan(lo).any():
+        bad = np.isnan(a) | np.isnan(b) | np.isnan(c) | np.isnan(d)
+        lo = np.where(bad, np.nan, np.fmin(np.fmin(p1, p2), np.fmin(p3, p4)))
+        hi = np.where(bad, np.nan, np.fmax(np.fmax(p1, p2), np.fmax(p3, p4)))
+    return _out(lo, hi)
+
+
 def _mul(a, b, c, d):
-    """[a, b] * [c, d], 0 * inf taken as 0."""
+    """[a, b] * [c, d], 0 * inf taken as 0; NaN where an operand has a NaN end."""
     if np.ndim(a) == 0 and a == b and np.ndim(c) != 0:   # a point times an interval array
         a, b, c, d = c, d, a, b
-    if np.ndim(c) == 0 and c == d:   # by a point (a constant or a parameter): two products
-        return _out(a * c, b * c) if c >= 0 else _out(b * c, a * c)
-    p1, p2, p3, p4 = a * c, a * d, b * c, b * d
-    return _out(np.fmin(np.fmin(p1, p2), np.fmin(p3, p4)), np.fmax(np.fmax(p1, p2), np.fmax(p3, p4)))
+    if np.ndim(c) == 0 and c == d and c != 0 and math.isfinite(c):   # by a point (a constant or a parameter)
+        return _both_nan(*(_out(a * c, b * c) if c > 0 else _out(b * c, a * c)))
+    return _four(a, b, c, d, a * c, a * d, b * c, b * d)
 
 
 def _div(a, b, c, d):
     """[a, b] / [c, d]: where 0 is outside [c, d], between the quotients of the ends (each
-    correctly rounded: one rounding, as a product's); the whole line where it is inside."""
-    if np.ndim(c) == 0 and c == d and c != 0:
-        return _out(a / c, b / c) if c > 0 else _out(b / c, a / c)
-    q1, q2, q3, q4 = a / c, a / d, b / c, b / d
-    lo, hi = _out(np.fmin(np.fmin(q1, q2), np.fmin(q3, q4)), np.fmax(np.fmax(q1, q2), np.fmax(q3, q4)))
+    correctly rounded: one rounding, as a product's); the whole line where it is inside; NaN
+    where an operand has a NaN end."""
+    if np.ndim(c) == 0 and c == d and c != 0 and math.isfinite(c):
+        return _both_nan(*(_out(a / c, b / c) if c > 0 else _out(b / c, a / c)))
+    lo, hi = _four(a, b, c, d, a / c, a / d, b / c, b / d)
     zero = (c <= 0) & (d >= 0)
-    if np.any(zero):
+    if np.any(zero):   # (an operand with a NaN end stays NaN)
+        zero = zero & ~(np.isnan(a) | np.isnan(b) | np.isnan(c) | np.isnan(d))
         lo, hi = np.where(zero, -INF, lo), np.where(zero, INF, hi)
     return lo, hi
 
@@ -209,6 +237,12 @@ def _binary(op, a, b, c, d, periodic=False):
     raise NotImplementedError(op)
 
 
+def _outside(lo, hi, outside):
+    """(lo, hi, None) with NaN at both ends where the interval lies outside the function's
+    domain (no enclosure: a NaN at one end only would be lost by a later negation or product)."""
+    return np.where(outside, np.nan, lo), np.where(outside, np.nan, hi), None
+
+
 def _unary(op, a, b):
     """Operation ``op`` of [a, b]: (lo, hi, undecided or None)."""
     if op == ca.OP_NEG:
@@ -221,7 +255,7 @@ def _unary(op, a, b):
         return (*_sq(a, b), None)
     if op == ca.OP_SQRT:   # a function defined on the interval: its argument's enclosure cut at 0
         lo, hi = _monotone(np.sqrt, np.maximum(a, 0.0), b, ulps=1)
-        return np.maximum(lo, 0.0), np.where(b < 0, np.nan, hi), None
+        return _outside(np.maximum(lo, 0.0), hi, b < 0)
     if op == ca.OP_INV:
         return (*_div(1.0, 1.0, a, b), None)
     if op == ca.OP_FABS:
@@ -239,11 +273,11 @@ def _unary(op, a, b):
     if op == ca.OP_EXP:
         return (*_monotone(np.exp, a, b), None)
     if op == ca.OP_LOG:
-        return (*_monotone(np.log, np.maximum(a, 0.0), b), None)
+        return _outside(*_monotone(np.log, np.maximum(a, 0.0), b), b < 0)
     if op in (ca.OP_ASIN, ca.OP_ACOS):   # defined on [-1, 1]: the argument's enclosure cut there
         f = np.arcsin if op == ca.OP_ASIN else np.arccos
         lo, hi = _monotone(f, np.clip(a, -1.0, 1.0), np.clip(b, -1.0, 1.0), op == ca.OP_ASIN)
-        return lo, np.where((a > 1) | (b < -1), np.nan, hi), None
+        return _outside(lo, hi, (a > 1) | (b < -1))
     if op == ca.OP_ATAN:
         return (*_monotone(np.arctan, a, b), None)
     if op == ca.OP_TAN:
@@ -258,7 +292,7 @@ def _unary(op, a, b):
         lo, hi = _monotone(np.cosh, *_hull(np.abs(a), np.abs(b)))
         return np.where((a <= 0) & (b >= 0), 1.0, lo), hi, None
     if op == ca.OP_LOG1P:
-        return (*_monotone(np.log1p, np.maximum(a, -1.0), b), None)
+        return _outside(*_monotone(np.log1p, np.maximum(a, -1.0), b), b < -1)
     if op == ca.OP_EXPM1:
         return (*_monotone(np.expm1, a, b), None)
     if op in (ca.OP_FLOOR, ca.OP_CEIL):

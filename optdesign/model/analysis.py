@@ -8,23 +8,24 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from ..kinematics.assembly import AssemblyCheck
 from ..kinematics.mechanism import Mechanism
 from ..scene import ResolvedScene, Scene
 from ..scene.arguments import scene_argument
-from ..scene.expressions import evaluate
 from .certified import PEAKS, CertifiedExtremes
 from .mapped import MappedFunction
 from .joint_structure import JointStructureError
 from .joints import PEAKED
-from .quantities import environment, joint_calls, joint_forces, model_value
+from .quantities import joint_forces, model_value
 from ..scene.cases import is_case_constraint
 from .cases import CaseAnalysis
-from .finite import check_columns, check_values
 from .intervals_compiled import compile_program
 from .blocked import stroke_evaluator
-from .quadrature import integrate
+from .per_stroke import StrokeConstraints
+from .quadrature import integrate_many
+from .runs import run_cases
 from .reduction import ReducedModel
-from .time_integrals import TOLERANCE, columns_at, rms_error
+from .time_integrals import TOLERANCE, rms_error
 
 
 @dataclass(frozen=True)
@@ -109,6 +110,10 @@ class Analysis:
         self.per_stroke = [c for c in scene.constraints if c.expr.is_aggregate]
         for c in self.per_sample:
             outs[f"constraint:{c.name}"] = model_value(self.model, c.expr, f"[[constraints]] {c.name}")
+        # the per-stroke constraints: their aggregates' per-sample expressions as rows of the model
+        self.stroke = StrokeConstraints(self.model, self.per_stroke) if self.per_stroke else None
+        if self.stroke is not None:
+            outs.update(self.stroke.rows)
         # with ``joints``, the force at every joint (model/joints.py): columns pin_force(P), ...
         # (their certified peaks took the toggle press's build from 0.8 to 3.8 s, measured: so they are
         # asked for); where the joint structure cannot be derived, none, and the reason in joints_note
@@ -127,11 +132,12 @@ class Analysis:
         self.names = list(outs)
         self._squares = {k: outs[k] for k in ("drive", "power") if k in outs}   # for sweep_rms, built on first use
         self.function = self.mech.function("reduced_model", outs)
-        self.mapped = self.function.map(len(self.s_values))
+        self.mapped = MappedFunction(self.function)   # (MX graphs: CasADi's map)
         # over the whole stroke: compiled blocks from the disk cache, else numpy instruction by
         # instruction (SX graphs only; model/blocked.py)
         self.vectorised = stroke_evaluator(self.function)
-        self._points = None
+        self._stroke_rows = None   # the aggregates' rows at located sweep values, built on first use
+        self.assembly = AssemblyCheck(self.mech)
         self.certified = CertifiedExtremes(self) if certify else None
         self.case_analysis = CaseAnalysis(self.mech, self.s_values, joints, certify) if scene.cases else None
         self.build_time = time.perf_counter() - t0
@@ -141,111 +147,86 @@ class Analysis:
         parameters ``p_values``: sqrt of the mean of name^2 over the continuous sweep by the
         adaptive Gauss-Kronrod quadrature (:mod:`.quadrature`, to :data:`.time_integrals.TOLERANCE`
         of the integral, the samples its first intervals; a power-flow switch between samples
-        closed in by its halving), not the samples' trapezoid rule."""
+        closed in by its halving), not the samples' trapezoid rule.  The one case of
+        :meth:`sweep_rms_many`."""
+        return self.sweep_rms_many(np.asarray(p_values, float)[None, :])[0]
+
+    def sweep_rms_many(self, P) -> list:
+        """:meth:`sweep_rms` of every row of the parameters ``P`` (cases x parameters): one
+        quadrature over all cases, each case's intervals refined by its own decisions
+        (:func:`.quadrature.integrate_many`: a case's numbers are those of its own call)."""
+        P = np.atleast_2d(np.asarray(P, float))
         if not self._squares:
-            return {}
+            return [{} for _ in P]
         if not isinstance(self._squares, tuple):
-            # compiled from the disk cache where it is there (the same numbers; a study's case
-            # spent 13 ms of its ~35 here in CasADi's virtual machine, 3 ms compiled: measured)
-            function = MappedFunction(self.mech.function("sweep_squares", self._squares), compile=True)
-            self._squares = (list(self._squares), function)
+            # the compiled blocks from the disk cache where they are there, else numpy or
+            # CasADi's map (model/blocked.py): each case's quadrature nodes in blocks of its own
+            func = self.mech.function("sweep_squares", self._squares)
+            self._squares = (list(self._squares), stroke_evaluator(func) or MappedFunction(func, compile=True))
         names, function = self._squares
-        columns = columns_at(function, names, np.asarray(p_values, float))
         s = np.sort(self.s_values)
-        result = integrate(lambda x, d, piece: np.vstack([columns(x)[k] ** 2 for k in names]),
-                           [(float(s[0]), float(s[-1]), 1.0)], [s[1:-1]], TOLERANCE)
+
+        def f(x, d, piece, case):
+            if isinstance(function, MappedFunction):
+                rows = function(x, P[case])
+            else:   # the nodes come case after case (integrate_many keeps its intervals so)
+                got = function.ragged(x, np.bincount(case, minlength=len(P)), P)
+                rows = [got[k] for k in names]
+            return np.vstack([np.reshape(row, (1, -1)) ** 2 for row in rows])
+
+        found = integrate_many(f, [(float(s[0]), float(s[-1]), 1.0)], [s[1:-1]], TOLERANCE, cases=len(P))
         span = float(s[-1] - s[0])
-        return {k: (math.sqrt(max(v, 0.0) / span), rms_error(max(v, 0.0), e, span, 0.0))
-                for k, v, e in zip(names, result.values, result.errors)}
+        return [{k: (math.sqrt(max(v, 0.0) / span), rms_error(max(v, 0.0), e, span, 0.0))
+                 for k, v, e in zip(names, r.values, r.errors)} for r in found]
 
     def run(self, p_values=None) -> AnalysisResult:
-        mech, model = self.mech, self.model
-        p_values = mech.parameter_values if p_values is None else np.asarray(p_values, float)
-        t0 = time.perf_counter()
-        # both certified over the continuous stroke; what they return are minima of a margin or
-        # of |dq/ds| narrower than the samples' spacing, where the peaks need finer samples
-        narrow = mech.check_assembly(self.s_values, p_values) + model.check_dead_centre(self.s_values, p_values)
-        if self.vectorised is not None:
-            raw = self.vectorised(self.s_values, p_values)
-        else:
-            raw = self.mapped(s=self.s_values[None, :], p=p_values)
-        n = len(self.s_values)
-        values = {k: np.broadcast_to(np.asarray(v, float).ravel(), (n,)).copy() for k, v in raw.items()}
+        """The analysis at the parameters ``p_values`` (the scene's own by default): the one case
+        of :meth:`run_many`, with its columns over the samples; its error raised."""
+        p_values = self.mech.parameter_values if p_values is None else np.asarray(p_values, float)
+        runs, values = self._run_many(p_values[None, :])
+        case = runs[0]
+        if case.error is not None:
+            raise case.error
         columns = {"s": self.s_values.copy()}
         bodies, constraints, quantities = {}, {}, {}
         for key, arr in values.items():
+            arr = arr[0].copy()
             if key.startswith("constraint:"):
                 constraints[key.split(":", 1)[1]] = arr
             elif key.startswith("quantity:"):
                 quantities[key.split(":", 1)[1]] = arr
+            elif key.startswith("stroke:"):
+                continue
             elif ":" in key:
                 body, name = key.split(":", 1)
                 bodies.setdefault(body, {})[name] = arr
             else:
                 columns[key] = arr
-        if self.scene.drive.kind == "rotary":
-            columns["q"] = np.unwrap(columns["q"])
-        check_columns(self, self.s_values, columns, constraints, p_values)   # no NaN/inf: an error naming it
-        s = self.s_values
-        sampled_stroke = self._per_stroke(p_values, s)
-        peaks_sampled, peak_at = {}, {}
-        for k in self.peak_names:
-            if k in columns:
-                i = int(np.argmax(np.abs(columns[k])))
-                peaks_sampled[k] = float(abs(columns[k][i]))
-                peak_at[k] = {"s": float(s[i]), "q": float(columns["q"][i]), "value": float(columns[k][i])}
-        extremes = {}
-        for name, v in constraints.items():
-            lo, hi = int(np.argmin(v)), int(np.argmax(v))
-            extremes[name] = {"min": float(v[lo]), "min_s": float(s[lo]), "max": float(v[hi]), "max_s": float(s[hi])}
-        timings = {"build_s": self.build_time, "evaluate_s": time.perf_counter() - t0}
-        peaks, stroke = dict(peaks_sampled), dict(sampled_stroke)
-        certificates = {}
-        if self.certified is not None:
-            t1 = time.perf_counter()
-            found = self.certified(s, p_values, columns, constraints, narrow)
-            peaks, peak_at, certificates = found["peaks"], found["peak_at"], found["certificates"]
-            extra = sorted({x for located in found["aggregates"].values() for x in located})
-            if extra:  # the located extrema join the samples, inside: start()/end() keep the ends
-                stroke = self._per_stroke(p_values, np.r_[s[:-1], extra, s[-1:]])
-            extremes = {k: dict(e, min_sampled=extremes[k]["min"], max_sampled=extremes[k]["max"])
-                        for k, e in found["constraint_extremes"].items()}
-            certificates.update({f"assembly of {name}": {"bound": None, "note": note}
-                                 for name, note in mech.assembly_notes.items()})
-            if model.dead_centre_note:
-                certificates["dead centre"] = {"bound": None, "note": model.dead_centre_note}
-            timings["certify_s"] = time.perf_counter() - t1
-        else:
-            extremes = {k: dict(e, min_sampled=e["min"], max_sampled=e["max"]) for k, e in extremes.items()}
-        constraints.update(stroke)
-        check_values(self, {**{f"constraint {k!r}": v for k, v in constraints.items() if not np.ndim(v)},
-                            **{f"peak |{k}|": v for k, v in peaks.items()}})
-        return AnalysisResult(self.scene, columns, bodies, constraints, peaks, timings, peaks_sampled,
-                              peak_at, extremes, sampled_stroke,
-                              cases=self.case_analysis.run(p_values) if self.case_analysis else None,
-                              certificates=certificates, quantities=quantities, joints_note=self.joints_note,
+        constraints.update(case.stroke)
+        return AnalysisResult(self.scene, columns, bodies, constraints, case.peaks, case.timings, case.peaks_sampled,
+                              case.peak_at, case.constraint_extremes, case.stroke_sampled, cases=case.cases,
+                              certificates=case.certificates, quantities=quantities, joints_note=self.joints_note,
                               joints_routes=self.joints_routes)
 
-    def _per_stroke(self, p_values, s_values):
-        """The per-stroke constraints with their aggregates taken over ``s_values``."""
-        if not self.per_stroke:
-            return {}
-        mech = self.mech
-        # the model's columns and joint forces that the per-stroke constraints use (model/quantities.py)
-        columns = {}
-        for c in self.per_stroke:
-            used = (c.expr.names() | {f"{f}({p})" for f, p in joint_calls(c.expr)}) - set(mech.env)
-            columns.update({k: v for k, v in environment(self.model, c.expr).items() if k in used})
-        if self._points is None:  # built once, on the first run that needs it
-            self._points = MappedFunction(mech.function("points", dict(mech.points, **columns)))
-        names = list(mech.points)
-        rows = self._points(s_values, p_values)
-        values = self.resolved.environment(p_values)
-        values[self.scene.sweep.name] = ca.DM(np.asarray(s_values, float)[None, :])
-        points = {k: ca.DM(np.asarray(v)) for k, v in zip(names, rows)}
-        values.update({k: ca.DM(np.asarray(v)).reshape((1, -1)) for k, v in zip(columns, rows[len(names):])})
-        return {c.name: float(evaluate(c.expr, values, points, f"[[constraints]] {c.name}"))
-                for c in self.per_stroke}
+    def run_many(self, P) -> list:
+        """The analyses of many cases that differ in leaf parameter values only (``P``: cases x
+        parameters, :attr:`mech.parameter_names`), each stage over all cases at once: a
+        :class:`~.runs.CaseRun` per case (its figures, or the OptdesignError that stopped it in
+        ``error``).  Every decision is the case's own: a case's figures are the same bit for bit
+        in any batch, and :meth:`run` is the one case."""
+        return self._run_many(P)[0]
+
+    def _run_many(self, P):
+        """(CaseRun per case, the model's values: name -> cases x samples)."""
+        return run_cases(self, np.atleast_2d(np.asarray(P, float)))
+
+    def stroke_rows_at(self, s, P) -> np.ndarray:
+        """The per-stroke constraints' aggregate rows at sweep values ``s``, each with its
+        parameter row of ``P`` (rows x len(s))."""
+        if self._stroke_rows is None:
+            self._stroke_rows = MappedFunction(self.mech.function("stroke_rows", {"v": ca.vertcat(
+                *self.stroke.rows.values())}))
+        return self._stroke_rows(s, P)[0]
 
 
 def analyse(scene: Scene | ResolvedScene, samples: int | None = None, certify: bool = True,

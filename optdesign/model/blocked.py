@@ -26,6 +26,7 @@ from . import compiled
 from .vectorised import VectorisedSX
 
 BLOCK = 64     # samples per block
+CHUNK = 64     # blocks per mapped call over many cases (BlockedFunction.ragged)
 SEGMENT = 16   # instructions per loop (level-luffing crane, CPU time per call at 10,001 samples:
 #                one instruction per loop 3.5 ms, 16 per loop 2.3 ms, 32 or 64 2.5 ms; compiling
 #                1.7 s -> 0.4 s)
@@ -244,6 +245,63 @@ class BlockedFunction:
             buffer.set_res(j, memoryview(out))
         run()
         return {name: out[:n] for name, out in zip(self.names, outs)}
+
+    def many(self, s_row, P) -> dict:
+        """{output name: array cases x sweep values}: the row ``s_row`` for every parameter row
+        of ``P`` (cases x parameters), each case padded to whole blocks as :meth:`__call__` pads
+        it, every block with its case's parameters: a case's numbers are those of its own call,
+        whatever the other cases."""
+        s = np.asarray(s_row, float).ravel()
+        P = np.atleast_2d(np.asarray(P, float))
+        out = self.ragged(np.tile(s, len(P)), np.full(len(P), len(s)), P)
+        return {k: v.reshape(len(P), len(s)) for k, v in out.items()}
+
+    def ragged(self, s, counts, P) -> dict:
+        """{output name: array over ``s``}: the first ``counts[0]`` values of ``s`` with the
+        parameters ``P[0]``, the next ``counts[1]`` with ``P[1]``, ...: each case's values in
+        blocks of its own (padded with its last value), mapped calls of at most CHUNK blocks."""
+        s = np.asarray(s, float).ravel()
+        counts = np.asarray(counts, int)
+        P = np.atleast_2d(np.asarray(P, float))
+        block = self.block
+        per = -(-counts // block)
+        first = np.cumsum(per) - per
+        ends = np.cumsum(counts)
+        case = np.repeat(np.arange(len(counts)), counts)
+        where = first[case] * block + np.arange(len(s)) - (ends - counts)[case]
+        last = np.where(counts > 0, s[np.maximum(ends - 1, 0)] if len(s) else 0.0, 0.0)
+        s_in = np.repeat(last, per * block)
+        s_in[where] = s
+        p_in = np.repeat(P, per, axis=0)
+        total = int(per.sum())
+        outs = {name: np.empty(total * block) for name in self.names}
+        for start in range(0, total, CHUNK):
+            part = self._blocks(s_in[start * block:(start + CHUNK) * block], p_in[start:start + CHUNK])
+            for name, values in part.items():
+                outs[name][start * block:start * block + len(values)] = values
+        return {name: values[where] for name, values in outs.items()}
+
+    def _blocks(self, s_in, p_rows) -> dict:
+        """The outputs over whole blocks ``s_in``, block j with the parameters ``p_rows[j]`` (at
+        most CHUNK blocks: one mapped Function per power of two of blocks, the call padded)."""
+        n = len(p_rows)
+        size = 1 << max(n - 1, 0).bit_length()
+        if ("chunk", size) not in self._maps:
+            mapped = self.external.map(f"{self.external.name()}_blocks_{size}", "serial", size, [], [])
+            buffer, run = mapped.buffer()
+            s_buf, p_buf = np.zeros(size * self.block), np.zeros(size * self.external.nnz_in(1))
+            outs = [np.zeros(size * self.block) for _ in self.names]
+            buffer.set_arg(0, memoryview(s_buf))
+            buffer.set_arg(1, memoryview(p_buf))
+            for j, out in enumerate(outs):
+                buffer.set_res(j, memoryview(out))
+            self._maps[("chunk", size)] = (buffer, run, s_buf, p_buf, outs)
+        buffer, run, s_buf, p_buf, outs = self._maps[("chunk", size)]
+        s_buf[:len(s_in)], s_buf[len(s_in):] = s_in, s_in[-1]
+        p_buf[:p_rows.size] = p_rows.ravel()
+        p_buf[p_rows.size:] = np.tile(p_rows[-1], size - n)
+        run()
+        return {name: out[:n * self.block].copy() for name, out in zip(self.names, outs)}
 
 
 def stroke_evaluator(func: ca.Function, wait: bool | None = None):

@@ -17,7 +17,7 @@ import casadi as ca
 import numpy as np
 
 from ..kinematics.enclosure import Enclosures
-from ..kinematics.peaks import Extremum, Request, continuous_maxima_rows, resolving_points
+from ..kinematics.peaks import Extremum, Request, continuous_maxima_rows, maxima_of_cases, resolving_points
 from ..scene.expressions import Expression
 from .intervals_compiled import compile_program
 from .mapped import MappedFunction
@@ -49,10 +49,45 @@ class CertifiedExtremes:
         self.n_rows = len(rows)
         v = ca.vertcat(*rows) if rows else ca.DM.zeros(0, 1)
         dv = mech.ds(v)
-        self.derivatives = MappedFunction(mech.function("certified_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)}))
-        self.enclosures = Enclosures(self.derivatives.func, compile_program)   # the same program, in intervals
-        self.values = MappedFunction(mech.function("certified_v", {"v": v}))
-        self.q = MappedFunction(mech.function("q", {"q": mech.q}))
+        # compiled from the disk cache where it is there (CasADi's C of the same graph: the same
+        # numbers, ~14x faster per point on the truck crane: measured)
+        derivatives = mech.function("certified_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)})
+        self.derivatives = MappedFunction(derivatives, compile=True)
+        self.enclosures = Enclosures(derivatives, compile_program)   # the same program, in intervals
+        self.values = MappedFunction(mech.function("certified_v", {"v": v}), compile=True)
+        self.q = MappedFunction(mech.function("q", {"q": mech.q}), compile=True)
+
+    def many(self, s_values, P, columns, constraints, narrow=None) -> list:
+        """The continuous extremes of N cases of this analysis that differ only in their
+        parameters: case i at parameters ``P[i]`` (``P``: N x parameters), all sampled on the
+        same ``s_values`` (S values, ascending or descending).  ``columns`` and ``constraints``:
+        name -> array N x S, case i's sampled columns (``q`` and the peaks' names) and per-sample
+        constraints in row i.  ``narrow``: None, or one sequence of (s, width) per case (as
+        :meth:`__call__`'s).  Returns one dict per case, in order, each what :meth:`__call__`
+        returns for that case alone, bit for bit: every decision of the certification is taken
+        per case (:mod:`optdesign.kinematics.extrema`), so a case's numbers do not depend on the
+        other cases of the batch or on its position in it (a study's serial, pool and Dask rows
+        stay byte-identical).  The work is arrays over all cases: one evaluation of the rows per
+        Newton step and one of the enclosure per pass of the branch and bound for the batch."""
+        P = np.atleast_2d(np.asarray(P, float))
+        n = P.shape[0]
+        narrow = [()] * n if narrow is None else list(narrow)
+        if len(narrow) != n:
+            raise ValueError(f"narrow: one sequence per case ({n}), got {len(narrow)}")
+        s_values = np.asarray(s_values, float)
+        spacing = abs(float(s_values[-1] - s_values[0])) / max(len(s_values) - 1, 1)
+        groups = {}   # cases with the same extra sweep values share a grid
+        for i, near in enumerate(narrow):
+            extra = tuple(resolving_points(near, s_values[0], s_values[-1], spacing)) if near else ()
+            groups.setdefault(extra, []).append(i)
+        out = [None] * n
+        for extra, index in groups.items():
+            index = np.array(index)
+            found = self._group(s_values, P[index], {k: np.asarray(v)[index] for k, v in columns.items()},
+                                {k: np.asarray(v)[index] for k, v in constraints.items()}, list(extra))
+            for i, f in zip(index, found):
+                out[i] = f
+        return out
 
     def __call__(self, s_values, p, columns, constraints, narrow=()):
         """The continuous extremes at parameters ``p``, given the sampled ``columns`` and
@@ -62,68 +97,80 @@ class CertifiedExtremes:
         them join the samples (:func:`~optdesign.kinematics.peaks.resolving_points`) before
         the extrema are bracketed.  Returns a dict: ``peaks`` (name -> |peak|), ``peak_at``
         (name -> {s, q, value}), ``constraint_extremes`` (per-sample constraint -> {min, min_s,
-        max, max_s}) and ``aggregates`` (constraint -> located s values of its aggregates)."""
-        s_values = np.asarray(s_values, float)
-        V = np.empty((self.n_rows, len(s_values)))
+        max, max_s}), ``aggregates`` (constraint -> located s values of its aggregates) and
+        ``certificates``.  The batch of one case of :meth:`many`."""
+        return self.many(s_values, np.asarray(p, float).ravel()[None, :],
+                         {k: np.asarray(v)[None] for k, v in columns.items()},
+                         {k: np.asarray(v)[None] for k, v in constraints.items()}, [narrow])[0]
+
+    def _group(self, s_values, P, columns, constraints, extra):
+        """:meth:`many` of cases that share their sweep values (``extra`` joining the samples)."""
+        n, S = P.shape[0], len(s_values)
+        V = np.empty((n, self.n_rows, S))
         for name, i in self.peak_rows.items():
-            V[i] = columns[name]
+            V[:, i] = columns[name]
         for name, i in self.constraint_rows.items():
-            V[i] = constraints[name]
+            V[:, i] = constraints[name]
         if self.aggregate_rows:
             rows = [i for _, _, i in self.aggregate_rows]
-            V[rows] = self.values(s_values, p)[0][rows]
-        q_sampled = columns["q"]
-        spacing = abs(float(s_values[-1] - s_values[0])) / max(len(s_values) - 1, 1)
-        extra = resolving_points(narrow, s_values[0], s_values[-1], spacing)
+            V[:, rows] = self._values(s_values, P)[:, rows]
+        q_sampled = np.asarray(columns["q"], float)
         if extra:
             s_all = np.r_[s_values, extra]
             order = np.argsort(s_all, kind="stable")
             if s_values[-1] < s_values[0]:
                 order = order[::-1]
-            V = np.c_[V, self.values(np.array(extra), p)[0]][:, order]
-            q_sampled = np.r_[q_sampled, np.full(len(extra), np.nan)][order]
+            V = np.concatenate([V, self._values(np.array(extra), P)], axis=2)[:, :, order]
+            q_sampled = np.c_[q_sampled, np.full((n, len(extra)), np.nan)][:, order]
             s_values = s_all[order]
-        requests = []
-        for i in self.peak_rows.values():
-            requests.append(Request(i, "abs", ends=True))
+        requests = [Request(i, "abs", ends=True) for i in self.peak_rows.values()]
         for i in self.constraint_rows.values():
             requests += [Request(i, "max", ends=True), Request(i, "min", ends=True)]
-        for _, func, i in self.aggregate_rows:
-            requests.append(Request(i, func, ends=True))
-        extrema = self._extrema(s_values, V, p, requests)
-        out = {"peaks": {}, "peak_at": {}, "constraint_extremes": {}, "aggregates": {}, "certificates": {}}
-        located = iter(extrema)
-        for name in self.peak_rows:
-            e = next(located)
-            out["peaks"][name] = abs(e.value)
-            out["peak_at"][name] = {"s": e.s, "q": self._q(e.s, s_values, q_sampled, p), "value": e.value}
-            out["certificates"][f"peak |{name}|"] = _certificate(e)
-        for name in self.constraint_rows:
-            hi, lo = next(located), next(located)
-            out["constraint_extremes"][name] = {"min": lo.value, "min_s": lo.s, "max": hi.value, "max_s": hi.s}
-            out["certificates"][f"{name} max"] = _certificate(hi)
-            out["certificates"][f"{name} min"] = _certificate(lo, -1.0)
-        for name, _, _ in self.aggregate_rows:
-            out["aggregates"].setdefault(name, []).append(next(located).s)
+        requests += [Request(i, func, ends=True) for _, func, i in self.aggregate_rows]
+        out = [{"peaks": {}, "peak_at": {}, "constraint_extremes": {}, "aggregates": {}, "certificates": {}}
+               for _ in range(n)]
+        if not requests:
+            return out
+        ascending = len(s_values) < 2 or s_values[-1] >= s_values[0]
+        grid, values = (s_values, V) if ascending else (s_values[::-1], V[:, :, ::-1])
+        s, v, bound, notes = maxima_of_cases(lambda x, cases: self.derivatives(x, P[cases]), grid, values, requests,
+                                             enclosure=self.enclosures.at(P))
+        k_peaks = len(self.peak_rows)
+        q = self._q(s[:, :k_peaks], s_values, q_sampled, P)
+        for c, found in enumerate(out):
+            sc, vc, bc, nc = s[c].tolist(), v[c].tolist(), bound[c].tolist(), notes[c]
+            for j, name in enumerate(self.peak_rows):
+                found["peaks"][name] = abs(vc[j])
+                found["peak_at"][name] = {"s": sc[j], "q": q[c][j], "value": vc[j]}
+                found["certificates"][f"peak |{name}|"] = _certificate(bc[j], nc[j])
+            j = k_peaks
+            for name in self.constraint_rows:
+                found["constraint_extremes"][name] = {"min": vc[j + 1], "min_s": sc[j + 1], "max": vc[j], "max_s": sc[j]}
+                found["certificates"][f"{name} max"] = _certificate(bc[j], nc[j])
+                found["certificates"][f"{name} min"] = _certificate(bc[j + 1], nc[j + 1], -1.0)
+                j += 2
+            for name, _, _ in self.aggregate_rows:
+                found["aggregates"].setdefault(name, []).append(sc[j])
+                j += 1
         return out
 
-    def _extrema(self, s_values, V, p, requests):
-        """The largest continuous extremum of each request, certified by the enclosure of the
-        same rows (its ``bound`` and ``note``: :func:`~optdesign.kinematics.peaks.certify`)."""
-        ascending = len(s_values) < 2 or s_values[-1] >= s_values[0]
-        grid, values = (s_values, V) if ascending else (s_values[::-1], V[:, ::-1])
-        found = continuous_maxima_rows(lambda s: self.derivatives(s, p), grid, values, requests,
-                                       enclosure=self.enclosures.at(p)) if requests else []
-        return [ext[0] for ext in found]
+    def _values(self, s, P):
+        """The rows at the sweep values ``s`` for each case: cases x rows x len(s)."""
+        n, m = P.shape[0], len(s)
+        flat = self.values(np.tile(s, n), np.repeat(P, m, axis=0))[0]   # rows x (cases * len(s))
+        return flat.reshape(self.n_rows, n, m).transpose(1, 0, 2)
 
-    def _q(self, s, s_values, q_sampled, p):
-        """The drive coordinate at s, on the branch of the sampled (unwrapped) q."""
-        q = float(self.q(np.array([s]), p)[0][0, 0])
-        if self.mech.scene.drive.kind != "rotary":
-            return q
-        known = np.isfinite(q_sampled)
-        near = q_sampled[known][int(np.argmin(np.abs(s_values[known] - s)))]
-        return float(near + math.remainder(q - near, 2 * math.pi))
+    def _q(self, s, s_values, q_sampled, P):
+        """The drive coordinate at each case's sweep values ``s`` (cases x k), on the branch of
+        its sampled (unwrapped) q: a list of lists."""
+        n, k = s.shape
+        q = self.q(s.ravel(), np.repeat(P, k, axis=0))[0][0].reshape(n, k)
+        if self.mech.scene.drive.kind == "rotary" and k:
+            known = np.isfinite(q_sampled)   # the samples', not the joined sweep values'
+            distance = np.where(known[:, None, :], np.abs(s_values[None, None, :] - s[:, :, None]), np.inf)
+            near = np.take_along_axis(q_sampled, np.argmin(distance, axis=2), axis=1)
+            q = near + np.vectorize(math.remainder, otypes=[float])(q - near, 2 * math.pi)
+        return q.tolist()
 
 
 class CertifiedPeaks:
@@ -159,7 +206,7 @@ class CertifiedPeaks:
                 s_values, V = s_values[::-1], V[:, ::-1]
             found = continuous_maxima_rows(lambda s: self.derivatives(s, p), s_values, V, requests,
                                            enclosure=self.enclosures.at(p) if certify else None)
-        return {name: (abs(ext[0].value), {"s": ext[0].s, "value": ext[0].value}, _certificate(ext[0]) if certify else None)
+        return {name: (abs(ext[0].value), {"s": ext[0].s, "value": ext[0].value}, _certificate(ext[0].bound, ext[0].note) if certify else None)
                 for name, ext in zip(chosen, found)}
 
 
@@ -208,11 +255,10 @@ class InTime:
         return f"{head} s = {self.sweep(float(number)):.9g} {rest}"
 
 
-def _certificate(e, sign=1.0) -> dict:
+def _certificate(bound, note, sign=1.0) -> dict:
     """What the enclosure proved of one extremum: ``bound`` (of |v|, of v for a max, of v from
-    below for a min; None without one) and ``note`` (why not, "" when certified)."""
-    bound = None if e.bound is None else sign * e.bound
-    return {"bound": bound, "note": e.note}
+    below for a min; None without one: NaN) and ``note`` (why not, "" when certified)."""
+    return {"bound": None if bound is None or bound != bound else sign * bound, "note": note}
 
 
 def aggregates(expr: Expression) -> list:

@@ -65,12 +65,14 @@ class CompiledProgram:
         self._function, self._tried = None, -np.inf
         self._offsets, self._total = stacked_rows(program)
         self._need = {}
+        self.n_p = program.func.nnz_in(1) if program.func.n_in() > 1 else 0
 
     def _library(self):
         if self._function is None and time.monotonic() - self._tried > RETRY_S:
             self._tried = time.monotonic()
             graph = self.program.func.serialize()
-            key = compiled.entry_key("intervals", graph, {"generator": generator()})
+            # (the key names the levels: a library compiled before they were its own, at -O0, is not reused)
+            key = compiled.entry_key("intervals", graph, {"generator": generator(), "levels": "own"})
             if key is None:
                 self._tried = np.inf   # no compiler: numpy for good
                 return None
@@ -97,27 +99,39 @@ class CompiledProgram:
             self._function = _loaded[key]
         return self._function
 
+    @property
+    def subsets_pay(self) -> bool:
+        """Whether a call on a subset of the outputs costs less (the C runs only the instructions
+        they need; numpy's cost is mostly per instruction and call)."""
+        return self._function is not None or self._library() is not None
+
     def __getstate__(self):   # (pickled, e.g. to a figure process: the library is looked up again there)
         return {**self.__dict__, "_function": None, "_tried": -np.inf}
 
-    def need(self, rows):
-        """The varying instructions that the outputs of ``rows`` need (all: None), as bytes."""
-        key = None if rows is None else frozenset(int(r) for r in rows)
+    def need(self, rows, outputs=None):
+        """The varying instructions that the outputs of ``rows`` (all: None) need, of the
+        outputs ``outputs`` (all: None), as bytes."""
+        fast = (None if rows is None else np.asarray(rows).tobytes(), outputs)   # (the same rows often asked again)
+        if fast in self._need:
+            return self._need[fast]
+        key = (None if rows is None else frozenset(int(r) for r in rows), None if outputs is None else frozenset(outputs))
         if key not in self._need:
             varying = self.program.varying
-            if key is None:
+            if key == (None, None):
                 mask = np.ones(len(varying), np.uint8)
             else:
-                kept = {entry[-1][1] for entry in self.program._subset(rows)}
+                every = range(max(self.program.shapes, default=0))
+                kept = {entry[-1][1] for entry in self.program._subset(every if rows is None else rows, outputs)}
                 mask = np.array([entry[-1][1] in kept for entry in varying], np.uint8)
             self._need[key] = np.ascontiguousarray(mask)
+        self._need[fast] = self._need[key]
         return self._need[key]
 
-    def __call__(self, lo, hi, p, rows=None):
+    def __call__(self, lo, hi, p, rows=None, outputs=None):
         """As :meth:`IntervalProgram.__call__`: per output (lo, hi, jump), output rows x intervals."""
         function = self._library()
         if function is None:
-            return self.program(lo, hi, p, rows)
+            return self.program(lo, hi, p, rows, outputs)
         lo = np.ascontiguousarray(np.asarray(lo, float).ravel())
         hi = np.ascontiguousarray(np.asarray(hi, float).ravel())
         n = len(lo)
@@ -125,12 +139,15 @@ class CompiledProgram:
         stride = p.shape[-1] if p.ndim == 2 else 0
         if p.ndim == 2 and p.shape[0] != n:
             raise ValueError(f"p: one row of parameters per interval ({n}), or one vector; got {p.shape}")
+        if (p.shape[-1] if p.ndim == 2 else p.size) != self.n_p or p.ndim > 2:   # (C would read past its end)
+            raise ValueError(f"p: {self.n_p} parameters per vector (the Function's second input); got shape "
+                             f"{p.shape}")
         if p.size == 0:
             p = np.zeros(1)
         offsets, total = self._offsets, self._total
         out_lo, out_hi = np.full((total, n), np.nan), np.full((total, n), np.nan)
         out_jump = np.zeros((total, n), np.bool_)
-        need = self.need(rows)
+        need = self.need(rows, outputs)
         if n and function(n, lo.ctypes.data, hi.ctypes.data, p.ctypes.data, stride, need.ctypes.data,
                           out_lo.ctypes.data, out_hi.ctypes.data, out_jump.ctypes.data) != 0:
             raise MemoryError("the compiled interval program could not allocate its work arrays")

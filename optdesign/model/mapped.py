@@ -36,13 +36,18 @@ class MappedFunction:
                           and all(func.size2_out(j) == 1 for j in range(func.n_out())))
 
     def __call__(self, s, p) -> list:
-        """Every output at every value of ``s``: a list of arrays (output rows x len(s))."""
+        """Every output at every value of ``s``: a list of arrays (output rows x len(s)).  ``p``:
+        the parameter vector, or an array len(s) x parameters of each value's own (many cases'
+        points in one call: the same numbers, point by point, as a call per case)."""
         s = np.asarray(s, float).ravel()
         n = len(s)
+        p = np.asarray(p, float)
+        if p.ndim == 2:
+            return self._per_point(s, p)
         mapped, buffer, run, s_in, p_in, outs = self._mapped(n)
         if self._buffered:
             s_in[:] = s
-            p_in[:] = np.asarray(p, float).ravel()
+            p_in[:] = p.ravel()
             try:
                 run()
                 if buffer.ret() == 0:
@@ -51,6 +56,40 @@ class MappedFunction:
                 check_interrupt(exc)   # a Ctrl-C, not a failed evaluation (errors.py)
         # CasADi's ordinary call: it reports a failure (or returns its NaNs) as it always has
         return [np.asarray(o) for o in mapped(s[None, :], p)]
+
+    def _per_point(self, s, p):
+        """As __call__ with a parameter row per value: mapped over both inputs, in calls of a
+        power of two values (padded with the last value: one mapped Function per size)."""
+        n = len(s)
+        if p.shape != (n, self.func.nnz_in(1)):
+            raise ValueError(f"p: one row of {self.func.nnz_in(1)} parameters per value ({n}); got {p.shape}")
+        if not n:
+            return [np.zeros((self.func.size1_out(j), 0)) for j in range(self.func.n_out())]
+        size = max(8, 1 << (n - 1).bit_length())
+        key = ("per point", size)
+        if key not in self._maps:
+            mapped = self.func.map(f"{self.func.name()}_pp{size}", "serial", size, [], [])
+            buffer, run = mapped.buffer()
+            s_in, p_in = np.zeros(size), np.zeros(size * self.func.nnz_in(1))
+            outs = [np.zeros(mapped.nnz_out(j)) for j in range(mapped.n_out())]
+            buffer.set_arg(0, memoryview(s_in))
+            buffer.set_arg(1, memoryview(p_in))
+            for j, out in enumerate(outs):
+                buffer.set_res(j, memoryview(out))
+            self._maps[key] = (mapped, buffer, run, s_in, p_in, outs)
+        mapped, buffer, run, s_in, p_in, outs = self._maps[key]
+        if not self._buffered:
+            return [np.asarray(o)[:, :n] for o in mapped(np.r_[s, np.full(size - n, s[-1])][None, :],
+                                                        np.r_[p, np.repeat(p[-1:], size - n, axis=0)].T)]
+        s_in[:n], s_in[n:] = s, s[-1]
+        p_in.reshape(size, -1)[:n], p_in.reshape(size, -1)[n:] = p, p[-1]
+        try:
+            run()
+            if buffer.ret() == 0:
+                return [self._densify(o, j, size)[:, :n] for j, o in enumerate(outs)]
+        except RuntimeError as exc:
+            check_interrupt(exc)
+        return [np.asarray(o)[:, :n] for o in mapped(s_in[None, :], p_in.reshape(size, -1).T)]
 
     def _densify(self, nonzeros, j, n):
         """Output j (rows x n, dense) from the n evaluations' structural nonzeros."""

@@ -66,7 +66,16 @@ MAX_INTERVALS = 40000   # intervals evaluated in one round at most (a load that 
 def integrate(f, pieces, starts=None, tol=1e-10, max_rounds=48) -> Integrals:
     """The integrals over ``pieces`` [(anchor, other, m)] of the integrands ``f`` (see the
     module's doc).  ``starts``: per piece, sweep values inside it at which to cut its first
-    intervals (e.g. the samples: a piece starts as one interval per sample interval)."""
+    intervals (e.g. the samples: a piece starts as one interval per sample interval).  The one
+    case of :func:`integrate_many`."""
+    return integrate_many(lambda s, d, piece, case: f(s, d, piece), pieces, starts, tol, max_rounds, 1)[0]
+
+
+def integrate_many(f, pieces, starts=None, tol=1e-10, max_rounds=48, cases=1) -> list:
+    """:func:`integrate` of ``cases`` integrands over the same ``pieces`` at once: ``f(s, d,
+    piece, case)`` gets each node's case too.  Every decision (an interval halved or kept, a
+    case done) is the case's own, and its sums run over its own intervals in a fixed order, so
+    a case's :class:`Integrals` are the same in any batch (bit for bit).  Returns one per case."""
     anchors = np.array([p[0] for p in pieces], float)
     lengths = np.array([p[1] - p[0] for p in pieces], float)
     powers = np.array([p[2] for p in pieces], float)
@@ -80,53 +89,74 @@ def integrate(f, pieces, starts=None, tol=1e-10, max_rounds=48) -> Integrals:
         piece += [j] * (len(cuts) - 1)
         lo += list(cuts[:-1])
         hi += list(cuts[1:])
-    piece, lo, hi = np.array(piece, int), np.array(lo), np.array(hi)
-    done_k, done_g, done_abs, done_err = None, None, None, None
-    rounds, count = 0, 0
-    while len(piece):
-        k, g, absk = _rules(f, piece, lo, hi, anchors, lengths, powers)
-        count += len(piece)
-        err = np.abs(k - g)
-        if done_k is None:
-            done_k, done_g = np.zeros(k.shape[0]), np.zeros(k.shape[0])
-            done_abs, done_err = np.zeros(k.shape[0]), np.zeros(k.shape[0])
-        scale = np.maximum(done_abs + absk.sum(axis=1), 1e-300)
-        share = np.abs(lengths[piece]) * (_map(hi, powers[piece]) - _map(lo, powers[piece])) / total
-        fine = np.all(err <= tol * scale[:, None] * share[None, :], axis=0) | ~np.all(np.isfinite(err), axis=0)
-        if (np.all(done_err + err.sum(axis=1) <= tol * scale) or rounds >= max_rounds
-                or len(piece) > MAX_INTERVALS // 2):
-            fine[:] = True   # within the tolerance as a whole (a jump's interval: halved until it is), or out of budget
-        fine |= hi - lo < 1e-15
-        done_k += k[:, fine].sum(axis=1)
-        done_abs += absk[:, fine].sum(axis=1)
-        done_err += err[:, fine].sum(axis=1)
-        piece, lo, hi = piece[~fine], lo[~fine], hi[~fine]
-        mid = 0.5 * (lo + hi)
-        piece, lo, hi = np.r_[piece, piece], np.r_[lo, mid], np.r_[mid, hi]
-        rounds += 1
-    if done_k is None:
+    if not piece:
         raise ValueError("integrate: no pieces")
-    return Integrals(done_k, done_err, done_abs, done_err <= tol * np.maximum(done_abs, 1e-300) * 1.0000001, count)
+    first = len(piece)   # each case's first intervals, case after case
+    case = np.repeat(np.arange(cases), first)
+    piece, lo, hi = np.tile(piece, cases), np.tile(lo, cases), np.tile(hi, cases)
+    done_k = done_g = done_abs = done_err = None
+    rounds, count = 0, np.zeros(cases, int)
+    while len(piece):
+        k, absk, err = _rules(f, case, piece, lo, hi, anchors, lengths, powers)
+        count += np.bincount(case, minlength=cases)
+        if done_k is None:
+            done_k, done_abs, done_err = (np.zeros((k.shape[0], cases)) for _ in range(3))
+        scale = np.maximum(done_abs + _by_case(absk, case, cases), 1e-300)
+        share = np.abs(lengths[piece]) * (_map(hi, powers[piece]) - _map(lo, powers[piece])) / total
+        fine = np.all(err <= tol * scale[:, case] * share[None, :], axis=0) | ~np.all(np.isfinite(err), axis=0)
+        # within the tolerance as a whole (a jump's interval: halved until it is), or out of budget
+        whole = (np.all(done_err + _by_case(err, case, cases) <= tol * scale, axis=0) | (rounds >= max_rounds)
+                 | (np.bincount(case, minlength=cases) > MAX_INTERVALS // 2))
+        fine |= whole[case]
+        fine |= hi - lo < 1e-15
+        done_k += _by_case(k[:, fine], case[fine], cases)
+        done_abs += _by_case(absk[:, fine], case[fine], cases)
+        done_err += _by_case(err[:, fine], case[fine], cases)
+        case, piece, lo, hi = case[~fine], piece[~fine], lo[~fine], hi[~fine]
+        mid = 0.5 * (lo + hi)
+        # halves: each case's first halves, then its second halves (a case's order whatever the others)
+        order = np.argsort(np.r_[case, case], kind="stable")
+        case, piece = np.r_[case, case][order], np.r_[piece, piece][order]
+        lo, hi = np.r_[lo, mid][order], np.r_[mid, hi][order]
+        rounds += 1
+    converged = done_err <= tol * np.maximum(done_abs, 1e-300) * 1.0000001
+    return [Integrals(done_k[:, c].copy(), done_err[:, c].copy(), done_abs[:, c].copy(), converged[:, c].copy(),
+                      int(count[c])) for c in range(cases)]
+
+
+def _by_case(x, case, cases):
+    """Per case, the sum of each row of ``x`` (rows x intervals) over the case's intervals, in
+    their order (rows x cases): the same numbers whatever other cases the intervals hold."""
+    return np.array([np.bincount(case, weights=row, minlength=cases) for row in x]).reshape(len(x), cases)
 
 
 def _map(u, m):
     return u ** m
 
 
-def _rules(f, piece, lo, hi, anchors, lengths, powers):
-    """Kronrod and Gauss sums and the Kronrod sum of |integrand| on each interval (integrands x
-    intervals)."""
+def _rules(f, case, piece, lo, hi, anchors, lengths, powers):
+    """Kronrod sums, Kronrod sums of |integrand| and |Kronrod - Gauss| on each interval
+    (integrands x intervals), each a sum over the nodes in a fixed order (element by element,
+    not a matrix product whose order may depend on an interval's place in the call)."""
     half = 0.5 * (hi - lo)
     u = (0.5 * (lo + hi))[:, None] + half[:, None] * NODES[None, :]       # intervals x 15
     m = powers[piece][:, None]
     L = lengths[piece][:, None]
-    d = np.abs(L) * u ** m                                               # distance from the anchor
+    regular = bool(np.all(powers == 1.0))   # u ** 1 is u and u ** 0 is 1, exactly: skipped
+    d = np.abs(L) * (u if regular else u ** m)                           # distance from the anchor
     s = anchors[piece][:, None] + np.sign(L) * d
-    jac = np.abs(L) * m * u ** (m - 1) * half[:, None]                   # ds/du x du per unit node
-    values = np.asarray(f(s.ravel(), d.ravel(), np.repeat(piece, 15)), float)
+    jac = np.abs(L) * m * (1.0 if regular else u ** (m - 1)) * half[:, None]   # ds/du x du per unit node
+    values = np.asarray(f(s.ravel(), d.ravel(), np.repeat(piece, 15), np.repeat(case, 15)), float)
     values = values.reshape(values.shape[0], len(piece), 15) * jac[None, :, :]
     values = np.where(np.isfinite(values), values, np.nan)
-    return values @ W_KRONROD, values @ W_GAUSS, np.abs(values) @ W_KRONROD
+    nodes = np.ascontiguousarray(values.transpose(2, 0, 1))              # 15 x integrands x intervals
+    k, g, absk = (np.zeros(nodes.shape[1:]) for _ in range(3))
+    for j in range(15):
+        k = k + W_KRONROD[j] * nodes[j]
+        absk = absk + W_KRONROD[j] * np.abs(nodes[j])
+        if W_GAUSS[j]:
+            g = g + W_GAUSS[j] * nodes[j]
+    return k, absk, np.abs(k - g)
 
 
 def end_power(speed, length, scale) -> float:

@@ -38,6 +38,7 @@ from ..kinematics.enclosure import Enclosures, Selected
 from ..kinematics.peaks import Request, continuous_maxima_rows, narrow_minima
 from .forces import ForceLoads
 from .intervals_compiled import compile_program
+from ..kinematics.batches import parameters_used, same_cases
 from .mapped import MappedFunction
 
 DEAD_CENTRE_TOL = 1e-9   # the enclosure's tolerance on min |dq/ds|, relative to max |dq/ds| sampled
@@ -296,23 +297,51 @@ class ReducedModel:
 
     # --- checks ---
     def check_dead_centre(self, s_values, p_values=None) -> list:
-        """Raise :class:`DeadCentreError` where k = dq/ds vanishes in the stroke: at a sample,
-        between two samples where k changes sign (located by bisection), or where k touches
-        zero between samples without changing sign (its continuous minimum |k|, certified by
-        :func:`~optdesign.kinematics.peaks.continuous_maxima_rows`, at most 1e-12 of max |k|).
-        Else returns the minima of |k| narrower than the samples' spacing, (s, width) each."""
+        """Raise :class:`DeadCentreError` where k = dq/ds vanishes in the stroke; else return the
+        minima of |k| narrower than the samples' spacing (the one case of :meth:`dead_centres`;
+        the note of its proof in :attr:`dead_centre_note`)."""
+        p_values = self.mech.parameter_values if p_values is None else np.asarray(p_values, float)
+        found = self.dead_centres(s_values, p_values[None, :])[0]
+        if isinstance(found, DeadCentreError):
+            raise found
+        narrow, self.dead_centre_note = found
+        return narrow
+
+    def dead_centres(self, s_values, P, K=None) -> list:
+        """Per case (a row of the parameters ``P``): ``(narrow, note)`` or the case's
+        :class:`DeadCentreError`.  k = dq/ds vanishes at a sample, between two samples where it
+        changes sign (located by bisection), or where it touches zero between samples without
+        changing sign (its continuous minimum |k|, certified by
+        :func:`~optdesign.kinematics.peaks.continuous_maxima_rows`, at most 1e-12 of max |k|):
+        an error; else ``narrow``, the minima of |k| narrower than the samples' spacing, (s,
+        width) each, and ``note``, why the minimum has no enclosure's proof ("" when it has).
+        ``K``: k at the samples, cases x samples, when the caller has it.  k depends on some
+        parameters only (the geometry, not a mass): cases equal in those are checked once (the
+        same numbers: the check sees nothing else)."""
         m = self.mech
-        p_values = m.parameter_values if p_values is None else np.asarray(p_values, float)
         if self._k_function is None:
             dk = m.ds(self.k)
             self._k_function = ca.Function("k", [m.s, m.p], [self.k])
             self._k_derivatives = MappedFunction(m.function("k_ds", {"k": self.k, "dk": dk, "d2k": m.ds(dk)}))
-            self._k_maps = {}
-        f = self._k_function
-        if len(s_values) not in self._k_maps:
-            self._k_maps[len(s_values)] = f.map(len(s_values))
+            self._k_uses = parameters_used(m, self.k)
         s_values = np.asarray(s_values, float)
-        k = np.asarray(self._k_maps[len(s_values)](s_values[None, :], p_values)).ravel()
+        P = np.atleast_2d(np.asarray(P, float))
+        if K is None:
+            n = len(s_values)
+            K = self._k_derivatives(np.tile(s_values, len(P)), np.repeat(P, n, axis=0))[0].reshape(len(P), n)
+        out = [None] * len(P)
+        for first, members in same_cases(P, self._k_uses):
+            try:
+                found = self._dead_centre(s_values, np.asarray(K[first], float), P[first])
+            except DeadCentreError as exc:
+                found = exc
+            for i in members:
+                out[i] = found
+        return out
+
+    def _dead_centre(self, s_values, k, p_values):
+        """(narrow, note) of one case with k at the samples, or its DeadCentreError raised."""
+        f = self._k_function
         scale = np.max(np.abs(k)) if k.size else 1.0
         zero = np.flatnonzero(np.abs(k) <= 1e-12 * max(scale, 1e-300))
         change = np.flatnonzero(np.sign(k[:-1]) * np.sign(k[1:]) < 0)
@@ -322,9 +351,9 @@ class ReducedModel:
             i = change[0]
             where = _bisect(lambda x: float(f(x, p_values)), s_values[i], s_values[i + 1])
         else:
-            where, narrow = self._dead_centre_between(s_values, k, p_values, scale)
+            where, narrow, note = self._dead_centre_between(s_values, k, p_values, scale)
             if where is None:
-                return narrow
+                return narrow, note
         what = "crank angle" if self.rotary else "actuator length"
         pins = "-".join(self.scene.drive.pins)
         name = self.scene.sweep.name
@@ -359,12 +388,12 @@ class ReducedModel:
         return bool(np.all(there <= self.REST_TOL * np.maximum(np.max(sampled, axis=1), 1e-300)))
 
     def _dead_centre_between(self, s_values, k, p_values, scale):
-        """(where, narrow): where |k| (one sign over the samples) comes within 1e-12 of max |k|
+        """(where, narrow, note): where |k| (one sign over the samples) comes within 1e-12 of max |k|
         between samples, or None; and the minima of |k| narrower than the samples' spacing
         (:func:`~optdesign.kinematics.peaks.narrow_minima`).  A k that does not vary (a crank
         swept by its own angle) has neither."""
-        if len(s_values) < 2 or np.ptp(k) <= 1e-12 * max(scale, 1e-300) or not ca.depends_on(self.k, self.mech.s):
-            return None, []
+        if len(s_values) < 2 or np.ptp(k) <= 1e-12 * max(scale, 1e-300) or not self._k_varies():
+            return None, [], ""
         sign = 1.0 if k[0] > 0 else -1.0
         ascending = s_values[-1] >= s_values[0]
         grid, row = (s_values, k) if ascending else (s_values[::-1], k[::-1])
@@ -377,12 +406,17 @@ class ReducedModel:
         enclosure = Selected(self._k_enclosures.at(p_values), [0], [sign])
         extrema = continuous_maxima_rows(evaluate_many, grid, sign * row[None, :],
                                          [Request(0, "min", ends=True, tol=DEAD_CENTRE_TOL * scale)], enclosure=enclosure)[0]
-        self.dead_centre_note = extrema[0].note
         low = [e for e in extrema if e.value <= 1e-12 * scale]
         if not low:
             spacing = abs(float(s_values[-1] - s_values[0])) / (len(s_values) - 1)
-            return None, narrow_minima(lambda s: tuple(a[0] for a in evaluate_many(s)), extrema, spacing)
-        return min(low, key=lambda e: e.s if ascending else -e.s).s, []
+            return None, narrow_minima(lambda s: tuple(a[0] for a in evaluate_many(s)), extrema, spacing), extrema[0].note
+        return min(low, key=lambda e: e.s if ascending else -e.s).s, [], extrema[0].note
+
+    def _k_varies(self) -> bool:
+        """Whether k depends on the sweep (a crank swept by its own angle: it does not), asked once."""
+        if getattr(self, "_k_depends", None) is None:
+            self._k_depends = bool(ca.depends_on(self.k, self.mech.s))
+        return self._k_depends
 
 
 def _bisect(f, a, b, iterations=60):

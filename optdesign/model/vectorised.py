@@ -98,3 +98,31 @@ class VectorisedSX:
 
         run_program(self.program, self.n_work, lambda i, k: inputs[0] if i == 0 else inputs[1][k], store)
         return out
+
+    def ragged(self, s, counts, P) -> dict:
+        """{output name: array over ``s``}: the first ``counts[0]`` values of ``s`` with the
+        parameters ``P[0]``, the next ``counts[1]`` with ``P[1]``, ... (element by element)."""
+        s = np.asarray(s, float).ravel()
+        rows = np.repeat(np.atleast_2d(np.asarray(P, float)), counts, axis=0)
+        out = {}
+
+        def store(j, _, value):
+            out[self.names[j]] = np.broadcast_to(value, s.shape).copy()
+
+        run_program(self.program, self.n_work, lambda i, k: s if i == 0 else rows[:, k], store)
+        return out
+
+    def many(self, s_row, P) -> dict:
+        """{output name: array cases x sweep values}: the row ``s_row`` for every parameter row
+        of ``P`` (cases x parameters), element by element (a case's numbers do not depend on
+        the others')."""
+        s = np.asarray(s_row, float).ravel()[None, :]
+        P = np.atleast_2d(np.asarray(P, float))
+        shape = (P.shape[0], s.shape[1])
+        out = {}
+
+        def store(j, _, value):
+            out[self.names[j]] = np.broadcast_to(value, shape).copy()
+
+        run_program(self.program, self.n_work, lambda i, k: s if i == 0 else P[:, k:k + 1], store)
+        return out

@@ -99,23 +99,44 @@ def stroke_figure(runs, path, title=None, components=False, drive=True, constrai
 SEED_UNIT = {"rotary": "N m", "linear": "N"}
 
 
+def _broken(x, y, at):
+    """x, y with a NaN inserted after each index of ``at`` (a line drawn with a gap there)."""
+    return np.insert(np.asarray(x, float), at + 1, np.nan), np.insert(np.asarray(y, float), at + 1, np.nan)
+
+
 def inertia_figure(result, path, note=""):
-    """The reduced inertia (mass) and its derivative over the sweep (``note`` after the title)."""
+    """The reduced inertia (mass) and its derivative over the sweep (``note`` after the title).
+    With an efficiency both are c times the ideal ones (seed 1, eqs. 12, 33: c = 1/eta while the
+    drive delivers power, eta while it takes power back): they jump where the power changes sign,
+    which the figure draws as gaps at dotted lines, with the ideal inertia (smooth) beside them."""
     scene = result.scene
     sf, su = sweep_scale(scene)
-    fig, ax = new_figure(figsize=(7.5, 4))
+    fig, ax = new_figure(figsize=(7.5, 4.4))
     x = result.columns["s"] * sf
     f, unit = column_display(result, "reduced_inertia")
     name = "I_zS" if result.drive_kind == "rotary" else "m_zS"
-    ax.plot(x, result.columns["reduced_inertia"] * f, label=f"{name} [{unit}]")
+    inertia, d_inertia = result.columns["reduced_inertia"], result.columns["reduced_inertia_dq"]
+    c = result.columns.get("efficiency_factor")
+    switches = np.flatnonzero(np.diff(c) != 0) if c is not None else np.array([], int)
+    ax.plot(*_broken(x, inertia * f, switches), label=f"{name} [{unit}]")
     ax2 = ax.twinx()
     dunit = "kg m^2/rad" if result.drive_kind == "rotary" else "kg/m"
-    ax2.plot(x, result.columns["reduced_inertia_dq"], "C1--", label=f"d{name}/dq [{dunit}]")
+    ax2.plot(*_broken(x, d_inertia, switches), "C1--", label=f"d{name}/dq [{dunit}]")
+    why = ""
+    if len(switches):
+        ideal = "M_q"   # (reduction.py's name, the drive coordinate q's mass or inertia)
+        ax.plot(x, inertia / c * f, color="0.45", lw=0.9, ls=":", label=f"{ideal} = {name} / c [{unit}] (no efficiency)")
+        for k in switches:
+            ax.axvline(0.5 * (x[k] + x[k + 1]), color="0.6", lw=0.8, ls=":")
+        ratio = float(np.max(c) / np.min(c))
+        why = (f"\n{name} = c {ideal} jumps by {number(ratio, 4)}x where the power changes sign (dotted lines): "
+               "c = 1/eta while the drive delivers power, eta while it takes it back (seed eqs. 12, 33)")
     ax.set_xlabel(f"{scene.sweep.name} [{su}]" if su else scene.sweep.name)
     ax.set_ylabel(f"{name} [{unit}]")
     ax2.set_ylabel(f"d{name}/dq [{dunit}]")
-    ax.set_title("reduced inertia and its derivative" + ("\n" + note.strip() if note else ""), fontsize=10, loc="left")
-    fig.legend(loc="upper right", fontsize=8)
+    title = "reduced inertia and its derivative" + ("\n" + note.strip() if note else "")
+    ax.set_title("\n".join(textwrap.fill(line, 95) for line in (title + why).split("\n")), fontsize=9, loc="left")
+    fig.legend(loc="outside lower center", ncols=3 if len(switches) else 2, fontsize=7.5)
     ax.grid(alpha=0.3)
     save_figure(fig, path)
     return path

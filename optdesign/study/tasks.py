@@ -106,7 +106,7 @@ def _dependencies(scene, names: set) -> set:
 # --- per-process caches ----------------------------------------------------------------------
 def _cache():
     if not hasattr(_LOCAL, "scenes"):
-        _LOCAL.scenes, _LOCAL.models = {}, {}
+        _LOCAL.scenes, _LOCAL.models, _LOCAL.unbounded = {}, {}, {}
     return _LOCAL
 
 
@@ -115,6 +115,19 @@ def _scene(task: Task):
     if task.scene_digest not in c.scenes:
         c.scenes[task.scene_digest] = pickle.loads(task.scene_blob)
     return c.scenes[task.scene_digest]
+
+
+def _unbounded(task: Task, base):
+    """``base`` without the bounds of the case's parameters in mode 'analyse' (see
+    :func:`case_scene`), made once per process for a study's parameters: a case's scene is then
+    validated once, when its values are set, not twice."""
+    if task.mode != "analyse" or not task.overrides:
+        return base
+    c = _cache()
+    key = (task.scene_digest, tuple(sorted(k for k, _ in task.overrides)))
+    if key not in c.unbounded:
+        c.unbounded[key] = base.without_bounds(*key[1])
+    return c.unbounded[key]
 
 
 def _model(task: Task, base, structural: dict):
@@ -186,7 +199,12 @@ def _prepare(task: Task):
     vector = task.checked and all(type(v) is float for v in overrides.values())
     try:
         model = _model(task, base, structural)
-        scene = overrides if vector else case_scene(base, task.mode, overrides) if overrides else None
+        if vector or not overrides:
+            scene = overrides or None
+        elif task.mode == "analyse":   # case_scene's, its bounds dropped once per process
+            scene = _unbounded(task, base).with_parameters(**overrides)
+        else:
+            scene = case_scene(base, task.mode, overrides)
     except OptdesignError as exc:
         return task, exc, None
     return task, model, scene
@@ -202,31 +220,30 @@ def _finish(prepared):
             raise model
         if task.mode == "optimise":
             return _optimise(task, model, scene)
-        return _analyse(model, scene), None
     except OptdesignError as exc:
-        return {"status": f"error: {exc}", "success": False}, None
+        return _failed(exc), None
+    return _analyse_all([prepared])[0], None
+
+
+def _failed(exc) -> dict:
+    return {"status": f"error: {exc}", "success": False}
 
 
 def run_batch(tasks: list, each=None) -> list:
     """Consecutive cases of one chain, in order, in one call (one Dask task for several cases):
     each case after the first is warm-started from the optimum of the one before it, exactly as
     the client would start it from the journal (None after a failed case), so a batch gives the
-    numbers of the cases run one by one.  Cases of an analyse study (no chain) run in lockstep
-    (:mod:`.batched`: their certification's interval work done together), with the numbers of
-    each run alone.  Returns their outputs in order; ``each(output)`` is called as each case
-    finishes."""
+    numbers of the cases run one by one.  The cases of an analyse study (no chain) that share a
+    build are analysed together (:meth:`~optdesign.model.analysis.Analysis.run_many`: each stage
+    over all of them at once), with the numbers of each run alone.  Returns their outputs in
+    order; ``each(output)`` is called as each case finishes (an analyse batch: all at its end)."""
     if len(tasks) > 1 and all(t.mode == "analyse" for t in tasks):
-        from .batched import lockstep
-
         t0 = time.perf_counter()
-        prepared = [_prepare(task) for task in tasks]
-        done = lockstep([lambda p=p: _finish(p) for p in prepared])
+        rows = _analyse_all([_prepare(task) for task in tasks])
         per_case = (time.perf_counter() - t0) / len(tasks)   # the batch's time, shared
         outs = []
-        for value, error in done:
-            if error is not None:
-                raise error   # a bug (an expected failure is a failed row)
-            outs.append({"row": value[0], "x": None, "time_s": per_case})
+        for row in rows:
+            outs.append({"row": row, "x": None, "time_s": per_case})
             if each is not None:
                 each(outs[-1])
         return outs
@@ -318,28 +335,59 @@ def _optimise(task: Task, model, scene):
     return row, [result.design[n] for n in problem.design_names]
 
 
-def _analyse(analysis, scene) -> dict:
+def _analyse_all(prepared: list) -> list:
+    """The rows of prepared analyse cases (:func:`_prepare`), those that share a built analysis
+    together: one :meth:`~optdesign.model.analysis.Analysis.run_many` and one
+    :meth:`~optdesign.model.analysis.Analysis.sweep_rms_many` over their leaf values."""
+    from ..errors import OptdesignError
+
+    rows, groups = [None] * len(prepared), {}
+    for i, (task, model, scene) in enumerate(prepared):
+        if isinstance(model, OptdesignError):
+            rows[i] = _failed(model)
+            continue
+        try:
+            p = _leaf_values(model.mech.parameter_names, scene, model.mech.parameter_values)
+        except OptdesignError as exc:
+            rows[i] = _failed(exc)
+            continue
+        groups.setdefault(id(model), (model, [], []))
+        groups[id(model)][1].append(i)
+        groups[id(model)][2].append(p)
+    for analysis, where, P in groups.values():
+        for i, row in zip(where, _analyse_rows(analysis, P)):
+            rows[i] = row
+    return rows
+
+
+def _analyse_rows(analysis, P) -> list:
+    """The rows of the cases ``P`` (leaf values, cases x parameters) of one built analysis."""
     import numpy as np
 
-    p = _leaf_values(analysis.mech.parameter_names, scene, analysis.mech.parameter_values)
-    res = analysis.run(p)
-    row = {"status": "ok", "success": True}
-    # peaks and constraint extremes over the continuous stroke (certified), with where they lie
-    # and the samples' own values beside them
-    row.update({f"peak:{k}": v for k, v in res.peaks.items()})
-    row.update({f"peak_at:{k}": at["s"] for k, at in res.peak_at.items()})
-    row.update({f"peak_sampled:{k}": v for k, v in res.peaks_sampled.items()})
-    # rms over the continuous sweep (adaptive quadrature, model/analysis.Analysis.sweep_rms)
-    row.update({f"rms:{k}": value for k, (value, _) in analysis.sweep_rms(p).items()})
-    for name, v in res.constraints.items():
-        if np.ndim(v):
-            e = res.constraint_extremes[name]
+    P = np.array(P, float).reshape(len(P), -1)
+    runs = analysis.run_many(P)
+    live = [i for i, r in enumerate(runs) if r.error is None]
+    rms = dict(zip(live, analysis.sweep_rms_many(P[live]) if live else []))
+    rows = []
+    for i, res in enumerate(runs):
+        if res.error is not None:
+            rows.append(_failed(res.error))
+            continue
+        row = {"status": "ok", "success": True}
+        # peaks and constraint extremes over the continuous stroke (certified), with where they lie
+        # and the samples' own values beside them
+        row.update({f"peak:{k}": v for k, v in res.peaks.items()})
+        row.update({f"peak_at:{k}": at["s"] for k, at in res.peak_at.items()})
+        row.update({f"peak_sampled:{k}": v for k, v in res.peaks_sampled.items()})
+        # rms over the continuous sweep (adaptive quadrature, model/analysis.Analysis.sweep_rms)
+        row.update({f"rms:{k}": value for k, (value, _) in rms[i].items()})
+        for name, e in res.constraint_extremes.items():
             row[f"constraint:{name}:min"], row[f"constraint:{name}:max"] = e["min"], e["max"]
-        else:
-            row[f"constraint:{name}"] = float(v)
-    if res.cases is not None:
-        row.update(_cases_row(res.cases))
-    return row
+        row.update({f"constraint:{name}": float(v) for name, v in res.stroke.items()})
+        if res.cases is not None:
+            row.update(_cases_row(res.cases))
+        rows.append(row)
+    return rows
 
 
 def _cases_row(cases) -> dict:

@@ -43,7 +43,7 @@ def run_batch_in_helper(tasks: list) -> list:
 
     outs, deaths, alone = [], 0, False
     while len(outs) < len(tasks):
-        # after a death that no case's output preceded (a batch of analyse cases in lockstep
+        # after a death that no case's output preceded (a batch of analyse cases run together
         # gives them all at its end), the rest one case per call: the case that dies is known
         rest = list(tasks[len(outs):len(outs) + 1 if alone else len(tasks)])
         if outs:

@@ -146,9 +146,9 @@ def test_a_pool_that_cannot_be_replaced_ends_with_exit_2_the_cases_kept_and_the_
                          f"--workers 2 --no-figures --out {out}"), last
 
 
-def test_a_case_that_kills_its_pool_process_in_a_lockstep_batch_is_failed_and_the_batchs_others_computed():
-    """A batch of analyse cases in lockstep (study/batched.py) gives its outputs together at its
-    end: when its process dies, which case killed it is not known, so each case of the batch is
+def test_a_case_that_kills_its_pool_process_in_an_analyse_batch_is_failed_and_the_batchs_others_computed():
+    """A batch of analyse cases (one Analysis.run_many: study/tasks.run_batch) gives its outputs
+    together at its end: when its process dies, which case killed it is not known, so each case of the batch is
     run again alone; the one that kills is failed after MAX_DEATHS, the others keep their numbers
     (the batch's cases were all recorded as failed before)."""
     study, cases, tasks = _tasks(5)

@@ -1,0 +1,191 @@
+"""The proof of the one certification (:mod:`.peaks`, :mod:`.extrema`): branch and bound over
+the stroke with the enclosure of the rows (:mod:`.enclosure`), for every task (a request of a
+case) of a batch of cases at once.
+
+Each case's stroke is first cut into coarse intervals (blocks of BLOCK sample intervals) and,
+around each located maximum near its task's best, at s* +- h 2^-k (k < PRESPLIT, h the sample
+spacing): pieces shrinking towards the maximum, as the Taylor form needs them to.  Every task
+of a case bounds its target over every one of its case's intervals, all intervals of all cases
+in one evaluation of the enclosure per pass (each distinct (case, interval) once, whatever the
+rows asking); an interval whose bound exceeds the task's best located target by more than the
+tolerance is halved and bounded again in the next pass, until none is left.  A piece whose
+midpoint beats the best located target has its maximum located by Newton in it.  What a task
+does depends only on its case's numbers: a case stops (its open intervals left uncertified)
+after MAX_PASSES passes, above MAX_INTERVALS open intervals, or at an interval 1e-13 of the
+stroke wide, on its own.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .extrema import _starts, newton, target
+
+CERTIFY_TOL = 1e-9   # the certificate's tolerance, relative to the row's scale (its largest |v|)
+MAX_PASSES = 60      # subdivision passes of the branch and bound before a case gives up
+MAX_INTERVALS = 16384  # intervals of one case open at once, idem
+PRESPLIT = 8         # cuts each side of a located maximum in the first pass (first_intervals)
+BLOCK = 8            # sample intervals per interval of the first pass away from the maxima
+
+
+def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None):
+    """Branch and bound (module docstring) of every task's target (``T``: tasks x samples on
+    ``s_grid``); located maxima join ``found`` (in place).  Returns (bound, notes) per task: the
+    upper bound of its target over the stroke (the largest bound of the intervals left behind,
+    never below the best located target; NaN without an enclosure) and why it is missing or
+    wider than the tolerance ("" when certified)."""
+    n = len(tasks)
+    notes = [""] * n
+    if getattr(enclosure, "reason", None) is not None:   # no enclosure for these rows
+        return np.full(n, np.nan), [f"not certified: {enclosure.reason}"] * n
+    tol = CERTIFY_TOL if tol is None else tol
+    _, best = found.best(tasks.code)
+    with np.errstate(invalid="ignore"):
+        scale = np.nanmax(np.abs(T), axis=1, initial=0.0) if T.size else np.zeros(n)
+    tol_abs = np.where(np.isnan(tasks.tol), tol * np.maximum(np.abs(best), scale), tasks.tol) + 1e-300
+    bound = np.full(n, -np.inf)
+    span = abs(float(s_grid[-1] - s_grid[0])) if len(s_grid) > 1 else 0.0
+    limits = (float(s_grid.min()), float(s_grid.max())) if len(s_grid) else (0.0, 0.0)
+    task, lo, hi, where, pick = first_intervals(tasks, s_grid, found, best)
+    left_ub = np.full(len(task), np.inf)   # bounds of the intervals still open (inf: not bounded yet)
+    left = []   # (task, lo, hi, bound) of the intervals of the cases that stopped
+    for pass_ in range(MAX_PASSES):
+        if not len(task):
+            break
+        case = tasks.case[task]
+        if pass_:   # the distinct intervals of each case (the tasks of a case share them)
+            order = np.lexsort((hi, lo, case))
+            first = _starts((np.diff(case[order]) != 0) | (np.diff(lo[order]) != 0) | (np.diff(hi[order]) != 0),
+                            len(order))
+            where = np.empty(len(task), int)
+            where[order] = np.cumsum(first) - 1
+            pick = order[first]
+        L, U, vm_lo, vm_hi = enclosure.bounds(lo[pick], hi[pick], np.unique(tasks.row[task]), case[pick])
+        r_of, code = tasks.row[task], tasks.code[task]
+        ub = target_bound(L[r_of, where], U[r_of, where], code, upper=True)
+        vm_lo, vm_hi = vm_lo[r_of, where], vm_hi[r_of, where]
+        at_mid = target_bound(vm_lo, vm_hi, code, upper=False)
+        locate_better(evaluate, tasks, found, best, task, lo, hi, at_mid, vm_lo + vm_hi, s_tol, limits)
+        # the tolerance, or where rounding is larger, four times the width of the midpoint's own
+        # enclosure (a row that cancels to ~0: its floating-point evaluation cannot say more)
+        with np.errstate(invalid="ignore"):
+            noise = 4.0 * np.where(np.isfinite(vm_hi - vm_lo), vm_hi - vm_lo, 0.0)
+            threshold = np.maximum(best[task] + np.maximum(tol_abs[task], noise), tasks.only_above[task])
+            keep = ~(ub <= threshold)   # NaN: not bounded, split again
+        if np.any(~keep):
+            np.maximum.at(bound, task[~keep], ub[~keep])
+        task, lo, hi, left_ub = task[keep], lo[keep], hi[keep], np.where(np.isnan(ub[keep]), np.inf, ub[keep])
+        width = hi - lo
+        case = tasks.case[task]
+        stop = np.bincount(case, minlength=tasks.n_cases) > MAX_INTERVALS
+        stop[case[width <= max(span, 1e-300) * 1e-13]] = True
+        stopping = stop[case] | (pass_ == MAX_PASSES - 1)
+        if np.any(stopping):
+            left.append((task[stopping], lo[stopping], hi[stopping], left_ub[stopping]))
+            task, lo, hi, left_ub = task[~stopping], lo[~stopping], hi[~stopping], left_ub[~stopping]
+            width = hi - lo
+        # halved; one that holds its task's best located maximum cut towards it as in the first pass
+        top, _ = found.best(tasks.code)
+        centre = found.s[top[task]]
+        around = (lo < centre) & (centre < hi)
+        cuts = np.full((len(task), 2 * PRESPLIT + 1), np.nan)
+        cuts[~around, 0] = lo[~around] + width[~around] * 0.5
+        steps = width[around, None] * 2.0 ** -np.arange(1, PRESPLIT + 1)[None, :]
+        cuts[around] = centre[around, None] + np.concatenate((-steps, np.zeros((len(steps), 1)), steps[:, ::-1]), axis=1)
+        task, lo, hi, left_ub = split(task, lo, hi, left_ub, cuts)
+    if left:
+        task, lo, hi, left_ub = (np.concatenate(a) for a in zip(*left))
+        np.maximum.at(bound, task, left_ub)
+        for k in np.unique(task):
+            i = int(np.flatnonzero(task == k)[0])
+            notes[k] = (f"not certified: the enclosure did not close within {tol_abs[k]:.3g} of the located value "
+                        f"near s = {0.5 * (lo[i] + hi[i]):.9g} (bound {bound[k]:.9g} against {best[k]:.9g})")
+    return np.maximum(bound, best), notes
+
+
+def split(task, lo, hi, left_ub, cuts):
+    """Each interval [lo, hi] cut at its row of ``cuts`` (ascending, NaN: none) strictly inside
+    it; the pieces keep their interval's task and bound.  Returns (task, lo, hi, left_ub)."""
+    with np.errstate(invalid="ignore"):
+        inside = (cuts > lo[:, None]) & (cuts < hi[:, None])
+    inside[:, 1:] &= cuts[:, 1:] != cuts[:, :-1]   # each cut once
+    edges = np.concatenate((lo[:, None], cuts, hi[:, None]), axis=1)
+    keep = np.concatenate((np.ones((len(lo), 1), bool), inside, np.ones((len(lo), 1), bool)), axis=1)
+    flat, row = edges[keep], np.nonzero(keep)[0]
+    piece = np.flatnonzero(row[:-1] == row[1:])   # consecutive edges of one interval
+    owner = row[piece]
+    return task[owner], flat[piece], flat[piece + 1], left_ub[owner]
+
+
+def first_intervals(tasks, s_grid, found, best):
+    """The first pass's intervals: per case, its stroke cut every BLOCK samples and, around each
+    located maximum strictly inside the stroke within 1e-3 of its task's best (where the bound
+    must come within the tolerance of the located value), at s* and s* +- h 2^-k, k = 0 ..
+    PRESPLIT - 1 (h the largest sample spacing); every task of the case gets all its case's
+    intervals.  Returns (task, lo, hi) arrays, the index of each entry's interval among the
+    distinct ones and, per distinct interval, the index of its first entry."""
+    grid = np.unique(s_grid)
+    n_cases, k = tasks.n_cases, len(tasks.requests)
+    if len(grid) < 2:
+        return np.zeros(0, int), np.zeros(0), np.zeros(0), np.zeros(0, int), np.zeros(0, int)
+    a, b = grid[0], grid[-1]
+    blocks = grid[np.unique(np.r_[np.arange(0, len(grid), BLOCK), len(grid) - 1])]
+    cut_case = [np.repeat(np.arange(n_cases), len(blocks))]
+    cut_s = [np.tile(blocks, n_cases)]
+    if PRESPLIT:
+        h = float(np.max(np.diff(grid)))
+        # h 2^k, k = -(PRESPLIT - 1) .. log2(BLOCK): inwards as the Taylor form needs, outwards to
+        # the blocks' size (the monotone form proves pieces of ratio 2 where it does not prove
+        # a whole block next to the maximum)
+        steps = h * 2.0 ** np.arange(int(np.log2(max(BLOCK, 1))), -PRESPLIT, -1)
+        t = found.task
+        near = (target(found.v, tasks.code[t]) >= best[t] - 1e-3 * np.abs(best[t])) & (found.s > a) & (found.s < b)
+        centres, owner = found.s[near], tasks.case[t[near]]
+        around = centres[:, None] + np.r_[-steps, 0.0, steps[::-1]][None, :]
+        inside = (around > a) & (around < b)
+        cut_case.append(np.broadcast_to(owner[:, None], around.shape)[inside])
+        cut_s.append(around[inside])
+    case, s = np.concatenate(cut_case), np.concatenate(cut_s)
+    order = np.lexsort((s, case))
+    case, s = case[order], s[order]
+    distinct = _starts((np.diff(case) != 0) | (np.diff(s) != 0), len(s))
+    case, s = case[distinct], s[distinct]
+    pair = np.flatnonzero(case[:-1] == case[1:])   # consecutive cuts of one case: an interval
+    i_case, i_lo, i_hi = case[pair], s[pair], s[pair + 1]
+    counts = np.bincount(i_case, minlength=n_cases)
+    # each task of a case: all its case's intervals (tasks case-major: case * k + request)
+    starts = np.r_[0, np.cumsum(counts)[:-1]]
+    task = np.repeat(np.arange(n_cases * k), np.repeat(counts, k))
+    within = np.arange(len(task)) - np.repeat(np.r_[0, np.cumsum(np.repeat(counts, k))[:-1]], np.repeat(counts, k))
+    index = starts[tasks.case[task]] + within
+    first = np.full(len(i_lo), -1)
+    first[index[::-1]] = np.arange(len(index))[::-1]   # (the smallest entry of each interval)
+    return task, i_lo[index], i_hi[index], index, first
+
+
+def target_bound(L, U, code, upper):
+    """Per interval, an upper (``upper``) or lower bound of its task's target from v's bounds
+    [L, U]; ``code``: the sense, an index into SENSES (abs, max, min)."""
+    if upper:
+        return np.select([code == 1, code == 2], [U, -L], np.maximum(U, -L))
+    return np.select([code == 1, code == 2], [L, -U], np.maximum(L, -U))
+
+
+def locate_better(evaluate, tasks, found, best, task, lo, hi, at_mid, v_mid, s_tol, limits):
+    """Where an interval's midpoint beats its task's best located target, locate the maximum
+    near the best such midpoint of each task (Newton on dv/ds = 0 in the interval widened by its
+    width each side, from the midpoint) and add it to ``found``; ``best`` is updated in place."""
+    better = np.flatnonzero(at_mid > best[task])
+    if not len(better):
+        return
+    order = np.lexsort((better, -at_mid[better], task[better]))   # per task: largest midpoint, then first
+    chosen = better[order][_starts(np.diff(task[better][order]) != 0, len(order))]
+    k = task[chosen]
+    w, m = hi[chosen] - lo[chosen], 0.5 * (lo[chosen] + hi[chosen])
+    code = tasks.code[k]
+    sign = np.where(code == 1, 1.0, np.where(code == 2, -1.0, np.where(v_mid[chosen] >= 0, 1.0, -1.0)))
+    s_star, v_star = newton(evaluate, tasks.case[k], tasks.row[k], np.maximum(lo[chosen] - w, limits[0]),
+                            np.minimum(hi[chosen] + w, limits[1]), m, sign, s_tol)
+    value = target(v_star, code)
+    ok = value == value
+    found.add(k[ok], s_star[ok], v_star[ok])
+    best[k[ok]] = np.maximum(best[k[ok]], value[ok])

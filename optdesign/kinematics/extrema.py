@@ -1,0 +1,198 @@
+"""The one certification of extrema (:mod:`.peaks`), over many cases at once.
+
+A batch is N cases of the same rows, sampled on the same grid, that differ in their parameters
+(a study's cases; one case is the batch of one).  Every request of every case is a *task*: the
+sampled grid maxima of its target bracket continuous ones, which safeguarded Newton steps refine
+(:func:`newton`, all brackets of all tasks in lockstep, as arrays); the enclosure then proves
+them or finds better ones (:func:`~.branch_bound.certify`).  Every decision is taken per case
+(a case's numbers never depend on the other cases of its batch or its place in it), and the
+work is numpy over arrays of brackets and intervals, with one evaluation of the rows per step
+for the whole batch: no Python work per case.
+
+``evaluate(s, cases) -> (V, dV/ds, d2V/ds2)``, each rows x len(s): every row at s[j] with the
+parameters of case cases[j].
+"""
+from __future__ import annotations
+
+import numpy as np
+
+MAX_STEPS = 200  # Newton/bisection steps per bracket (bisection alone gets to 1e-13 of it in ~45)
+SENSES = ("abs", "max", "min")
+
+
+def distinct(s, cases):
+    """The distinct (case, s) pairs among ``s`` and ``cases``, in the order they first appear (s
+    by its bits: +0.0 and -0.0 kept apart, so that each is evaluated at exactly the value asked
+    for), and the index of each pair among them."""
+    s, cases = np.asarray(s, float), np.asarray(cases, np.int64)
+    bits = s.view(np.int64)
+    order = np.lexsort((bits, cases))
+    first = _starts((np.diff(cases[order]) != 0) | (np.diff(bits[order]) != 0), len(s))
+    group = np.empty(len(s), int)
+    group[order] = np.cumsum(first) - 1
+    # the groups in the order of their first appearance (a stable sort: order[first] is each
+    # group's first index)
+    rank = np.empty(int(np.sum(first)), int)
+    rank[np.argsort(order[first], kind="stable")] = np.arange(len(rank))
+    firsts = np.sort(order[first])
+    return s[firsts], cases[firsts], rank[group]
+
+
+def newton(evaluate, cases, rows, lo, hi, s0, sign, s_tol=1e-13):
+    """Maximise sign * v_row on each bracket [lo, hi] (arrays, one entry per bracket, of its
+    case, row, ends, grid point s0 and sign) by Newton on dv/ds = 0, safeguarded by bisection.
+
+    A bracket without a sign change of dv/ds (sign * dv/ds(lo) > 0 > sign * dv/ds(hi)) keeps its
+    grid point.  Otherwise from s0: the bracket's end on the rising side moves to s; the Newton
+    step is taken when dv''(s) < 0 and it stays in the closed bracket (one that lands on the end
+    just moved to s is a step of about nothing: convergence), else the bisection; it stops when
+    the step or the bracket is below s_tol (relative to max(1, |s|)) with the value at the new
+    point, or after MAX_STEPS steps.  Returns (s, v(s)) arrays."""
+    cases, rows = np.asarray(cases, int), np.asarray(rows, int)
+    lo, hi, s0, sign = (np.array(a, float) for a in (lo, hi, s0, sign))
+    n = len(s0)
+    if not n:
+        return np.zeros(0), np.zeros(0)
+    points, point_case, index = distinct(np.concatenate((lo, hi, s0)), np.concatenate((cases, cases, cases)))
+    V, D1, D2 = (np.asarray(a, float) for a in evaluate(points, point_case))
+    i_lo, i_hi, i_0 = index[:n], index[n:2 * n], index[2 * n:]
+    s_out, v_out = s0.copy(), V[rows, i_0]
+    with np.errstate(invalid="ignore"):
+        going = ~((sign * D1[rows, i_lo] <= 0) | (sign * D1[rows, i_hi] >= 0))
+    k = np.flatnonzero(going)
+    s, d1, d2 = s0[k], D1[rows[k], i_0[k]], D2[rows[k], i_0[k]]
+    lo, hi = lo[k], hi[k]
+    steps = 0
+    while len(k):
+        d1, d2 = sign[k] * d1, sign[k] * d2
+        rising = d1 > 0
+        lo, hi = np.where(rising, s, lo), np.where(rising, hi, s)
+        with np.errstate(all="ignore"):
+            step = s - d1 / d2
+        s_new = np.where((d2 < 0) & (lo <= step) & (step <= hi), step, 0.5 * (lo + hi))
+        small = s_tol * np.fmax(1.0, np.abs(s))
+        done = (np.abs(s_new - s) <= small) | (hi - lo <= small)
+        V, D1, D2 = (np.asarray(a, float) for a in evaluate(s_new, cases[k]))
+        at = np.arange(len(k))
+        v_new = V[rows[k], at]
+        steps += 1
+        if steps >= MAX_STEPS:   # the last point evaluated, converged or not
+            done[:] = True
+        s_out[k[done]], v_out[k[done]] = s_new[done], v_new[done]
+        keep = ~done
+        k, s, lo, hi = k[keep], s_new[keep], lo[keep], hi[keep]
+        d1, d2 = D1[rows[k], at[keep]], D2[rows[k], at[keep]]
+    return s_out, v_out
+
+
+def _starts(changes, n):
+    """Where a run of equal sorted keys starts: True, then ``changes`` (n - 1 of them; n = 0: none)."""
+    out = np.ones(n, bool)
+    out[1:] = changes
+    return out
+
+
+class Tasks:
+    """The requests of N cases as flat arrays, one entry per (case, request): ``case``,
+    ``request`` (its index), ``row``, ``code`` (the sense, an index into SENSES),
+    ``only_above`` (-inf for none), ``ends``, ``tol`` (NaN: the default)."""
+
+    def __init__(self, requests, n_cases):
+        k = len(requests)
+        self.requests, self.n_cases = requests, n_cases
+        self.case = np.repeat(np.arange(n_cases), k)
+        self.request = np.tile(np.arange(k), n_cases)
+        self.row = np.array([r.row for r in requests], int)[self.request]
+        self.code = np.array([SENSES.index(r.sense) for r in requests], int)[self.request]
+        self.only_above = np.array([-np.inf if r.only_above is None else r.only_above for r in requests])[self.request]
+        self.ends = np.array([bool(r.ends) for r in requests], bool)[self.request]
+        self.tol = np.array([np.nan if r.tol is None else r.tol for r in requests])[self.request]
+
+    def __len__(self):
+        return len(self.case)
+
+    def sign(self, values):
+        """+1/-1 per value (tasks x anything) such that sign * v is the task's target."""
+        code = self.code.reshape((-1,) + (1,) * (np.ndim(values) - 1))
+        sign = np.where(values < 0, -1.0, 1.0)
+        return np.where(code == 1, 1.0, np.where(code == 2, -1.0, sign))
+
+
+def target(values, code):
+    """The target of values (sign * v) for senses ``code`` (same shape, or broadcast)."""
+    return np.where(code == 1, values, np.where(code == 2, -values, np.abs(values)))
+
+
+class Found:
+    """The located extrema of every task, in the order they were found (flat arrays: task, s, v),
+    the largest target per task first among equals (as a stable sort, descending, would put it)."""
+
+    def __init__(self, n_tasks):
+        self.n_tasks = n_tasks
+        self.task, self.s, self.v = np.zeros(0, int), np.zeros(0), np.zeros(0)
+
+    def add(self, task, s, v):
+        self.task = np.concatenate((self.task, np.asarray(task, int)))
+        self.s, self.v = np.concatenate((self.s, np.asarray(s, float))), np.concatenate((self.v, np.asarray(v, float)))
+
+    def best(self, code):
+        """Per task: the index into the arrays of its largest target (the first among equals),
+        and that target (-inf where a task has none)."""
+        t = target(self.v, code[self.task])
+        order = np.lexsort((np.arange(len(t)), -t, self.task))   # per task: largest first, then first found
+        head = _starts(np.diff(self.task[order]) != 0, len(order))
+        top = np.full(self.n_tasks, -1)
+        top[self.task[order][head]] = order[head]
+        best = np.full(self.n_tasks, -np.inf)
+        best[top >= 0] = t[top[top >= 0]]
+        return top, best
+
+
+def grid_brackets(tasks, s_grid, V, found):
+    """Every task's candidates on the grid: the stroke's two ends (found), its flat row's largest
+    sample (found), and brackets (arrays task, lo, hi, s0, sign, i: the grid point's index) of
+    its interior grid maxima and, with ``ends``, of its end intervals refined from the end."""
+    T = V[tasks.case, tasks.row]   # tasks x samples
+    S = T.shape[1]
+    sign = tasks.sign(T)
+    tgt = sign * T
+    n = len(tasks)
+    found.add(np.repeat(np.arange(n), 2), np.tile([s_grid[0], s_grid[-1]], n), T[:, [0, -1]].ravel())
+    with np.errstate(invalid="ignore"):
+        flat = np.ptp(T, axis=1) <= 1e-14 * np.maximum(np.max(np.abs(T), axis=1), 1e-300)
+        inner = tgt[:, 1:-1]
+        is_max = (inner >= tgt[:, :-2]) & (inner >= tgt[:, 2:]) & ~(inner < tasks.only_above[:, None]) & ~flat[:, None]
+    top = np.argmax(tgt[flat], axis=1)
+    found.add(np.flatnonzero(flat), s_grid[top], T[flat][np.arange(len(top)), top])
+    t, i = np.nonzero(is_max)
+    i = i + 1
+    parts = [(t, np.minimum(s_grid[i - 1], s_grid[i + 1]), np.maximum(s_grid[i - 1], s_grid[i + 1]), s_grid[i], i)]
+    if S >= 2:   # the end intervals, refined from their end sample, after the interior ones (per task)
+        for end, other in ((0, 1), (S - 1, S - 2)):
+            te = np.flatnonzero(tasks.ends & np.isfinite(T[:, end]))
+            parts.append((te, np.full(len(te), min(s_grid[end], s_grid[other])),
+                          np.full(len(te), max(s_grid[end], s_grid[other])), np.full(len(te), s_grid[end]),
+                          np.full(len(te), end)))
+    bt, blo, bhi, bs0, bi = (np.concatenate(a) for a in zip(*parts))
+    order = np.argsort(bt, kind="stable")
+    bt, blo, bhi, bs0, bi = bt[order], blo[order], bhi[order], bs0[order], bi[order]
+    return bt, blo, bhi, bs0, sign[bt, bi], bi, T
+
+
+def check_invariant(tasks, T, found, top, best):
+    """The largest located target of a task is never below its largest sampled one (those above
+    ``only_above``; rows with a NaN sample are not checked): a certification that fails this
+    check is an error, never a result."""
+    if not T.size:
+        return
+    sampled = np.max(tasks.sign(T) * T, axis=1)
+    checked = np.all(np.isfinite(T), axis=1) & ~(sampled < tasks.only_above)
+    bad = np.flatnonzero(checked & ~(best >= sampled))
+    if len(bad):
+        from ..errors import ResultError
+
+        k = bad[0]
+        r = tasks.requests[tasks.request[k]]
+        raise ResultError(f"the certified extremum ({r.sense}) of row {r.row}, {found.v[top[k]]!r} at s = "
+                          f"{found.s[top[k]]!r}, is below the largest sampled one ({sampled[k]!r}): the "
+                          "certification failed its own check")

@@ -1,0 +1,200 @@
+"""The analyses of many cases at once (:meth:`~.analysis.Analysis.run_many`): each stage over
+cases x samples.
+
+A batch's cases differ in leaf parameter values only (one build).  The stages, each over every
+case of the batch in one go: the assembly check and the dead-centre check over the continuous
+stroke (:meth:`~optdesign.kinematics.assembly.AssemblyCheck.many`,
+:meth:`~.reduction.ReducedModel.dead_centres`: once per group of cases equal in the geometry they
+depend on), the model's columns (one compiled call over all cases' samples:
+:meth:`~.blocked.BlockedFunction.many`), the finiteness check, the sampled peaks and constraint
+extremes (argmax over each case's row), the per-stroke constraints (:mod:`.per_stroke`), the
+certified extremes (:mod:`.certified`), and a scene's load cases.  Every decision is taken per
+case, on the case's own numbers, so a case's figures are the same bit for bit whatever batch it
+is in; a case that fails (it does not assemble, a dead centre, a value that is not finite) carries
+its error, and the others are unaffected."""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import OptdesignError
+from .finite import check_columns, check_values
+
+
+@dataclass
+class CaseRun:
+    """One case of :meth:`~.analysis.Analysis.run_many`: the figures of its
+    :class:`~.analysis.AnalysisResult` (the per-stroke constraints' values in ``stroke``, their
+    sampled values in ``stroke_sampled``), or ``error``, the OptdesignError that stopped it."""
+
+    peaks: dict = field(default_factory=dict)
+    peak_at: dict = field(default_factory=dict)
+    peaks_sampled: dict = field(default_factory=dict)
+    constraint_extremes: dict = field(default_factory=dict)
+    stroke: dict = field(default_factory=dict)
+    stroke_sampled: dict = field(default_factory=dict)
+    certificates: dict = field(default_factory=dict)
+    cases: object = None
+    timings: dict = field(default_factory=dict)
+    error: OptdesignError | None = None
+
+
+def run_cases(a, P):
+    """(a CaseRun per row of ``P``, the model's values: name -> cases x samples) of the
+    :class:`~.analysis.Analysis` ``a``."""
+    t0 = time.perf_counter()
+    s, n = a.s_values, len(P)
+    runs = [CaseRun() for _ in range(n)]
+    narrow = [[] for _ in range(n)]
+    notes = [{} for _ in range(n)]
+    for i, found in enumerate(a.assembly.many(s, P)):   # both certified over the continuous stroke
+        if isinstance(found, OptdesignError):
+            runs[i].error = found
+        else:
+            narrow[i], notes[i] = list(found[0]), found[1]
+    values = _model_values(a, P)
+    live = [i for i in range(n) if runs[i].error is None]
+    dead = [""] * n
+    if live:
+        for i, found in zip(live, a.model.dead_centres(s, P[live], values["k"][live])):
+            if isinstance(found, OptdesignError):
+                runs[i].error = found
+            else:
+                narrow[i] += found[0]
+                dead[i] = found[1]
+    columns = {"s": np.broadcast_to(s, (n, len(s)))}
+    columns.update({k: v for k, v in values.items() if ":" not in k})
+    constraints = {k.split(":", 1)[1]: v for k, v in values.items() if k.startswith("constraint:")}
+    _check_finite(a, s, columns, constraints, P, runs)
+    sampled = a.stroke.values(values, P) if a.stroke is not None else np.zeros((n, 0))
+    names = a.stroke.names if a.stroke is not None else []
+    peaks = {k: (np.argmax(np.abs(columns[k]), axis=1)) for k in a.peak_names if k in columns}
+    extremes = {k: (np.argmin(v, axis=1), np.argmax(v, axis=1)) for k, v in constraints.items()}
+    rows = np.arange(n)
+    found = {}
+    for k, i in peaks.items():
+        value, q = columns[k][rows, i], columns["q"][rows, i]
+        found[k] = (np.abs(value).tolist(), s[i].tolist(), q.tolist(), value.tolist())
+    lows = {k: (v[rows, lo].tolist(), s[lo].tolist(), v[rows, hi].tolist(), s[hi].tolist())
+            for (k, (lo, hi)), v in zip(extremes.items(), constraints.values())}
+    t1 = time.perf_counter()
+    for i in (i for i in range(n) if runs[i].error is None):
+        r = runs[i]
+        r.peaks_sampled = {k: f[0][i] for k, f in found.items()}
+        r.peak_at = {k: {"s": f[1][i], "q": f[2][i], "value": f[3][i]} for k, f in found.items()}
+        r.constraint_extremes = {k: {"min": e[0][i], "min_s": e[1][i], "max": e[2][i], "max_s": e[3][i]}
+                                 for k, e in lows.items()}
+        r.stroke_sampled = dict(zip(names, sampled[i].tolist()))
+        r.peaks, r.stroke = dict(r.peaks_sampled), dict(r.stroke_sampled)
+    extra = [None] * n
+    if a.certified is not None:
+        live = [i for i in range(n) if runs[i].error is None]
+        for i, got in zip(live, _certified(a, s, P, columns, constraints, narrow, live)):
+            r = runs[i]
+            if isinstance(got, OptdesignError):
+                r.error = got
+                continue
+            r.peaks, r.peak_at, r.certificates = got["peaks"], got["peak_at"], got["certificates"]
+            located = sorted({x for where in got["aggregates"].values() for x in where})
+            if located:
+                extra[i] = np.asarray(located, float)
+            r.constraint_extremes = {k: dict(e, min_sampled=r.constraint_extremes[k]["min"],
+                                             max_sampled=r.constraint_extremes[k]["max"])
+                                     for k, e in got["constraint_extremes"].items()}
+            r.certificates.update({f"assembly of {name}": {"bound": None, "note": note}
+                                   for name, note in notes[i].items()})
+            if dead[i]:
+                r.certificates["dead centre"] = {"bound": None, "note": dead[i]}
+        if any(x is not None for x in extra):
+            certified = a.stroke.values(values, P, _at_extra(a, P, extra))
+            for i in (i for i in range(n) if runs[i].error is None):
+                runs[i].stroke = dict(zip(names, certified[i].tolist()))
+    else:
+        for r in runs:
+            r.constraint_extremes = {k: dict(e, min_sampled=e["min"], max_sampled=e["max"])
+                                     for k, e in r.constraint_extremes.items()}
+    t2 = time.perf_counter()
+    for i, r in enumerate(runs):
+        if r.error is not None:
+            continue
+        try:
+            check_values(a, {**{f"constraint {k!r}": v for k, v in r.stroke.items()},
+                             **{f"peak |{k}|": v for k, v in r.peaks.items()}})
+            r.cases = a.case_analysis.run(P[i]) if a.case_analysis else None
+        except OptdesignError as exc:
+            r.error = exc
+            continue
+        r.timings = {"build_s": a.build_time, "evaluate_s": (t1 - t0) / n}
+        if a.certified is not None:
+            r.timings["certify_s"] = (t2 - t1) / n
+    return runs, values
+
+
+def _certified(a, s, P, columns, constraints, narrow, live) -> list:
+    """The certified extremes of the cases ``live`` (:meth:`~.certified.CertifiedExtremes.many`),
+    or per case its OptdesignError: a batch in which one case fails is certified again case by
+    case (each case's result is the same alone)."""
+    if not live:
+        return []
+
+    def rows(which):
+        return ({k: v[which] for k, v in columns.items()}, {k: v[which] for k, v in constraints.items()})
+
+    try:
+        return a.certified.many(s, P[live], *rows(live), [narrow[i] for i in live])
+    except OptdesignError as exc:
+        if len(live) == 1:
+            return [exc]
+    out = []
+    for i in live:
+        try:
+            out += a.certified.many(s, P[[i]], *rows([i]), [narrow[i]])
+        except OptdesignError as exc:
+            out.append(exc)
+    return out
+
+
+def _model_values(a, P):
+    """The model's outputs over the samples of every case: name -> cases x samples."""
+    s = a.s_values
+    n = len(s)
+    if a.vectorised is not None:
+        raw = a.vectorised.many(s, P)
+    else:
+        out = a.mapped(np.tile(s, len(P)), np.repeat(P, n, axis=0))
+        raw = {k: v.reshape(len(P), n) for k, v in zip(a.names, out)}
+    values = {k: np.ascontiguousarray(np.broadcast_to(np.asarray(v, float), (len(P), n))) for k, v in raw.items()}
+    if a.scene.drive.kind == "rotary":
+        values["q"] = np.unwrap(values["q"], axis=1)
+    return values
+
+
+def _check_finite(a, s, columns, constraints, P, runs):
+    """:func:`~.finite.check_columns` of the cases whose columns hold a value that is not finite
+    or a negative reduced inertia (the others pass it: nothing to look at)."""
+    bad = np.zeros(len(P), bool)
+    for v in (*columns.values(), *constraints.values()):
+        bad |= ~np.all(np.isfinite(v), axis=1)
+    if "reduced_inertia" in columns:
+        bad |= np.any(columns["reduced_inertia"] < 0, axis=1)
+    for i in np.flatnonzero(bad):
+        if runs[i].error is None:
+            try:
+                check_columns(a, s, {k: v[i] for k, v in columns.items()}, {k: v[i] for k, v in constraints.items()},
+                              P[i])
+            except OptdesignError as exc:
+                runs[i].error = exc
+
+
+def _at_extra(a, P, extra):
+    """Per case the aggregate rows at its located sweep values (None without), in one call."""
+    cases = [i for i, x in enumerate(extra) if x is not None]
+    s = np.concatenate([extra[i] for i in cases])
+    rows = a.stroke_rows_at(s, np.repeat(P[cases], [len(extra[i]) for i in cases], axis=0))
+    out, start = [None] * len(extra), 0
+    for i in cases:
+        out[i] = rows[:, start:start + len(extra[i])]
+        start += len(extra[i])
+    return out

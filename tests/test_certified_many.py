@@ -1,0 +1,155 @@
+"""Certified extremes of many cases at once (model/certified.CertifiedExtremes.many): each case's
+result is exactly its own one-case result, whatever the other cases of the batch and its
+position in it (a study's rows must not depend on how its cases were batched)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.stats import qmc
+
+import optdesign
+from optdesign.model.analysis import Analysis
+
+PROBLEMS = Path(__file__).resolve().parent.parent / "problems"
+VARIED = {"mB": (400.0, 900.0), "mP": (500.0, 3000.0), "xD": (-0.1, 0.6), "yD": (-1.8, -0.9), "b": (0.7, 1.6)}
+
+
+def sampled(analysis, p):
+    """The sampled columns and per-sample constraints of one case, as Analysis.run hands them on."""
+    raw = analysis.vectorised(analysis.s_values, p)
+    n = len(analysis.s_values)
+    values = {k: np.broadcast_to(np.asarray(v, float).ravel(), (n,)).copy() for k, v in raw.items()}
+    columns = {k: v for k, v in values.items() if ":" not in k}
+    if analysis.scene.drive.kind == "rotary":
+        columns["q"] = np.unwrap(columns["q"])
+    constraints = {k.split(":", 1)[1]: v for k, v in values.items() if k.startswith("constraint:")}
+    return columns, constraints
+
+
+def stacked(analysis, P):
+    """Every case's sampled columns and constraints stacked (name -> N x S)."""
+    each = [sampled(analysis, p) for p in P]
+    return ({k: np.array([c[k] for c, _ in each]) for k in each[0][0]},
+            {k: np.array([c[k] for _, c in each]) for k in each[0][1]})
+
+
+@pytest.fixture(scope="module")
+def crane():
+    return Analysis(optdesign.load(PROBLEMS / "truck_crane.toml"))
+
+
+def crane_parameters(analysis, n, seed):
+    mech = analysis.mech
+    names = list(mech.parameter_names)
+    unit = qmc.Sobol(len(VARIED), seed=seed).random(n)
+    P = np.tile(mech.parameter_values, (n, 1))
+    for j, (name, (lo, hi)) in enumerate(VARIED.items()):
+        P[:, names.index(name)] = lo + (hi - lo) * unit[:, j]
+    return P
+
+
+def test_a_batch_gives_each_case_its_own_result(crane):
+    analysis = crane
+    P = crane_parameters(analysis, 8, 3)
+    columns, constraints = stacked(analysis, P)
+    s = analysis.s_values
+    together = analysis.certified.many(s, P, columns, constraints)
+    alone = [analysis.certified(s, P[i], {k: v[i] for k, v in columns.items()},
+                                {k: v[i] for k, v in constraints.items()}) for i in range(len(P))]
+    assert together == alone   # bit-identical, certificates included
+    # another composition and order: the reversed batch, and a batch of three
+    order = [5, 2, 7]
+    part = analysis.certified.many(s, P[order], {k: v[order] for k, v in columns.items()},
+                                   {k: v[order] for k, v in constraints.items()})
+    assert part == [alone[i] for i in order]
+    backwards = analysis.certified.many(s, P[::-1], {k: v[::-1] for k, v in columns.items()},
+                                        {k: v[::-1] for k, v in constraints.items()})
+    assert backwards == alone[::-1]
+    for found in alone:   # every one certified
+        assert all(c["note"] == "" for c in found["certificates"].values()), found["certificates"]
+
+
+def test_many_checks_its_arguments(crane):
+    analysis = crane
+    P = crane_parameters(analysis, 2, 1)
+    columns, constraints = stacked(analysis, P)
+    with pytest.raises(ValueError, match="narrow"):
+        analysis.certified.many(analysis.s_values, P, columns, constraints, narrow=[()])
+
+
+# --- generated families: each case of a batch against an independent reference ---
+
+def four_bar_batch(n, seed, count=None):
+    """Crank-rockers with a torque bump between two samples (tests/test_enclosure_fourbars.py's
+    family) as one built analysis and a parameter row per four-bar."""
+    from test_enclosure_fourbars import G, M2, M3, OMEGA, SCENE, designs
+
+    points = designs(n, seed)[:count]
+    text = SCENE.format(side="left", m2=M2, m3=M3, g=G, omega=OMEGA, **{k: float(v) for k, v in points[0].items()})
+    analysis = Analysis(optdesign.loads(text, "four-bar family"))
+    names = list(analysis.mech.parameter_names)
+    P = np.tile(analysis.mech.parameter_values, (len(points), 1))
+    for i, params in enumerate(points):
+        for k, v in params.items():
+            P[i, names.index(k)] = v
+    return analysis, points, P
+
+
+def check_four_bars(n, seed, count=None):
+    from test_enclosure_fourbars import reference_peak, torque
+
+    analysis, points, P = four_bar_batch(n, seed, count)
+    columns, constraints = stacked(analysis, P)
+    found = analysis.certified.many(analysis.s_values, P, columns, constraints)
+    wrong, missed = [], 0
+    for params, f, sampled in zip(points, found, columns["drive"]):
+        branch = min((1.0, -1.0), key=lambda br: float(np.max(np.abs(torque(analysis.s_values, branch=br, **params)
+                                                                      - sampled))))
+        ref = reference_peak(params, branch)   # numpy on 20,001 angles, refined by scipy
+        peak, cert = f["peaks"]["drive"], f["certificates"]["peak |drive|"]
+        missed += float(np.max(np.abs(sampled))) < 0.9 * ref   # the samples do not see the bump
+        if not (ref * (1 - 1e-9) <= peak <= ref * (1 + 2e-9) and cert["note"] == "" and peak <= cert["bound"]
+                <= peak * (1 + 1e-9)):
+            wrong.append(f"{params}: certified {peak!r} (bound {cert['bound']}, {cert['note']!r}) against {ref!r}")
+    assert not wrong, "\n".join(wrong)
+    assert missed >= len(points) // 2   # the family exercises the certificate
+    # and one alone gives the same numbers
+    for i in (len(points) - 1,):
+        alone = analysis.certified(analysis.s_values, P[i], {k: v[i] for k, v in columns.items()},
+                                   {k: v[i] for k, v in constraints.items()})
+        assert alone == found[i]
+
+
+def test_a_batch_of_four_bars_with_narrow_torque_bumps():
+    """The fast sibling: 4 generated four-bars in one batch."""
+    check_four_bars(8, 4, 4)
+
+
+@pytest.mark.slow
+def test_a_family_of_four_bars_with_narrow_torque_bumps_in_one_batch():
+    check_four_bars(64, 44)
+
+
+def test_a_batch_of_truck_cranes_holds_a_denser_sampling():
+    """16 Sobol truck cranes (mB, mP, xD, yD, b) in one batch: every certified peak and constraint
+    extreme lies at or beyond every sample of a 16x denser sampling of its case, and its bound
+    beyond those too (the bound holds between the samples)."""
+    analysis = Analysis(optdesign.load(PROBLEMS / "truck_crane.toml"))
+    dense = Analysis(optdesign.load(PROBLEMS / "truck_crane.toml"), samples=16 * (len(analysis.s_values) - 1) + 1,
+                     certify=False)
+    P = crane_parameters(analysis, 16, 11)
+    columns, constraints = stacked(analysis, P)
+    found = analysis.certified.many(analysis.s_values, P, columns, constraints)
+    d_columns, d_constraints = stacked(dense, P)
+    for i, f in enumerate(found):
+        for name, peak in f["peaks"].items():
+            top = float(np.max(np.abs(d_columns[name][i])))
+            bound = f["certificates"][f"peak |{name}|"]["bound"]
+            assert top <= bound and top <= peak * (1 + 1e-12), (i, name, top, peak, bound)
+            assert peak <= bound <= peak + 1e-9 * max(peak, float(np.max(np.abs(columns[name][i])))) * 1.000001
+        for name, e in f["constraint_extremes"].items():
+            hi, lo = float(np.max(d_constraints[name][i])), float(np.min(d_constraints[name][i]))
+            assert hi <= e["max"] + 1e-12 * abs(e["max"]) and lo >= e["min"] - 1e-12 * abs(e["min"]), (i, name)
+            assert hi <= f["certificates"][f"{name} max"]["bound"] and lo >= f["certificates"][f"{name} min"]["bound"]
