@@ -185,20 +185,16 @@ out = run_task(study.task(study.cases()[0]))
 
 
 class StandIn(_Inline):
-    left = 0
-
     def batch_size(self, remaining):
         return 256
 
-    def ready(self):   # the batch's other results are ready (a pool's window): group commit
-        return self.left > 0 or bool(self.queue)
+    def ready(self):   # the other batches' results are ready (a pool's window): group commit
+        return bool(self.queue)
 
     def results(self):
         while self.queue:
             cases, tasks = self.queue.pop(0)
-            for i, case in enumerate(cases):
-                self.left = len(cases) - 1 - i
-                yield case, dict(out)
+            yield cases, [dict(out) for _ in cases]
 
     def describe(self):
         return "a stand-in executor (one canned row for every case)"

@@ -104,6 +104,47 @@ def test_design_nlp_compiled_gives_the_same_optimum(cache, monkeypatch):
     assert [s.iterations for s in result.starts] == [s.iterations for s in reference.starts]
 
 
+def _nlp_flags(cache) -> list:
+    import json
+
+    return sorted(json.loads(m.read_text())["flags"][0] for m in cache.glob("nlpsol-*.json"))
+
+
+def test_an_nlp_is_compiled_optimised_up_to_its_own_limit(cache, monkeypatch):
+    """An NLP solver's C above the general -O0 limit (LARGE_SOURCE, here made small) is still
+    compiled at -O1 up to NLP_OPTIMISED_SOURCE, at -O0 beyond it; the optimum and every
+    start's iterations are the same either way (IEEE arithmetic, no contraction)."""
+    from optdesign.design.multistart import optimise
+    from optdesign.design.problem import SolverSettings
+
+    settings = SolverSettings(grid=5, slots=2)
+    scene = load(ROOT / "problems" / "seed1_jib.toml")
+    monkeypatch.setattr(compiled, "LARGE_SOURCE", 1000)
+    optimised = optimise(scene, starts=2, settings=settings)
+    assert _nlp_flags(cache) and set(_nlp_flags(cache)) == {"-O1"}
+    monkeypatch.setattr(compiled, "NLP_OPTIMISED_SOURCE", 1000)   # another key: compiled again
+    plain = optimise(scene, starts=2, settings=settings)
+    assert "-O0" in _nlp_flags(cache)
+    assert optimised.objective == plain.objective
+    assert [s.iterations for s in optimised.starts] == [s.iterations for s in plain.starts]
+
+
+def test_an_nlp_whose_optimised_compile_fails_is_compiled_unoptimised(cache, monkeypatch, tmp_path):
+    """The optimiser running out of memory or time (a compiler that fails at -O1) leaves the
+    NLP compiled at -O0, not on the virtual machine."""
+    gcc = compiled.shutil.which("gcc")
+    fake = tmp_path / "cc-without-O1"
+    fake.write_text(f'#!/bin/sh\nif [ "$1" = "-O1" ]; then echo "virtual memory exhausted" >&2; exit 1; fi\n'
+                    f'exec {gcc} "$@"\n')
+    fake.chmod(0o755)
+    monkeypatch.setenv("CC", str(fake))
+    from optdesign.design.problem import DesignProblem
+
+    pb = DesignProblem(load(ROOT / "problems" / "seed1_jib.toml"))
+    assert pb.solver.stats is not None and _nlp_flags(cache) == ["-O0"]
+    assert not list(cache.glob("*.failed"))
+
+
 def test_design_problem_evaluations_compiled_equal_the_virtual_machine(cache):
     """The design problem's per-sample rows, their s-derivatives (the continuous check) and the
     extrema's tracking, compiled (model/mapped.py: compiled_function), give the virtual

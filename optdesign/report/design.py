@@ -179,12 +179,23 @@ def result_summary(result, catalogue=None) -> str:
 
 
 def _write_results(result, folder, workers, animate=True, catalogue=None, figures=None) -> list:
+    from .design_cases import optimum_analysis
+
     written = [folder / "result.json", folder / "summary.txt"]
-    write_file(written[0], to_json(result_json(result, catalogue)) + "\n")
-    write_file(written[1], result_summary(result, catalogue) + "\n")
+    # the optimum's analysis made once here, for the JSON, the summary and (sent with the result)
+    # the figure process, which draws while this process writes the JSON and the summary
+    sent = figures is not None and result.success and figures.send(result, folder, workers, animate,
+                                                                     optimum_analysis(result))
+    try:
+        write_file(written[0], to_json(result_json(result, catalogue)) + "\n")
+        write_file(written[1], result_summary(result, catalogue) + "\n")
+    except BaseException:
+        if sent:
+            figures.close()   # stopped: nothing more is written into the folder
+        raise
     if not result.success:   # no design to draw
         return written
-    drawn = figures.write(result, folder, workers, animate) if figures is not None else None
+    drawn = figures.receive() if sent else None
     return written + (drawn if drawn is not None else write_figures(result, folder, workers, animate))
 
 

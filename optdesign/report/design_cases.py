@@ -17,19 +17,33 @@ _IN_CASE = re.compile(r"^(?P<what>.*?) in cases? '(?P<case>[^']*)'(?P<more>(, '[
 _COLUMN = {"motor peak torque": "motor_torque", "motor speed": "motor_speed", "rod buckling": "rod_buckling"}
 
 
-_LAST = [None, None]   # (result, its cases): the JSON and the summary of one result share one analysis
+_LAST = [None, None]   # (result, its analysis): its JSON, summary and figures share one analysis
 
 
-def cases_at_optimum(result):
-    """The scene's cases analysed at the optimal design (a CasesResult), or None; the last
-    result's kept (results do not change), so that its JSON and its summary analyse it once."""
-    if not result.success or not result.scene.cases:
+def optimum_analysis(result):
+    """The scene analysed at the optimal design (an AnalysisResult of :func:`~optdesign.model.
+    analysis.analyse`), or None without one; the last result's kept (results do not change),
+    so that its JSON, its summary and its figures analyse it once."""
+    if not result.success:
         return None
     if _LAST[0] is not result:
         from ..model.analysis import analyse
 
-        _LAST[:] = [result, analyse(result.scene.with_parameters(**result.design)).cases]
+        _LAST[:] = [result, analyse(result.scene.with_parameters(**result.design))]
     return _LAST[1]
+
+
+def keep_optimum_analysis(result, analysis):
+    """``analysis`` is :func:`optimum_analysis` of ``result`` (made by another process: the
+    figure process gets the command's)."""
+    _LAST[:] = [result, analysis]
+
+
+def cases_at_optimum(result):
+    """The scene's cases analysed at the optimal design (a CasesResult), or None."""
+    if not result.success or not result.scene.cases:
+        return None
+    return optimum_analysis(result).cases
 
 
 def governing(result, cases) -> dict:

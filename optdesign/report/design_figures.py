@@ -83,6 +83,7 @@ def write_figures(result, folder, workers=1, animate=True) -> list:
     ``workers`` > 1 the animation (the longest) is forked as soon as the optimum's analysis
     is made, the drawing once the start's is, and this process draws the load figure."""
     from ..model.analysis import Analysis
+    from .design_cases import optimum_analysis
     from .html import write_html
 
     folder = Path(folder)
@@ -99,7 +100,7 @@ def write_figures(result, folder, workers=1, animate=True) -> list:
             children.append(context.Process(target=target, args=args))
             children[-1].start()
 
-    optimum = Analysis(scene.with_parameters(**result.design)).run()
+    optimum = optimum_analysis(result)   # the one the JSON and the summary use (report/design_cases.py)
     if animate:
         job(animation, result, folder, optimum)
     runs = [("start", Analysis(scene).run()), ("optimum", optimum)]

@@ -36,16 +36,30 @@ class FigureProcess:
         self._proc.start()
         theirs.close()
 
-    def write(self, result, folder, workers, animate) -> list | None:
+    def write(self, result, folder, workers, animate, analysis=None) -> list | None:
         """The figures of ``result`` written into ``folder`` by the process (paths), or None
         when the process is not there to draw them (the caller then draws them itself)."""
+        return self.receive() if self.send(result, folder, workers, animate, analysis) else None
+
+    def send(self, result, folder, workers, animate, analysis=None) -> bool:
+        """Start drawing the figures of ``result`` (``analysis``: its optimum's, from
+        report/design_cases.optimum_analysis, or None to make it there); False (and the process
+        ended) when it cannot: :meth:`receive` then has nothing to give."""
+        if self._proc is None:
+            return False
+        try:
+            self._conn.send((result, str(folder), workers, animate, analysis))
+            return True
+        except (pickle.PicklingError, TypeError, AttributeError, OSError):   # pickled before anything is sent
+            self.close()
+            return False
+
+    def receive(self) -> list | None:
+        """The paths of the figures :meth:`send` asked for, or None when the process is gone
+        (the caller then draws them itself); an error while drawing is raised here."""
         if self._proc is None:
             return None
         try:
-            try:
-                self._conn.send((result, str(folder), workers, animate))
-            except (pickle.PicklingError, TypeError, AttributeError):   # pickled before anything is sent
-                return None
             kind, value = self._conn.recv()
         except (EOFError, OSError):
             return None
@@ -80,7 +94,11 @@ def _serve(conn, parents):
 
         _import_for_children()
         job = conn.recv()
-        result, folder, workers, animate = job
+        result, folder, workers, animate, analysis = job
+        if analysis is not None:
+            from .design_cases import keep_optimum_analysis
+
+            keep_optimum_analysis(result, analysis)
         try:
             reply = ("ok", [str(p) for p in write_figures(result, Path(folder), workers, animate)])
         except OptdesignError as exc:

@@ -124,7 +124,7 @@ def inertia_figure(result, path, note=""):
     ax2.plot(*_broken(x, d_inertia, switches), "C1--", label=f"d{name}/dq [{dunit}]")
     why = ""
     if len(switches):
-        ideal = "M_q" if result.drive_kind == "rotary" else "M_x"
+        ideal = "M_q"   # (reduction.py's name, the drive coordinate q's mass or inertia)
         ax.plot(x, inertia / c * f, color="0.45", lw=0.9, ls=":", label=f"{ideal} = {name} / c [{unit}] (no efficiency)")
         for k in switches:
             ax.axvline(0.5 * (x[k] + x[k + 1]), color="0.6", lw=0.8, ls=":")
