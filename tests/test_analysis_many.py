@@ -197,3 +197,63 @@ def check_family_batch(points):
         simpson = h / 3 * (T[0] ** 2 + T[-1] ** 2 + 4 * np.sum(T[1:-1:2] ** 2) + 2 * np.sum(T[2:-1:2] ** 2))
         ref_rms = math.sqrt(simpson / (phi[-1] - phi[0]))
         assert rms[i]["drive"][0] == pytest.approx(ref_rms, rel=1e-7)
+
+
+LOOP = """
+title = "four-bar closed by Newton's method"
+[parameters]
+a = 0.2
+b = 0.9
+c = 0.7
+d = 1.0
+m = 2.0
+[sweep]
+name = "theta"
+from = "20 deg"
+to = "160 deg"
+samples = 29
+[points]
+A = { fixed = [0, 0] }
+D = { fixed = ["d", 0] }
+[points.chain]
+loop = "A"
+lengths = ["a", "b", "c"]
+angles = ["theta", "phi2", "phi3"]
+joints = ["B", "C", "D3"]
+unknowns = { phi2 = "60 deg - theta", phi3 = "-100 deg" }
+closure = { point = "D3", fixed = "D" }
+[[bodies]]
+name = "rocker"
+frame = ["D", "C"]
+mass = "m"
+com = ["c/2", 0]
+inertia = "m*c^2/12"
+[gravity]
+g = 9.81
+[drive]
+type = "rotary"
+crank = ["A", "B"]
+speed = 2.0
+acceleration = 0.0
+[[constraints]]
+name = "rise"
+expr = "max(y(C)) - min(y(C)) + 0*m"
+max = 5
+[[constraints]]
+name = "transmission"
+expr = "angle(B, C, D)"
+min = "10 deg"
+"""
+
+
+def test_a_loop_closed_by_newton_mx_graphs_gives_each_case_its_own_run():
+    """A four-bar closed by Newton's method (MX graphs: CasADi's map with a parameter row per
+    point, no blocks) with a per-stroke constraint: each case as alone."""
+    analysis = _analysis(optdesign.loads(LOOP, "loop"), ["a", "m"])
+    assert analysis.vectorised is None   # the MX path
+    names = analysis.mech.parameter_names
+    P = np.tile(np.asarray(analysis.mech.parameter_values, float), (3, 1))
+    P[:, names.index("a")], P[:, names.index("m")] = [0.18, 0.2, 0.22], [1.0, 2.0, 3.0]
+    assert _batch(analysis, P) == [_alone(analysis, p) for p in P]
+    assert _batch(analysis, P[::-1]) == [_alone(analysis, p) for p in P[::-1]]
+    assert analysis.sweep_rms_many(P) == [analysis.sweep_rms(p) for p in P]

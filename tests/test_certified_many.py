@@ -3,6 +3,7 @@ result is exactly its own one-case result, whatever the other cases of the batch
 position in it (a study's rows must not depend on how its cases were batched)."""
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -153,3 +154,36 @@ def test_a_batch_of_truck_cranes_holds_a_denser_sampling():
             hi, lo = float(np.max(d_constraints[name][i])), float(np.min(d_constraints[name][i]))
             assert hi <= e["max"] + 1e-12 * abs(e["max"]) and lo >= e["min"] - 1e-12 * abs(e["min"]), (i, name)
             assert hi <= f["certificates"][f"{name} max"]["bound"] and lo >= f["certificates"][f"{name} min"]["bound"]
+
+
+@pytest.mark.slow
+def test_a_batch_gives_each_case_its_own_result_with_the_compiled_programs(tmp_path, monkeypatch):
+    """The same with the interval program and the rows compiled to C (this file's other tests run
+    numpy's intervals and CasADi's virtual machine: tests/conftest.py): each interval and each
+    point is computed on its own in the C as well, whatever its place in the call."""
+    from optdesign.model import compiled
+    from optdesign.model.intervals_compiled import CompiledProgram
+
+    if compiled.shutil.which(os.environ.get("CC", "gcc")) is None:
+        pytest.skip("no C compiler on this machine")
+    monkeypatch.delenv("OPTDESIGN_NO_COMPILE", raising=False)
+    monkeypatch.delenv("OPTDESIGN_INTERVALS", raising=False)
+    monkeypatch.setenv("OPTDESIGN_COMPILE", "wait")
+    monkeypatch.setenv("OPTDESIGN_CACHE_DIR", str(tmp_path))
+    compiled._compiler.clear()
+    try:
+        analysis = Analysis(optdesign.load(PROBLEMS / "truck_crane.toml"))
+        program = analysis.certified.enclosures.program
+        assert isinstance(program, CompiledProgram) and program.subsets_pay   # the C, not numpy
+        P = crane_parameters(analysis, 40, 9)
+        columns, constraints = stacked(analysis, P)
+        s = analysis.s_values
+        together = analysis.certified.many(s, P, columns, constraints)
+        alone = [analysis.certified(s, P[i], {k: v[i] for k, v in columns.items()},
+                                    {k: v[i] for k, v in constraints.items()}) for i in range(len(P))]
+        assert together == alone
+        order = np.random.default_rng(2).permutation(len(P))[:13]
+        assert analysis.certified.many(s, P[order], {k: v[order] for k, v in columns.items()},
+                                       {k: v[order] for k, v in constraints.items()}) == [alone[i] for i in order]
+    finally:
+        compiled._compiler.clear()

@@ -182,7 +182,12 @@ def test_a_case_given_as_leaf_values_gives_the_numbers_of_its_rebuilt_scene(scen
 
 
 def test_cases_of_two_axes_are_validated_as_scenes(tmp_path):
-    """Two axes: a combination of points, each valid alone, is not known valid together."""
-    study = Study(optdesign.load(ROOT / "problems" / "seed1_jib.toml"), [values("mC", [400.0]), values("l", [4.0])],
-                  mode="analyse")
+    """Two axes: a combination of points, each valid alone, is known valid together only where
+    the scene's checks see the axes' parameters in affine expressions bounded by constants
+    (study/validity.py); the truck crane's boom length L enters the boom's inertia as
+    mB*L^2/12, so an axis over it leaves each combination to be checked as a scene."""
+    scene = optdesign.load(ROOT / "problems" / "truck_crane.toml")
+    study = Study(scene, [values("mB", [600.0]), values("L", [5.0, 6.0])], mode="analyse")
     assert not study.task(study.cases()[0]).checked
+    study = Study(scene, [values("mB", [600.0, 700.0]), values("mP", [500.0, 3000.0])], mode="analyse")
+    assert study.task(study.cases()[0]).checked

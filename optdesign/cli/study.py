@@ -134,12 +134,16 @@ def run(args):
         print(f"optdesign study: {note}", file=sys.stderr)
     for path in result.paths:
         print(f"wrote {path}", file=sys.stderr)
-    if args.json:
-        from ..report.output import to_json
+    if args.json:   # the rows streamed a few hundred at a time: a million cases never all dicts at once
+        from ..report.output import Rows, json_chunks
 
-        print(to_json({"schema": "optdesign/1", "kind": "study", "folder": str(result.folder),
-                       "complete": result.complete, "computed": result.computed, "reused": result.reused,
-                       "wall_s": result.wall_s, "files": [str(p) for p in result.paths], "rows": list(result.rows)}))
+        rows = result.rows
+        for chunk in json_chunks({"schema": "optdesign/1", "kind": "study", "folder": str(result.folder),
+                                  "complete": result.complete, "computed": result.computed, "reused": result.reused,
+                                  "wall_s": result.wall_s, "files": [str(p) for p in result.paths],
+                                  "rows": Rows(len(rows), rows.__getitem__)}):
+            sys.stdout.write(chunk)
+        sys.stdout.write("\n")
     else:
         sys.stdout.write((result.folder / "summary.txt").read_text())
 

@@ -21,16 +21,11 @@ not available, never pretends one.
 """
 from __future__ import annotations
 
-import threading
-
 import casadi as ca
 import numpy as np
 
 from .intervals import INF, JUMPS, PERIODIC, _binary, _down, _op, _out, _unary, _up  # noqa: F401
 
-# per thread: ``GATHER.bounds(enclosure, lo, hi, rows)``, when set, answers Enclosure.bounds (the
-# calls of many cases' analyses gathered into one: optdesign.study.batched)
-GATHER = threading.local()
 CHUNK = 2048   # intervals per evaluation of Enclosure.bounds at most
 
 _BINARY_OPS = {_op(n) for n in ("OP_ADD", "OP_SUB", "OP_MUL", "OP_DIV", "OP_POW", "OP_CONSTPOW", "OP_ATAN2",
@@ -263,7 +258,7 @@ class Enclosure:
     def __init__(self, program: IntervalProgram, p):
         """``p``: the parameter vector; or an array (cases x parameters) of many cases' own,
         with ``cases`` given to :meth:`bounds` (each interval's case: a row of p), or without
-        it one row per interval (:mod:`optdesign.study.batched`)."""
+        it one row per interval."""
         p = np.asarray(p, float)
         self.program, self.p = program, p if p.ndim == 2 else p.ravel()
 
@@ -271,9 +266,6 @@ class Enclosure:
         """(L, U, vm_lo, vm_hi), rows x intervals: the bounds of v over [lo, hi] and the
         enclosure of v at the midpoint; ``rows``: those rows only (the others NaN); ``cases``:
         each interval's row of the parameters (an Enclosure of many cases)."""
-        gather = getattr(GATHER, "bounds", None)
-        if gather is not None and (self.p.ndim == 1 or len(self.p) == 1):
-            return gather(self, lo, hi, rows)   # this thread's (one case's) calls gathered with other cases' (study.batched)
         lo, hi = np.asarray(lo, float), np.asarray(hi, float)
         n = len(lo)
         if self.p.ndim == 2 and cases is None:   # one parameter row per interval

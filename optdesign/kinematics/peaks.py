@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .branch_bound import CERTIFY_TOL, MAX_INTERVALS, MAX_PASSES, PRESPLIT, certify  # noqa: F401 (their home)
-from .extrema import MAX_STEPS, SENSES, Found, Tasks, check_invariant, grid_brackets, newton  # noqa: F401
+from .branch_bound import CERTIFY_TOL, certify
+from .extrema import Found, Tasks, check_invariant, grid_brackets, newton
 
 
 @dataclass(frozen=True)

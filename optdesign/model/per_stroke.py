@@ -30,8 +30,7 @@ class StrokeConstraints:
         mech = model.mech
         self.names = [c.name for c in constraints]
         self.rows, self.calls = {}, []   # calls: per constraint [(func, column name)]
-        outer, symbols = [], []
-        env = dict(environment(model))
+        trees = []
         for c in constraints:
             calls = []
 
@@ -50,13 +49,12 @@ class StrokeConstraints:
                     return Call(node.func, tuple(replace(a) for a in node.args))
                 return node
 
-            tree = replace(c.expr.tree)
-            for _, key in calls:
-                symbols.append(mech.sym.sym(key))
-                env[key] = symbols[-1]
-            outer.append(evaluate(Expression(c.expr.source, tree), env, mech.points, f"[[constraints]] {c.name}"))
+            trees.append(replace(c.expr.tree))
             self.calls.append(calls)
-        values = ca.vertcat(*symbols) if symbols else mech.sym.sym("aggregates", 0)
+        values = mech.sym.sym("aggregates", len(self.rows))   # one vector (an MX Function's input too)
+        env = dict(environment(model), **{key: values[i] for i, key in enumerate(self.rows)})
+        outer = [evaluate(Expression(c.expr.source, tree), env, mech.points, f"[[constraints]] {c.name}")
+                 for c, tree in zip(constraints, trees)]
         self.keys = [key for calls in self.calls for _, key in calls]
         self.function = ca.Function("per_stroke", [values, mech.p], [ca.vertcat(*outer)])
         self._maps = {}

@@ -7,7 +7,6 @@ takes the warm start from the journal (JSON keeps floats exact), so a resumed st
 exactly what an uninterrupted one would have."""
 from __future__ import annotations
 
-import collections
 import dataclasses
 import json
 import math
@@ -26,51 +25,41 @@ from .results import ClusterLost, StudyInterrupted, StudyResult
 from .rows import Rows
 from ..report.folder import NoHardLinks, inspect, replace_folder
 from ..report.files import write_file
+from .blocks import as_blocks
 from .executors import _executor, _Inline, record  # noqa: F401  (_Inline: the tests' stand-in executors)
 from .tasks import scene_digest
 
 
 # the files a study derives from its journal (replaced at the end; a restart drops them)
 DERIVED = (study_table.CSV, study_table.PARQUET, "pareto.csv", "study.png", "pareto.png", "study.json", "summary.txt")
-COMMIT_S = 0.1   # the journal is made durable (fsync) at least this often while cases come back
-FRESH = 10_000   # rows kept for cases.csv while an earlier case runs (more are read back from the journal)
 
 
 def execute(study, folder: Path, workers, scheduler, progress, restart, figures):
     t0 = time.perf_counter()
     cases = study.cases()
     inspect(folder, {study_journal.JOURNAL, *DERIVED}, "study folder")   # a folder we may write, before any work
-    with study_journal.Journal(folder, restart=restart, produces=DERIVED) as journal:
-        reused = sum(1 for c in cases if c.id in journal.records)
-        chains = {}
-        for c in cases:
-            chains.setdefault(c.chain, []).append(c)
-        todo = [ch for ch in chains.values() if any(c.id not in journal.records for c in ch)]
-        del chains
-        fresh = {}   # rows that came back in this run and are not in cases.csv yet (at most FRESH)
+    journal = None
 
-        def finished(case):
-            row = fresh.pop(case.id, None)
-            if row is None:
-                if case.id not in journal.records:
-                    return None
-                row = journal.records[case.id]["row"]
-            return merged_row(case, row)
+    def finished(case):   # a finished case the table has not been handed: its record read back
+        if journal is None or case.id not in journal.records:   # (None: the journal being read)
+            return None
+        return merged_row(case, journal.records[case.id]["row"])
 
-        def came_back(case, out):
-            if len(fresh) < FRESH:
-                fresh[case.id] = out["row"]
-            table.advance()
-
-        table = study_table.CsvWriter(folder, study.input_columns, cases, finished)
+    # cases.csv takes each journal record as it is read (parsed once), in case order
+    table = study_table.CsvWriter(folder, study.input_columns, cases, finished)
+    with study_journal.Journal(folder, restart=restart, produces=DERIVED, consume=table.offer) as journal:
         try:
-            table.advance()   # the cases finished before (a resumed study)
-            executor = _executor(workers, scheduler, len(todo))
+            table.flush_offered()   # the cases finished before (a resumed study)
+            table.advance()
+            records, ids = journal.records.spans, cases.ids
+            todo = sum(1 for v in ids if f"{v:016x}" not in records)
+            reused = len(cases) - todo
+            executor = _executor(workers, scheduler, todo if not cases.chain else cases.n_chains)
             computed, interrupted, lost = 0, False, None
             with _CtrlC() as ctrl_c:
                 try:
-                    computed = _schedule(study, todo, journal, executor, progress, reused, len(cases), ctrl_c,
-                                         came_back)
+                    computed = _schedule(study, cases, todo, journal, executor, progress, reused, ctrl_c,
+                                         table.add_blocks)
                 except KeyboardInterrupt:
                     interrupted = True
                     computed = executor.stop(journal, abandon=ctrl_c.abandoned)
@@ -80,11 +69,9 @@ def execute(study, folder: Path, workers, scheduler, progress, restart, figures)
                     journal.sync()
                     where = executor.describe()
                     executor.close()
-            del todo
             rows = table.finish()
-            # the cases' list let go once cases.csv is complete (~280 MB at a million cases, not held
-            # while the figures are drawn): the folder needs only their count and chains
-            total, chains = len(cases), (cases[-1].chain + 1 if cases else 0)
+            # the cases let go once cases.csv is complete (the folder needs only their count and chains)
+            total, chains = len(cases), cases.n_chains
             cases = table.cases = None
             try:
                 result = write_folder(study, (total, chains), folder, rows, table, figures, computed, reused, t0, where,
@@ -202,14 +189,18 @@ def case_table(study, rows, shown=30) -> list:
     return out
 
 
-LOCKSTEP = 32   # analyse cases per batch at most, run in lockstep (study.batched): on the truck
-#                 crane 8 cases 24 ms per case, 32 21 ms, 128 21 ms (44-60 ms one by one)
+GROUP_FIRST = 32   # analyse cases in a batch before a case's time is known
+GROUP_S = 0.5      # then about this many seconds of work per batch (tasks.run_batch analyses them together)
+LOCKSTEP = 4096    # cases per batch at most (1: each case's analysis alone, tasks.run_task)
 
 
-def _lockstep_size(executor, remaining) -> int:
-    """Cases per batch of an analyse study: LOCKSTEP, or fewer so that every batch the executor
-    keeps in flight (its window) has some while few are left."""
-    return max(1, min(LOCKSTEP, -(-remaining // getattr(executor, "window", 1))))
+def _group_size(executor, work, remaining) -> int:
+    """Cases per batch of an analyse study: GROUP_S seconds of work at the time per case seen so
+    far (``work``: [seconds, cases]), or fewer so that every batch the executor keeps in flight
+    (its window) has some while few are left."""
+    seconds, n = work
+    per = min(GROUP_FIRST, LOCKSTEP) if not n else max(1, min(LOCKSTEP, int(GROUP_S / max(seconds / n, 1e-6))))
+    return max(1, min(per, -(-remaining // getattr(executor, "window", 1))))
 
 
 # --- the scheduling loop -------------------------------------------------------------------
@@ -242,21 +233,27 @@ class _CtrlC:
         raise KeyboardInterrupt
 
 
-def _schedule(study, chains, journal, executor, progress, done, total, ctrl_c, came_back) -> int:
+def _schedule(study, cases, todo, journal, executor, progress, done, ctrl_c, came_back) -> int:
     """Feed the executor the chains' cases while it has room (a bounded window: the cases wait
-    here, not in the pool or on the cluster), journal each case as it comes back and report it
-    once it is durable (group commit: one fsync for the cases that came back together, at least
-    every COMMIT_S), and continue each chain from its last finished case.  An analyse study's
-    cases are independent (chains of one case, nothing to warm-start): they go in batches of
-    several cases where the executor takes batches (Dask).  ``came_back(case, output)`` after
-    each case is journalled (cases.csv's rows)."""
+    here, as indices, not in the pool or on the cluster), journal each batch as it comes back
+    and report its cases once they are durable (group commit: one fsync for the batches that
+    came back together, in a thread of the journal's), and continue each chain from its last finished
+    case.  An analyse study's cases are independent (chains of one case, nothing to
+    warm-start): they go in batches of several cases.  ``came_back(blocks)`` after each batch is
+    journalled (cases.csv's rows).  ``todo``: the cases not finished yet."""
     blob, digest = pickle.dumps(study.scene), scene_digest(study.scene)
-    grouped = study.mode == "analyse" and all(len(ch) == 1 for ch in chains)
-    waiting = collections.deque(chains)   # chains not submitted yet
+    records, total = journal.records, len(cases)
+    grouped = study.mode == "analyse" and not cases.chain
+    # the chains (ranges of case indices) with a case to compute, in order, taken as needed
+    spans, ids = records.spans, cases.ids
+    waiting = ((range(i, i + 1) for i in range(total) if f"{ids[i]:016x}" not in spans) if grouped else
+               (ch for ch in cases.chains() if any(cases.id(i) not in records for i in ch)))
+    left = todo   # grouped: cases not submitted yet
     # case id -> per batch holding it (a study may list one case twice, a batch hold both):
     # [cases of its batch still to come, its chain, position of the batch's last case]
     open_ = {}
     computed = reported = 0
+    work = [0.0, 0]   # seconds and cases computed so far (batch sizes)
     if progress is not None:
         progress(done, total)
 
@@ -264,64 +261,88 @@ def _schedule(study, chains, journal, executor, progress, done, total, ctrl_c, c
         """Submit the chain's first unfinished case at or after ``pos``, with the unfinished cases
         right after it when the executor takes batches (each warm-started on the worker from the
         one before it: tasks.run_batch)."""
-        while pos < len(chain) and chain[pos].id in journal.records:
+        while pos < len(chain) and cases.id(chain[pos]) in records:
             pos += 1
         if pos == len(chain):
             return
-        batch = chain[pos:pos + executor.batch_size(len(chain) - pos)]
-        batch = batch[:next((i for i, c in enumerate(batch) if c.id in journal.records), len(batch))]
-        prev = journal.records.get(chain[pos - 1].id) if pos > 0 else None
+        batch = [cases[i] for i in chain[pos:pos + executor.batch_size(len(chain) - pos)]]
+        batch = batch[:next((i for i, c in enumerate(batch) if c.id in records), len(batch))]
+        prev = records.get(cases.id(chain[pos - 1])) if pos > 0 else None
         x_warm = prev.get("x") if prev is not None else None
-        send(batch, [study.task(case, x_warm if i == 0 else None, blob, digest) for i, case in enumerate(batch)],
-             chain, pos + len(batch) - 1)
-
-    def send(batch, tasks, chain, last):
-        entry = [len(batch), chain, last]
+        tasks = [study.task(case, x_warm if i == 0 else None, blob, digest) for i, case in enumerate(batch)]
+        entry = [len(batch), chain, pos + len(batch) - 1]
         for case in batch:
             open_.setdefault(case.id, []).append(entry)
         executor.submit(batch, tasks)
 
     def feed():
-        while waiting and executor.room():
+        nonlocal left
+        while left and executor.room():
             if grouped:
-                size = executor.batch_size(len(waiting))
-                if size == 1:   # an executor that does not size its batches (in process, the pool)
-                    size = _lockstep_size(executor, len(waiting))
-                batch = [waiting.popleft()[0] for _ in range(min(size, len(waiting)))]
-                send(batch, [study.task(case, None, blob, digest) for case in batch], None, None)
+                size = _group_size(executor, work, left)
+                picked = []
+                for _ in range(min(size, left)):
+                    chain = next(waiting, None)   # None: the rest finished meanwhile (a case listed twice)
+                    if chain is None:
+                        left = 0
+                        break
+                    picked.append(chain.start)
+                left = max(left - len(picked), 0)
+                if not picked:
+                    return
+                refs, overrides, bounds = cases.batch(picked)
+                executor.submit(refs, study.tasks(overrides, bounds, None, blob, digest))
             else:
-                submit(waiting.popleft(), 0)
+                chain = next(waiting, None)
+                if chain is None:
+                    left = 0
+                    return
+                submit(chain, 0)
 
-    def commit():
+    def commit(wait=False):
+        """Group commit: the journal made durable up to the cases computed so far, in its own
+        thread (or at once with ``wait``); the cases made durable so far reported."""
         nonlocal reported
-        journal.sync()
-        if progress is not None and reported < computed:
-            progress(done + computed, total)
-        reported = computed
+        if wait:
+            journal.sync()
+            durable = computed
+        else:
+            journal.commit(computed)
+            durable = journal.committed() or 0
+        if progress is not None and reported < durable:
+            progress(done + durable, total)
+        reported = max(reported, durable)
 
     feed()
-    for case, out in executor.results():
+    for batch, outs in executor.results():
         if ctrl_c.abandoned:   # computed while the second Ctrl-C was raised: maybe not a result
             raise KeyboardInterrupt
-        journal.add(record(case, out), durable=False)
-        came_back(case, out)
-        computed += 1
-        executor.finished += 1
-        if not executor.ready() or time.monotonic() - journal.synced >= COMMIT_S:
-            commit()
-        entry = open_[case.id].pop(0)
-        if not open_[case.id]:
-            del open_[case.id]
-        entry[0] -= 1
-        if entry[0]:
-            continue   # more of its batch to come
+        made = as_blocks(batch, outs)
+        work[0] += sum(sum(b.time_s) for b in made)
+        work[1] += len(batch)
+        journal.add_blocks(made)
+        came_back(made)
+        computed += len(batch)
+        executor.finished += len(batch)
+        commit()   # durable in the background: reported once it is (at a later batch, or at the end)
+        follow = []
+        if not grouped:
+            for case in batch:
+                entry = open_[case.id].pop(0)
+                if not open_[case.id]:
+                    del open_[case.id]
+                entry[0] -= 1
+                if not entry[0]:
+                    follow.append(entry)
+            if not follow:
+                continue   # more of its batch to come
         if ctrl_c.presses:
-            commit()
+            commit(wait=True)
             raise KeyboardInterrupt
-        if entry[1] is not None:
+        for entry in follow:
             submit(entry[1], entry[2] + 1)
         feed()
-    commit()
+    commit(wait=True)
     return computed
 
 

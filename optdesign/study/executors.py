@@ -1,6 +1,7 @@
 """Where a study's cases run: in this process, in a process pool on this machine, or on a Dask
 cluster.  Every executor takes batches (consecutive cases of one chain) with
-``submit(cases, tasks)`` and yields ``(case, output)`` from ``results()`` as cases finish.
+``submit(cases, tasks)`` and yields ``(cases, outputs)`` from ``results()`` as batches finish
+(a batch's cases together, or in parts after a process died).
 
 The pool and Dask keep a bounded *window* of batches in flight (a small multiple of their
 workers: enough to keep every worker busy while the results of others travel back); the other
@@ -31,8 +32,31 @@ from concurrent.futures.process import BrokenProcessPool
 
 from ..errors import OptdesignError, worker_process
 from .results import ClusterLost
+from .blocks import as_blocks, blocks
 from .tasks import died_output, run_batch
 from .worker import MAX_DEATHS, prestart, run_batch_in_helper
+
+
+def computed(tasks, index, ids) -> list:
+    """:func:`~.tasks.run_batch` where the batch runs (a pool's process), its outputs handed back
+    as blocks with their text made there (:func:`.blocks.blocks`): the client's work per case
+    done by the workers, in parallel."""
+    return _texts_made(blocks(index, ids, run_batch(tasks)))
+
+
+def computed_in_helper(tasks, index, ids) -> list:
+    """:func:`computed` on a Dask worker (the batch in its helper process: :mod:`.worker`)."""
+    return _texts_made(blocks(index, ids, run_batch_in_helper(tasks)))
+
+
+def _texts_made(made):
+    for block in made:
+        block.lines()
+    return made
+
+
+def _where(batch):
+    return [c.index for c in batch.cases], [c.id for c in batch.cases]
 
 
 def record(case, out) -> dict:
@@ -62,7 +86,7 @@ class _Inline:
     def results(self):
         while self.queue:
             cases, tasks = self.queue.pop(0)
-            yield from zip(cases, run_batch(tasks))
+            yield cases, run_batch(tasks)
 
     def room(self):
         return not self.queue
@@ -93,7 +117,7 @@ class _Futures:
         return 1
 
     def submit(self, cases, tasks):
-        self.queue.append(_Batch(list(cases), list(tasks)))
+        self.queue.append(_Batch(list(cases), tasks))   # tasks: a list, or a study's TaskList (made lazily)
 
     def room(self):
         """True while fewer batches than the window are in flight or queued."""
@@ -111,7 +135,7 @@ class _Futures:
             if alone and self.pending:
                 return
             batch = self.queue.popleft()
-            self.pending[self._submit(batch.tasks)] = batch
+            self.pending[self._submit(batch)] = batch
 
     def results(self):
         while True:
@@ -128,7 +152,7 @@ class _Futures:
                     if not self.stopping:
                         yield from self._replace(batch)
                     continue
-                yield from zip(batch.cases, outs)
+                yield batch.cases, outs
 
     def _outputs(self, f, batch):
         return f.result()
@@ -147,9 +171,10 @@ class _Futures:
                 if not self._keep_running(f):
                     self.pending.pop(f)
             try:
-                for case, out in self.results():
-                    journal.add(record(case, out))
-                    self.finished += 1
+                for cases, outs in self.results():
+                    journal.add_blocks(as_blocks(cases, outs))
+                    journal.sync()
+                    self.finished += len(cases)
             except (KeyboardInterrupt, cf.CancelledError, *self.BROKEN):
                 pass   # abandoned, cancelled or lost with its worker: nothing to keep
         self._cancel(list(self.pending))
@@ -181,9 +206,9 @@ class _Pool(_Futures):
         return cf.ProcessPoolExecutor(self.workers, mp_context=ctx, initializer=worker_process,
                                       initargs=(os.getpid(),))
 
-    def _submit(self, tasks):
+    def _submit(self, batch):
         try:
-            return self.pool.submit(run_batch, tasks)
+            return self.pool.submit(computed, batch.tasks, *_where(batch))
         except BrokenProcessPool as exc:   # broken since the last look: seen as its future's
             f = cf.Future()
             f.set_exception(exc)
@@ -205,7 +230,7 @@ class _Pool(_Futures):
         for f, other in list(self.pending.items()):
             self.pending.pop(f)
             if f.done() and not f.cancelled() and f.exception() is None:
-                yield from zip(other.cases, f.result())   # finished before the death
+                yield other.cases, f.result()   # finished before the death
             else:
                 suspects.append(other)
         self.pool.shutdown(wait=False, cancel_futures=True)
@@ -225,7 +250,7 @@ class _Pool(_Futures):
                 continue
             reason = (f"the worker process computing this case died {b.deaths} times (killed, out of memory or "
                       "crashed); it is not tried again")
-            yield from ((case, died_output(reason)) for case in b.cases)
+            yield b.cases, [died_output(reason) for _ in b.cases]
         self.retried += sum(len(b.cases) for b in again)
         self.queue.extendleft(reversed(again))
         n = sum(len(b.cases) for b in again)
@@ -312,19 +337,19 @@ class _Dask(_Futures):
         batches = -(-remaining // per_batch)
         return -(-remaining // batches)
 
-    def _submit(self, tasks):
-        f = self.client.submit(run_batch_in_helper, tasks, pure=False)
+    def _submit(self, batch):
+        f = self.client.submit(computed_in_helper, batch.tasks, *_where(batch), pure=False)
         self.completed.add(f)
         return f
 
     def results(self):
         try:
-            for case, out in super().results():
-                self.work_s += out["time_s"]
-                self.work_n += 1
+            for cases, outs in super().results():
+                self.work_s += sum(sum(b.time_s) for b in as_blocks(cases, outs))
+                self.work_n += len(cases)
                 if time.monotonic() - self.looked > self.LOOK_S:
                     self._look()
-                yield case, out
+                yield cases, outs
         except (cf.CancelledError, OSError, TimeoutError) as exc:   # FuturesCancelledError, CommClosedError
             self.lost = True
             raise ClusterLost(f"the Dask scheduler at {self.address} was lost ({type(exc).__name__})") from None

@@ -30,6 +30,7 @@ import collections.abc
 import fcntl
 import json
 import os
+import threading
 import time
 from pathlib import Path
 
@@ -46,7 +47,7 @@ class Journal:
     million cases opens in memory for its ids, not its rows); ``notes``: what opening it found
     and did (damaged lines)."""
 
-    def __init__(self, folder, restart: bool = False, produces=()):
+    def __init__(self, folder, restart: bool = False, produces=(), consume=None):
         self.folder = Path(folder)
         self.path = self.folder / JOURNAL
         self.restart = restart
@@ -58,6 +59,8 @@ class Journal:
         self._end = 0                        # the file's size, lines added included
         self._unsynced, self.synced = False, time.monotonic()
         self._unflushed = False
+        self.consume = consume               # called with each valid record as it is read (once)
+        self._committer, self.durable = None, None   # group commit in a thread (commit)
 
     def __enter__(self):
         self._fh = _open_locked(self.path)
@@ -73,9 +76,13 @@ class Journal:
 
     def __exit__(self, *exc):
         if self._fh is not None:
-            self.sync()
-            self._fh.close()
-            self._fh = None
+            try:
+                self.sync()
+            finally:
+                if self._committer is not None:
+                    self._committer.stop()
+                self._fh.close()
+                self._fh = None
 
     # --- restart ---
     def _fresh(self):
@@ -120,6 +127,8 @@ class Journal:
                     bad.append((number, raw[:-1], why))
                 else:
                     spans[record["id"]] = _span(offset, len(raw))
+                    if self.consume is not None:
+                        self.consume(record)
                 offset += len(raw)
         except OSError as exc:
             raise OptdesignError(f"{self.path}: cannot read the study journal ({exc.strerror or exc})") from None
@@ -187,13 +196,51 @@ class Journal:
         if durable:
             self.sync()
 
+    def add_blocks(self, blocks):
+        """Append the finished cases of ``blocks`` (:class:`~optdesign.study.blocks.Block`), a line
+        each as :meth:`add` writes it, in one write; durable at the next :meth:`sync`."""
+        spans, end, text = self.records.spans, self._end, []
+        for block in blocks:
+            lines = block.lines()
+            for case_id, line in zip(block.ids, lines):
+                spans[case_id] = _span(end, len(line))   # ASCII: as many bytes as characters
+                end += len(line)
+            text += lines
+        if text:
+            self._fh.write("".join(text).encode())
+            self._end = end
+            self._unsynced = self._unflushed = True
+
     def sync(self):
         """Make every line added so far durable (one flush and one fsync for all of them)."""
         if self._unsynced and self._fh is not None:
             self._fh.flush()
             os.fsync(self._fh.fileno())
             self._unsynced = self._unflushed = False
+        if self._committer is not None:
+            self._committer.check()
+            self.durable = self._committer.asked_last
         self.synced = time.monotonic()
+
+    def commit(self, tag):
+        """Group commit without waiting: the lines added so far are written to the file now and
+        made durable (fsync) by a thread of the journal's, while the caller goes on; ``durable``
+        is ``tag`` once they are (commits asked while an fsync runs are covered by the next
+        one).  Raises the error of a failed fsync."""
+        if self._committer is None:
+            self._committer = _Committer(self._fh.fileno())
+        if self._unflushed:
+            self._fh.flush()
+            self._unflushed = False
+        self._committer.ask(tag)   # (_unsynced stays: sync() makes sure whatever the thread has done)
+        self.durable = self._committer.check()
+        self.synced = time.monotonic()
+
+    def committed(self):
+        """The tag of the last commit made durable (:meth:`commit`)."""
+        if self._committer is not None:
+            self.durable = self._committer.check()
+        return self.durable
 
 
     def _line(self, span: int) -> bytes:
@@ -203,6 +250,51 @@ class Journal:
             self._unflushed = False
         offset, length = span >> 32, span & 0xFFFFFFFF
         return os.pread(self._fh.fileno(), length, offset)[:-1]
+
+
+class _Committer:
+    """A thread that makes a file durable (fsync) when asked, one fsync at a time: the asks
+    that come while one runs are answered together by the next (group commit)."""
+
+    def __init__(self, fd):
+        self.fd, self.cond = fd, threading.Condition()
+        self.asked = self.asked_last = self.done = self.error = None
+        self.stopping = False
+        self.thread = threading.Thread(target=self._run, name="optdesign-journal-commit", daemon=True)
+        self.thread.start()
+
+    def ask(self, tag):
+        with self.cond:
+            self.asked = self.asked_last = tag
+            self.cond.notify_all()
+
+    def check(self):
+        """The tag made durable last; raises the error of a failed fsync."""
+        if self.error is not None:
+            raise OptdesignError(f"the study journal could not be made durable (fsync: "
+                                 f"{self.error.strerror or self.error})")
+        return self.done
+
+    def stop(self):
+        with self.cond:
+            self.stopping = True
+            self.cond.notify_all()
+        self.thread.join()
+
+    def _run(self):
+        while True:
+            with self.cond:
+                while self.asked is None and not self.stopping:
+                    self.cond.wait()
+                if self.asked is None:
+                    return
+                tag, self.asked = self.asked, None
+            try:
+                os.fsync(self.fd)
+            except OSError as exc:
+                self.error = exc
+                return
+            self.done = tag
 
 
 class Records(collections.abc.Mapping):

@@ -61,9 +61,6 @@ class ParquetWriter:
             import pyarrow.parquet  # noqa: F401
         except ImportError:
             self.note = MISSING_NOTE
-            return
-        for stale in (self.path, self.path.with_name(REWRITE)):   # a killed run's
-            stale.unlink(missing_ok=True)
 
     @property
     def active(self) -> bool:
@@ -134,7 +131,8 @@ class ParquetWriter:
 
         self.schema = pa.schema([(k, _arrow_type(kinds[k])) for k in cols])
         old, self.cols, self.kinds = self.writer, cols, kinds
-        if old is None:
+        if old is None:   # the first group: a killed run's files go (the folder is locked by now)
+            self.path.with_name(REWRITE).unlink(missing_ok=True)
             self.writer = pq.ParquetWriter(self.path, self.schema)
             return
         old.close()

@@ -15,6 +15,7 @@ import re
 from array import array
 
 _HEX16 = re.compile(r"[0-9a-f]{16}\Z")
+_HEX16S = re.compile(r"(?:[0-9a-f]{16})*")
 _MISSING = object()
 _INTERNED = 4096   # distinct strings of a column shared (a status, a note); further ones kept as they are
 
@@ -75,6 +76,23 @@ class _Column:
             self.other[len(self.data)] = value
             self.data.append(0)
 
+    def extend(self, values: list):
+        """:meth:`append` of each value, in one call where they all fit the column's array."""
+        if self.kind == "n":
+            self._choose(next((v for v in values if v is not None), None))
+        kind, types = self.kind, set(map(type, values))
+        if (kind == "d" and types == {float}) or (kind == "b" and types == {bool}) or (
+                kind == "q" and types == {int} and -2**63 <= min(values) and max(values) < 2**63):
+            self.data.extend(values)
+        elif kind == "x" and types == {str} and set(map(len, values)) == {16} and \
+                _HEX16S.fullmatch("".join(values)):
+            self.data.extend([int(v, 16) for v in values])
+        elif kind == "O" and types == {str} and len(self.strings) + len(values) <= _INTERNED:
+            self.data.extend(map(self.strings.setdefault, values, values))
+        else:
+            for v in values:
+                self.append(v)
+
     def get(self, i):
         if self.other:
             v = self.other.get(i, _MISSING)
@@ -120,6 +138,26 @@ class Rows(collections.abc.Sequence):
             else:
                 col.append(v)
         self._shape.append(shape)
+
+    def extend(self, keys: tuple, columns: list):
+        """Append rows given column by column: rows whose keys are ``keys`` (in that order),
+        ``columns[k]`` the values of key k, one per row (:meth:`append` of each row, at once)."""
+        if not columns:
+            return
+        keys = tuple(keys)
+        shape = self._shapes.get(keys)
+        if shape is None:
+            shape = self._shapes[keys] = len(self._keys)
+            self._keys.append(keys)
+        n, cols = len(self._shape), self._cols
+        for k, values in zip(keys, columns):
+            col = cols.get(k)
+            if col is None:
+                col = cols[k] = _Column(None, n)
+            elif len(col.data) != n:
+                col.pad(n)
+            col.extend(values)
+        self._shape.extend(array("I", [shape]) * len(columns[0]))
 
     def __len__(self):
         return len(self._shape)

@@ -25,6 +25,7 @@ figures and ``summary.txt`` are written at the end, atomically.
 """
 from __future__ import annotations
 
+import collections.abc
 import dataclasses
 import functools
 import hashlib
@@ -35,26 +36,13 @@ from pathlib import Path
 
 from ..errors import SceneError
 from ..scene.arguments import scene_argument, study_cases, whole
+from .caselist import Case, Cases
 from .axes import Axis, _constant, _number, grid, pareto, together, values  # noqa: F401  (re-exported)
 from .results import StudyInterrupted, StudyResult  # noqa: F401  (re-exported)
 from .tasks import Task, case_scene, scene_digest
+from .validity import CORNERS_MAX, corners, ranged as all_ranged, recorded_checks
 
 MODES = ("optimise", "analyse")
-
-
-# --- cases ------------------------------------------------------------------------------------
-@dataclasses.dataclass(frozen=True, slots=True)
-class Case:
-    """One case: its place in the study, its content and its id (a digest of the content and,
-    for a warm-started case, of the previous case of its chain)."""
-
-    index: int
-    chain: int
-    link: int                 # position in its chain (0: cold start)
-    overrides: tuple          # ((parameter, value), ...)
-    bounds: tuple             # ((constraint, side, value), ...)
-    inputs: tuple             # ((column, value), ...) as in the CSV
-    id: str
 
 
 # --- the study --------------------------------------------------------------------------------
@@ -156,9 +144,27 @@ class Study:
                                  f"so an axis over it would only move the start and every case would give the same "
                                  f"optimum; use --mode analyse to evaluate it at given values, or make it a fixed "
                                  f"parameter in the scene (a number instead of {{ value, min, max }}) to optimise the rest")
-            if axis.kind != "pareto":
-                for point in axis.points:   # unknown names and bad values fail here, early
+        self._validate_points()
+
+    def _validate_points(self):
+        """Unknown names and bad values fail here, early: every case's scene is known valid
+        (:mod:`.validity`: the axes' corners checked where that suffices, else each point of
+        each axis, and combinations of several axes where each case runs)."""
+        sc, axes = self.scene, [a for a in self.axes if a.kind != "pareto"]
+        if not axes:
+            return
+        first = dict(p for a in axes for p in a.points[0])
+        calls = recorded_checks(lambda: case_scene(sc, self.mode, first))
+        ranged = all_ranged(axes, calls) and len(corners(axes)) <= CORNERS_MAX
+        if ranged:
+            for corner in corners(axes):
+                case_scene(sc, self.mode, corner)
+        else:
+            for axis in axes:
+                for point in axis.points:
                     case_scene(sc, self.mode, dict(point))
+        # every combination known valid: the cases run as vectors of leaf values (tasks.Task.checked)
+        object.__setattr__(self, "_all_valid", ranged or len(axes) <= 1)
 
     def columns_estimate(self) -> int:
         """About how many columns a case's row has (for the memory check): identification and
@@ -176,40 +182,12 @@ class Study:
     def input_columns(self) -> list:
         return [c for a in self.axes for c in a.columns]
 
-    def cases(self) -> list:
-        """The cases in study order (the last axis fastest), with chains and ids."""
-        digest = scene_digest(self.scene)
-        run = self._run_settings()
-        sizes = [len(a) for a in self.axes]
-        total = math.prod(sizes)
+    def cases(self) -> Cases:
+        """The cases in study order (the last axis fastest), with chains and ids: a lazy sequence
+        (:class:`~optdesign.study.caselist.Cases`: 8 bytes per case, each Case made when asked for)."""
         chained = self.warm and self.mode == "optimise"
-        out, prev, chain = [], None, -1
-        for index in range(total):
-            idx, rest = [], index
-            for n in reversed(sizes):
-                idx.append(rest % n)
-                rest //= n
-            idx.reverse()
-            pos = idx[-1] if sizes else 0
-            link = pos % self.chain if chained else 0
-            if link == 0:
-                chain, prev = chain + 1, None
-            overrides, bounds, inputs = [], [], []
-            for axis, i in zip(self.axes, idx):
-                for pair in axis.points[i]:   # the axis's (column, value) pairs, shared by every case (memory)
-                    inputs.append(pair)
-                    if axis.kind == "pareto":
-                        bounds.append((axis.constraint, axis.side, pair[1]))
-                    else:
-                        overrides.append(pair)
-            content = {"scene": digest, "mode": self.mode, "overrides": overrides, "bounds": bounds,
-                       "run": run, "prev": prev}
-            cid = hashlib.sha256(json.dumps(content, sort_keys=True).encode()).hexdigest()[:16]
-            overrides = tuple(overrides)
-            out.append(Case(index, chain, link, overrides, tuple(bounds) if bounds else (),
-                            overrides if not bounds else tuple(inputs), cid))
-            prev = cid if chained else None
-        return out
+        return Cases(self.axes, int(self.chain) if chained else None,
+                     {"scene": scene_digest(self.scene), "mode": self.mode, "run": self._run_settings()})
 
     def _run_settings(self) -> dict:
         if self.mode == "analyse":
@@ -225,12 +203,20 @@ class Study:
 
     def task(self, case: Case, x_warm=None, blob=None, digest=None) -> Task:
         """The worker's view of a case (see :func:`optdesign.study.tasks.run_task`)."""
-        return Task(blob if blob is not None else pickle.dumps(self.scene),
-                    digest or scene_digest(self.scene), self.mode, case.overrides, case.bounds,
-                    int(self.starts), int(self.seed), int(self.warm_starts), self._settings_items,
-                    None if x_warm is None else tuple(x_warm),
-                    # one parameter axis: each case's overrides are an axis point, validated in _validate
-                    sum(a.kind != "pareto" for a in self.axes) <= 1)
+        return self.tasks([case.overrides], [case.bounds], x_warm, blob, digest)[0]
+
+    def tasks(self, overrides: list, bounds: list, x_warm=None, blob=None, digest=None) -> "TaskList":
+        """The tasks of a batch of cases (their ``overrides`` and ``bounds``; ``x_warm`` the first
+        one's warm start), each :class:`~optdesign.study.tasks.Task` made when asked for: where the
+        batch is computed, not here (the client's cost per case)."""
+        return TaskList((blob if blob is not None else pickle.dumps(self.scene), digest or scene_digest(self.scene),
+                         self.mode, int(self.starts), int(self.seed), int(self.warm_starts), self._settings_items,
+                         self._checked), overrides, bounds, None if x_warm is None else tuple(x_warm))
+
+    @property
+    def _checked(self) -> bool:
+        """Whether every case's overrides are known valid together (:meth:`_validate_points`)."""
+        return getattr(self, "_all_valid", True)
 
     def default_folder(self) -> Path:
         """``optdesign-results/<scene>_study-<axes>-<digest>`` under the current directory: named
@@ -258,6 +244,33 @@ class Study:
 
         return execute(self, Path(out) if out else self.default_folder(), workers, scheduler,
                        progress, restart, figures)
+
+
+class TaskList(collections.abc.Sequence):
+    """A batch's tasks: what they share held once, each :class:`~optdesign.study.tasks.Task`
+    made when asked for (``tasks[j]``; a slice gives a list)."""
+
+    __slots__ = ("common", "overrides", "bounds", "x_warm")
+
+    def __init__(self, common, overrides, bounds, x_warm):
+        self.common, self.overrides, self.bounds, self.x_warm = common, overrides, bounds, x_warm
+
+    def __len__(self):
+        return len(self.overrides)
+
+    def __getitem__(self, j):
+        if isinstance(j, slice):
+            return [self[k] for k in range(*j.indices(len(self)))]
+        blob, digest, mode, starts, seed, warm_starts, settings, checked = self.common
+        j = range(len(self))[j]
+        return Task(blob, digest, mode, self.overrides[j], self.bounds[j], starts, seed, warm_starts, settings,
+                    self.x_warm if j == 0 else None, checked)
+
+    def __getstate__(self):
+        return self.common, self.overrides, self.bounds, self.x_warm
+
+    def __setstate__(self, state):
+        self.common, self.overrides, self.bounds, self.x_warm = state
 
 
 __all__ = ["Study", "StudyResult", "StudyInterrupted", "Axis", "Case", "grid", "values", "together", "pareto"]

@@ -208,10 +208,15 @@ class _LostAfter:
     def results(self):
         from optdesign.study.results import ClusterLost
 
-        for i, item in enumerate(self.inner.results()):
-            if i == self.n:
-                raise ClusterLost("the Dask scheduler at tcp://127.0.0.1:8786 was lost (FuturesCancelledError)")
-            yield item
+        from optdesign.study.blocks import as_outputs
+
+        i = 0
+        for cases, outs in self.inner.results():
+            for case, out in zip(cases, as_outputs(cases, outs)):   # case by case
+                if i == self.n:
+                    raise ClusterLost("the Dask scheduler at tcp://127.0.0.1:8786 was lost (FuturesCancelledError)")
+                i += 1
+                yield [case], [out]
 
     def stop(self, journal):
         return self.finished

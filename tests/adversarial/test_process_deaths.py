@@ -22,6 +22,7 @@ import pytest
 
 import optdesign
 from optdesign.study import Study, values
+from optdesign.study.blocks import as_outputs
 from optdesign.study.executors import _Pool
 from optdesign.study.worker import MAX_DEATHS, run_batch_in_helper
 
@@ -65,7 +66,7 @@ def test_a_case_that_kills_its_pool_process_is_failed_after_max_deaths_and_the_o
     try:
         for i, (case, task) in enumerate(zip(cases, tasks)):
             pool.submit([case], [_poisoned(task) if i == bad else task])
-        got = list(pool.results())
+        got = [(c, o) for part, outs in pool.results() for c, o in zip(part, as_outputs(part, outs))]
     finally:
         pool.close()
     ids = [case.id for case, _ in got]
@@ -125,8 +126,9 @@ def test_a_pool_that_cannot_be_replaced_ends_with_exit_2_the_cases_kept_and_the_
             raise OSError(12, "Cannot allocate memory")
         return real(self)
 
-    def submit(self, tasks, real=executors._Pool._submit):   # the third case kills its process
-        return real(self, [_poisoned(t) if t.overrides == (("mC", 300.0),) else t for t in tasks])
+    def submit(self, batch, real=executors._Pool._submit):   # the third case kills its process
+        batch.tasks = [_poisoned(t) if t.overrides == (("mC", 300.0),) else t for t in batch.tasks]
+        return real(self, batch)
 
     monkeypatch.setattr(executors._Pool, "_start", start)
     monkeypatch.setattr(executors._Pool, "_submit", submit)
@@ -154,7 +156,7 @@ def test_a_case_that_kills_its_pool_process_in_an_analyse_batch_is_failed_and_th
     pool = _Pool(2)
     try:
         pool.submit(cases, [_poisoned(t) if i == bad else t for i, t in enumerate(tasks)])
-        got = list(pool.results())
+        got = [(c, o) for part, outs in pool.results() for c, o in zip(part, as_outputs(part, outs))]
     finally:
         pool.close()
     assert sorted(case.id for case, _ in got) == sorted(c.id for c in cases)

@@ -1,0 +1,150 @@
+"""Finished cases handled a batch at a time (:class:`Block`): the client's work per case in
+calls over a batch's columns, not in Python per value.
+
+A batch of cases that comes back from an executor is cut into blocks of cases whose rows have
+the same keys (most batches: one block).  A block holds its rows column by column; each value
+is turned into text once (a float's ``repr``) and that text serves both the journal's line
+(:meth:`Block.lines`: the very bytes ``json.dumps(record, separators=(",", ":"))`` gives, one
+line per case) and cases.csv's cells (:meth:`Block.cells`: :func:`~optdesign.study.rows.cell`'s
+text, quoted as the csv module quotes)."""
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import re
+
+from .rows import cell
+
+_HEX_IDS = re.compile(r"(?:[0-9a-f]{16})*")
+_JSON_SPECIAL = {"nan": "NaN", "inf": "Infinity", "-inf": "-Infinity"}
+_ENCODE = json.JSONEncoder(separators=(",", ":")).encode
+
+
+class Block:
+    """Finished cases (``index``, ``ids``) whose rows have the keys ``keys``: ``values[k]`` the
+    k-th key's values, one per case; ``x`` and ``time_s`` per case (the journal's)."""
+
+    __slots__ = ("index", "ids", "keys", "values", "x", "time_s", "_text", "_lines")
+
+    def __init__(self, index, ids, keys, values, x, time_s):
+        self.index, self.ids, self.keys, self.values = list(index), list(ids), tuple(keys), list(values)
+        self.x, self.time_s = list(x), list(time_s)
+        self._text = self._lines = None
+
+    def __len__(self):
+        return len(self.ids)
+
+    def row(self, j) -> dict:
+        return {k: v[j] for k, v in zip(self.keys, self.values)}
+
+    def texts(self):
+        """Per key, the values' JSON text and their CSV cells (the same strings where they agree)."""
+        if self._text is None:
+            self._text = [_column_text(v) for v in self.values]
+        return self._text
+
+    def lines(self) -> list:
+        """The journal's lines of these cases (record: id, case, row, x, time_s), newline included."""
+        if self._lines is None:
+            self._lines = self._make_lines()
+        return self._lines
+
+    def _make_lines(self) -> list:
+        if not _HEX_IDS.fullmatch("".join(self.ids)):   # ids are 16 hex digits: no escapes
+            raise ValueError(f"study journal: case ids must be 16 hex digits, found {self.ids[:3]}")
+        keys = [_ENCODE(k) + ":" for k in self.keys]
+        pairs = [[key + t for t in text] for key, (text, _) in zip(keys, self.texts())]
+        rows = map(",".join, zip(*pairs)) if pairs else [""] * len(self)
+        xs = [_ENCODE(x) if x is not None else "null" for x in self.x]
+        return [f'{{"id":"{i}","case":{n},"row":{{{r}}},"x":{x},"time_s":{t}}}\n'
+                for i, n, r, x, t in zip(self.ids, self.index, rows, xs, _json_column(self.time_s))]
+
+    def cells(self, key):
+        """The CSV cells of column ``key`` (None if the rows do not have it)."""
+        try:
+            return self.texts()[self.keys.index(key)][1]
+        except ValueError:
+            return None
+
+
+def blocks(index, ids, outs) -> list:
+    """The finished cases ``index``/``ids`` with their outputs ``outs`` (run_batch's: row, x,
+    time_s) as blocks of rows with the same keys, in order of their first case."""
+    groups = {}
+    for j, out in enumerate(outs):
+        groups.setdefault(tuple(out["row"]), []).append(j)
+    made = []
+    for keys, js in groups.items():
+        rows = [outs[j]["row"] for j in js]
+        made.append(Block([index[j] for j in js], [ids[j] for j in js], keys,
+                          [[r[k] for r in rows] for k in keys],
+                          [outs[j]["x"] for j in js], [outs[j]["time_s"] for j in js]))
+    return made
+
+
+def as_blocks(cases, outs) -> list:
+    """An executor's answer for ``cases`` as blocks: the blocks made where the batch ran, or its
+    outputs (a list of run_batch's dicts) made blocks here."""
+    if outs and type(outs[0]) is Block:
+        return outs
+    return blocks([c.index for c in cases], [c.id for c in cases], outs)
+
+
+def as_outputs(cases, outs) -> list:
+    """An executor's answer for ``cases`` as run_batch's outputs, one per case in their order
+    (the inverse of :func:`as_blocks`)."""
+    if not (outs and type(outs[0]) is Block):
+        return list(outs)
+    where = {}
+    for block in outs:
+        for j, i in enumerate(block.index):
+            where.setdefault(i, []).append((block, j))
+    found = [where[c.index].pop(0) for c in cases]
+    return [{"row": b.row(j), "x": b.x[j], "time_s": b.time_s[j]} for b, j in found]
+
+
+def _column_text(values):
+    """(JSON texts, CSV cells) of one column's values."""
+    kinds = set(map(type, values))
+    if kinds == {float}:
+        text = list(map(repr, values))
+        joined = "".join(text)
+        if "n" in joined:   # nan, inf: JSON's NaN, Infinity (a finite float's repr has no n)
+            return [_JSON_SPECIAL.get(t, t) for t in text], text
+        return text, text
+    if kinds <= {bool}:
+        text = ["true" if v else "false" for v in values]
+        return text, text
+    if len(values) > 8:   # the distinct values' texts made once (a status repeated down the column)
+        distinct = set(values) if all(t in (str, int, type(None)) for t in kinds) else None
+        if distinct is not None and len(distinct) * 4 <= len(values):
+            json_text = {v: _ENCODE(v) for v in distinct}
+            csv_text = {v: csv_cell(v) for v in distinct}
+            return [json_text[v] for v in values], [csv_text[v] for v in values]
+    return [_ENCODE(v) for v in values], [csv_cell(v) for v in values]
+
+
+def _json_column(values) -> list:
+    if set(map(type, values)) == {float} and not any(map(math.isinf, values)) and not any(map(math.isnan, values)):
+        return list(map(repr, values))
+    return [_ENCODE(v) for v in values]
+
+
+_QUOTED: dict = {}
+
+
+def csv_cell(value) -> str:
+    """``cell(value)`` as the csv module writes it in a row (quoted where it must be)."""
+    text = cell(value)
+    if not ("," in text or '"' in text or "\n" in text or "\r" in text):
+        return text
+    quoted = _QUOTED.get(text)
+    if quoted is None:
+        buf = io.StringIO()
+        csv.writer(buf, lineterminator="\n").writerow([text, ""])
+        quoted = buf.getvalue()[:-2]
+        if len(_QUOTED) < 4096:
+            _QUOTED[text] = quoted
+    return quoted
