@@ -189,14 +189,18 @@ def case_table(study, rows, shown=30) -> list:
     return out
 
 
-LOCKSTEP = 32   # analyse cases per batch at most, run in lockstep (study.batched): on the truck
-#                 crane 8 cases 24 ms per case, 32 21 ms, 128 21 ms (44-60 ms one by one)
+GROUP_FIRST = 32   # analyse cases in a batch before a case's time is known
+GROUP_S = 0.5      # then about this many seconds of work per batch (tasks.run_batch analyses them together)
+LOCKSTEP = 4096    # cases per batch at most (1: each case's analysis alone, tasks.run_task)
 
 
-def _lockstep_size(executor, remaining) -> int:
-    """Cases per batch of an analyse study: LOCKSTEP, or fewer so that every batch the executor
-    keeps in flight (its window) has some while few are left."""
-    return max(1, min(LOCKSTEP, -(-remaining // getattr(executor, "window", 1))))
+def _group_size(executor, work, remaining) -> int:
+    """Cases per batch of an analyse study: GROUP_S seconds of work at the time per case seen so
+    far (``work``: [seconds, cases]), or fewer so that every batch the executor keeps in flight
+    (its window) has some while few are left."""
+    seconds, n = work
+    per = min(GROUP_FIRST, LOCKSTEP) if not n else max(1, min(LOCKSTEP, int(GROUP_S / max(seconds / n, 1e-6))))
+    return max(1, min(per, -(-remaining // getattr(executor, "window", 1))))
 
 
 # --- the scheduling loop -------------------------------------------------------------------
@@ -249,6 +253,7 @@ def _schedule(study, cases, todo, journal, executor, progress, done, ctrl_c, cam
     # [cases of its batch still to come, its chain, position of the batch's last case]
     open_ = {}
     computed = reported = 0
+    work = [0.0, 0]   # seconds and cases computed so far (batch sizes)
     if progress is not None:
         progress(done, total)
 
@@ -274,9 +279,7 @@ def _schedule(study, cases, todo, journal, executor, progress, done, ctrl_c, cam
         nonlocal left
         while left and executor.room():
             if grouped:
-                size = executor.batch_size(left)
-                if size == 1:   # an executor that does not size its batches (in process, the pool)
-                    size = _lockstep_size(executor, left)
+                size = _group_size(executor, work, left)
                 picked = []
                 for _ in range(min(size, left)):
                     chain = next(waiting, None)   # None: the rest finished meanwhile (a case listed twice)
@@ -315,6 +318,8 @@ def _schedule(study, cases, todo, journal, executor, progress, done, ctrl_c, cam
         if ctrl_c.abandoned:   # computed while the second Ctrl-C was raised: maybe not a result
             raise KeyboardInterrupt
         made = as_blocks(batch, outs)
+        work[0] += sum(sum(b.time_s) for b in made)
+        work[1] += len(batch)
         journal.add_blocks(made)
         came_back(made)
         computed += len(batch)
