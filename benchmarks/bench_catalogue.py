@@ -55,6 +55,8 @@ def main(argv=None):
     ap.add_argument("--scene", default="problems/crane_luffing_drive.toml")
     ap.add_argument("--starts", type=int, default=20)
     ap.add_argument("--no-warm", action="store_true", help="skip the warm-up runs (the cache is known to be warm)")
+    ap.add_argument("--section", default="catalogue",
+                    help="the section of results/scaling.md written (and results/<section>_bench.json)")
     args = ap.parse_args(argv)
     old, new = Path(args.old).resolve(), ROOT
     git, load0 = git_state(), os.getloadavg()
@@ -80,10 +82,11 @@ def main(argv=None):
     diffs = [abs(a["objective"] - ref["objective"]) / abs(ref["objective"]) for a in answers["old"] + answers["new"]]
     same_motor = all(a["motor"] == ref["motor"] for a in answers["old"] + answers["new"])
     lines = [
-        "# catalogue",
+        f"# {args.section}",
         "",
         f"`python benchmarks/bench_catalogue.py --old {args.old} --repeats {args.repeats} --scene {args.scene} "
-        f"--starts {args.starts}{' --no-warm' if args.no_warm else ''}` "
+        f"--starts {args.starts}{' --no-warm' if args.no_warm else ''}"
+        f"{'' if args.section == 'catalogue' else ' --section ' + args.section}` "
         f"({time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; {cpu_model()}, {os.cpu_count()} cores; "
         f"load {load0[0]:.1f} -> {load1[0]:.1f}): `optdesign optimise {args.scene} --no-animation --starts "
         f"{args.starts}` with the default workers (the machine's cores), "
@@ -108,8 +111,8 @@ def main(argv=None):
     ]
     text = "\n".join(lines) + "\n"
     print(text)
-    write_section("catalogue", text, SCALING_MD)
-    (ROOT / "results" / "catalogue_bench.json").write_text(json.dumps(
+    write_section(args.section, text, SCALING_MD)
+    (ROOT / "results" / f"{args.section}_bench.json").write_text(json.dumps(
         {"old": old_commit, "new": git, "times": times, "answers": answers, "wall_ratio": wall_ratio,
          "cpu_ratio": cpu_ratio, "load": [load0[0], load1[0]]}, indent=1) + "\n")
 

@@ -34,6 +34,7 @@ SLOW_TESTS = {
     "test_certified_stroke.py::test_random_four_bars",
     "test_simulate.py::test_stiff_slider_crank_implicit_meets_stated_accuracy",
     "test_drawing.py::test_mechanism_figure_files",
+    "test_cases_optimise.py::test_the_next_motor_built_while_the_starts_run_gives_the_same_catalogue",
 }
 
 

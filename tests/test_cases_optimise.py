@@ -274,6 +274,66 @@ def test_the_smallest_motor_of_a_catalogue_that_fits():
     assert cat.best.objective == pytest.approx(fits["small"], rel=2e-4)
 
 
+def test_the_next_motor_built_while_the_starts_run_gives_the_same_catalogue(monkeypatch):
+    """With worker processes, the next motor's problem is built and its starts planned in a
+    thread while a motor that has not fit yet runs its starts (design/catalogue.Ahead): the
+    catalogue is the one made motor by motor in one process, and no motor after the one that
+    fits is built."""
+    from optdesign.design import catalogue as catalogue_module
+
+    built = []
+    original = catalogue_module.Ahead._run
+    monkeypatch.setattr(catalogue_module.Ahead, "_run",
+                        lambda self: built.append(self.scene.motors[0].name) or original(self))
+    sc = _only_ratio(scene("rms_time(motor_torque)", extra=CATALOGUE), 2.0, 200.0)
+    alone = optimise_catalogue(sc, starts=3, workers=1)
+    assert built == []
+    shared = optimise_catalogue(sc, starts=3, workers=2)
+    assert built == ["small"]   # while tiny's starts ran; none for large once small fitted
+    assert shared.chosen == alone.chosen == "small" and shared.not_tried == alone.not_tried == ("large",)
+    for name in alone.results:
+        a, b = alone.results[name], shared.results[name]
+        assert (a.success, a.objective, a.design) == (b.success, b.objective, b.design), name
+        assert [(r.status, r.objective, r.iterations) for r in a.starts] == [
+            (r.status, r.objective, r.iterations) for r in b.starts], name
+
+
+def test_the_next_motor_is_built_ahead_only_while_no_start_fits(monkeypatch):
+    """The fast sibling of the test above: Ahead begins after AFTER starts without a design
+    (not before, not once one fits), gives what multistart.prepare made, and raises its error
+    where the motor is optimised."""
+    from types import SimpleNamespace
+
+    from optdesign.design import catalogue as catalogue_module, multistart
+
+    made = []
+    monkeypatch.setattr(multistart, "prepare", lambda *args, **kw: made.append((args, kw)) or "prepared")
+    failed, fits = SimpleNamespace(success=False), SimpleNamespace(success=True)
+    ahead = catalogue_module.Ahead("the next scene", {"starts": 20, "seed": 3})
+    for _ in range(catalogue_module.Ahead.AFTER - 1):
+        ahead.finished(failed)
+    assert not ahead.started
+    ahead.finished(failed)
+    assert ahead.started and ahead.result() == "prepared"
+    assert made == [(("the next scene", 20, 3, None, None), {"ahead": True})]
+    ahead.finished(failed)
+    assert len(made) == 1   # once
+    fitted = catalogue_module.Ahead("another", {"starts": 20})
+    for report in (failed, fits, failed, failed, failed):
+        fitted.finished(report)
+    assert not fitted.started and len(made) == 1
+    few = catalogue_module.Ahead("two starts", {"starts": 2})
+    few.finished(failed)
+    few.finished(failed)
+    assert few.started
+    monkeypatch.setattr(multistart, "prepare", lambda *args, **kw: 1 / 0)
+    broken = catalogue_module.Ahead("broken", {})
+    for _ in range(catalogue_module.Ahead.AFTER):
+        broken.finished(failed)
+    with pytest.raises(ZeroDivisionError):
+        broken.result()
+
+
 def test_a_constraint_that_holds_in_one_case():
     """The empty lowering's drive torque kept above -L (its braking torque limited), in that case
     alone: the counterweight that balances the two cases would exceed it, so the optimum moves

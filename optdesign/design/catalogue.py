@@ -56,14 +56,19 @@ def optimise_catalogue(scene, progress=None, **options) -> CatalogueResult:
     motor's, as from :func:`.multistart.optimise`."""
     values = scene.parameter_values()
     motors = sorted(scene.motors, key=lambda m: (motor_numbers(m, values)["rated_torque"], m.name))
-    results, chosen = {}, None
+    results, chosen, ahead = {}, None, None
     with interruptible():   # a Ctrl-C between two motors' starts (a motor's build) is kept too
         for k, motor in enumerate(motors):
             one = with_motor(scene, motor)
             label = f"{motor.name}, motor {k + 1} of {len(motors)}"
             step = None if progress is None else (lambda done, total, label=label: progress(label, done, total))
+            prepared, ahead = (ahead.result(), None) if ahead is not None else (None, None)
+            following = with_motor(scene, motors[k + 1]) if k + 1 < len(motors) else None
+            look_ahead = Ahead(following, options) if following is not None and options.get("workers", 1) > 1 else None
             try:
-                results[motor.name] = optimise(one, progress=step, **options)
+                results[motor.name] = optimise(one, progress=step, prepared=prepared,
+                                               finished=None if look_ahead is None else look_ahead.finished, **options)
+                ahead = look_ahead if look_ahead is not None and look_ahead.started else None
             except KeyboardInterrupt as stop:
                 raise interrupted_catalogue(motors, results, stop) from None
             except RuntimeError as exc:   # a Ctrl-C that CasADi reported as a failed call (errors.py)
@@ -75,6 +80,54 @@ def optimise_catalogue(scene, progress=None, **options) -> CatalogueResult:
                 break
     best = results[chosen] if chosen else results[motors[-1].name]
     return CatalogueResult(results, chosen, best, tuple(m.name for m in motors[len(results):]), motors=tuple(motors))
+
+
+class Ahead:
+    """The next motor's problem built and its starts planned (:func:`.multistart.prepare`) in a
+    thread while this motor's starts run in the worker processes (the command's own process
+    waits for them: its build and screening, 4-5 s of crane_luffing_drive per motor, then no
+    longer stand between two motors' starts).  Begun once ``AFTER`` starts of this motor have
+    finished and none found a design: a motor that fits is the last one optimised, and the next
+    would be built for nothing (of crane_luffing_drive's 7.5 kW motor, which fits, every start
+    finds a design).  The same problem and plan as made in turn (the same code on
+    the same scene)."""
+
+    def __init__(self, scene, options):
+        self.scene, self.options, self.started = scene, options, False
+        self.seen_fit, self.seen = False, 0
+        self._done, self._thread = None, None
+
+    AFTER = 3
+
+    def finished(self, report):
+        """A start of this motor finished (called in the command's thread, the workers forked)."""
+        import threading
+
+        self.seen += 1
+        self.seen_fit = self.seen_fit or report.success
+        if self.started or self.seen_fit or self.seen < min(self.AFTER, self.options.get("starts", 20)):
+            return
+        self.started = True
+        self._thread = threading.Thread(target=self._run, name="optdesign next motor", daemon=True)
+        self._thread.start()
+
+    def _run(self):
+        from .multistart import prepare
+
+        o = self.options
+        try:
+            self._done = ("ok", prepare(self.scene, o.get("starts", 20), o.get("seed", 0), o.get("settings"),
+                                        o.get("x_starts"), ahead=True))
+        except BaseException as exc:   # noqa: BLE001 - raised where the motor is optimised
+            self._done = ("error", exc)
+
+    def result(self):
+        """The :class:`~.multistart.Prepared` of the next motor (waits for it), or its error."""
+        self._thread.join()
+        kind, value = self._done
+        if kind == "error":
+            raise value
+        return value
 
 
 def with_motor(scene, motor):

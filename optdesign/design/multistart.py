@@ -10,10 +10,12 @@ same whatever the order of the starts or the number of workers."""
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
 import multiprocessing
 import os
 import time
 from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -33,7 +35,7 @@ from .starts import RETRIES, StartPlan, plan_starts
 
 
 def optimise(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSettings | None = None,
-             progress=None, x_starts=None, workers: int = 1) -> OptimisationResult:
+             progress=None, x_starts=None, workers: int = 1, prepared=None, finished=None) -> OptimisationResult:
     """Minimise the scene's objective over its design variables (front door).
 
     ``starts`` local solves from reproducible starts (the scene's start, then the best of a
@@ -41,26 +43,61 @@ def optimise(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSett
     ``x_starts`` (retried from the seeded reserve if one cannot be made feasible);
     ``progress(done, total)`` is called once the starts are planned (done = 0) and after each
     start; ``workers`` > 1 solves the starts in that many forked processes (where the platform
-    can fork; the result does not depend on the number of workers)."""
+    can fork; the result does not depend on the number of workers).  ``prepared``: the
+    :class:`Prepared` problem and plan of these arguments, made beforehand (the motor
+    catalogue makes the next motor's while this one's starts run); ``finished(report)`` is
+    called with each start's :class:`StartReport` as it finishes."""
     starts, seed, workers = optimise_arguments(scene_argument("optimise", scene), starts, seed, workers)
+    t0 = time.perf_counter()
+    with interruptible():   # Ctrl-C: stop at once, keep the finished starts
+        if prepared is None:
+            prepared = prepare(scene, starts, seed, settings, x_starts)
+        problem, solver, repair, plan = prepared.problem, prepared.solver, prepared.repair, prepared.plan
+        timings = dict(prepared.timings)
+
+        def spent():
+            return dict(timings, total_s=time.perf_counter() - t0 + prepared.ahead_s)
+        runs = []
+        with casadi_messages_hidden():
+            try:
+                if progress is not None:
+                    progress(0, len(plan.points))  # the starts are planned (a caller may stop here: Ctrl-C)
+                runs = solve_starts(solver, repair, plan, workers, progress, finished)
+                reports, solutions = [r for r, _ in runs], [s for _, s in runs]
+                return summarise(problem, solver, reports, solutions, spent(), plan)
+            except KeyboardInterrupt as exc:   # during the starts, or while all of them are summarised
+                raise interrupted(problem, solver, plan, getattr(exc, "finished", runs), len(plan.points),
+                                  spent()) from None
+
+
+@dataclass
+class Prepared:
+    """What :func:`optimise` makes before its starts: the problem, its solver and repair, the
+    planned starts; ``timings`` (build_s, screen_s) and ``ahead_s``, the time spent making it
+    when that was not in the call of :func:`optimise` that uses it (else 0)."""
+
+    problem: DesignProblem
+    solver: Solver
+    repair: Repair
+    plan: StartPlan
+    timings: dict
+    ahead_s: float = 0.0
+
+
+def prepare(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSettings | None = None,
+            x_starts=None, ahead: bool = False) -> Prepared:
+    """The problem of ``scene`` built and its starts planned, as :func:`optimise` would with
+    these arguments (``ahead``: made beforehand, in another thread than the one that will
+    optimise: CasADi's messages are then left alone, the starts' optimise hides them)."""
     t0 = time.perf_counter()
     problem = DesignProblem(scene, settings)
     solver, repair = Solver(problem), Repair(problem)
     t_build = time.perf_counter() - t0
-    with interruptible(), casadi_messages_hidden():   # Ctrl-C: stop at once, keep the finished starts
+    with contextlib.nullcontext() if ahead else casadi_messages_hidden():
         plan = draw_plan(problem, starts, seed, x_starts=x_starts)
-        t_plan = time.perf_counter() - t0 - t_build
-        runs = []
-        try:
-            if progress is not None:
-                progress(0, len(plan.points))  # the starts are planned (a caller may stop here: Ctrl-C)
-            runs = solve_starts(solver, repair, plan, workers, progress)
-            reports, solutions = [r for r, _ in runs], [s for _, s in runs]
-            return summarise(problem, solver, reports, solutions,
-                             {"build_s": t_build, "screen_s": t_plan, "total_s": time.perf_counter() - t0}, plan)
-        except KeyboardInterrupt as exc:   # during the starts, or while all of them are summarised
-            raise interrupted(problem, solver, plan, getattr(exc, "finished", runs), len(plan.points),
-                              {"build_s": t_build, "screen_s": t_plan, "total_s": time.perf_counter() - t0}) from None
+    t_all = time.perf_counter() - t0
+    return Prepared(problem, solver, repair, plan, {"build_s": t_build, "screen_s": t_all - t_build},
+                    t_all if ahead else 0.0)
 
 
 def interrupted(problem, solver, plan, runs, total, timings) -> OptimisationInterrupted:
@@ -96,9 +133,10 @@ def draw_starts(problem: DesignProblem, starts: int, seed: int, fixed=None) -> n
     return plan_starts(problem, starts, seed, fixed).points
 
 
-def solve_starts(solver: Solver, repair: Repair, plan, workers=1, progress=None) -> list:
+def solve_starts(solver: Solver, repair: Repair, plan, workers=1, progress=None, finished=None) -> list:
     """(StartReport, Solution) of every start of ``plan`` (a :class:`StartPlan` or an array of
-    start points), in order: in this process, or shared among ``workers`` forked processes.
+    start points), in order: in this process, or shared among ``workers`` forked processes
+    (``finished(report)`` called here as each one finishes).
     Each start is solved on its own (nothing passes between starts), so the result is the
     same for any number of workers."""
     if not isinstance(plan, StartPlan):
@@ -110,6 +148,8 @@ def solve_starts(solver: Solver, repair: Repair, plan, workers=1, progress=None)
         try:
             for i in range(n):
                 runs.append(solve_start(solver, repair, i, plan.points[i], retry=lambda k, i=i: plan.retry(i, k)))
+                if finished is not None:
+                    finished(runs[-1][0])
                 if progress is not None:
                     progress(i + 1, n)
         except KeyboardInterrupt as exc:   # Ctrl-C: the caller keeps the starts that finished
@@ -127,6 +167,8 @@ def solve_starts(solver: Solver, repair: Repair, plan, workers=1, progress=None)
         for f in cf.as_completed([pool.submit(_solve_one, i) for i in range(n)]):
             i, run = f.result()   # a worker's exception is raised here
             runs[i] = run
+            if finished is not None:
+                finished(run[0])
             if progress is not None:
                 progress(len(runs), n)
     except KeyboardInterrupt as exc:   # Ctrl-C: the caller keeps the starts that finished
