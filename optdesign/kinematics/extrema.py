@@ -95,7 +95,8 @@ def _starts(changes, n):
 class Tasks:
     """The requests of N cases as flat arrays, one entry per (case, request): ``case``,
     ``request`` (its index), ``row``, ``code`` (the sense, an index into SENSES),
-    ``only_above`` (-inf for none), ``ends``, ``tol`` (NaN: the default)."""
+    ``only_above`` (-inf for none), ``ends``, ``tol`` (NaN: the default; a request's may be one
+    per case)."""
 
     def __init__(self, requests, n_cases):
         k = len(requests)
@@ -106,7 +107,11 @@ class Tasks:
         self.code = np.array([SENSES.index(r.sense) for r in requests], int)[self.request]
         self.only_above = np.array([-np.inf if r.only_above is None else r.only_above for r in requests])[self.request]
         self.ends = np.array([bool(r.ends) for r in requests], bool)[self.request]
-        self.tol = np.array([np.nan if r.tol is None else r.tol for r in requests])[self.request]
+        tol = np.full((n_cases, k), np.nan)   # (a request's tol: one number, or one per case)
+        for j, r in enumerate(requests):
+            if r.tol is not None:
+                tol[:, j] = r.tol
+        self.tol = tol.ravel()
 
     def __len__(self):
         return len(self.case)
