@@ -173,8 +173,8 @@ def batched_section(n, repeats, tmp, batch) -> str:
              f"{os.cpu_count()}; load average {load0[0]:.2f} before, {load1[0]:.2f} after (shared).", "",
              f"An analyse study of the truck crane ({n:,} cases: 10 boom masses x {n // 10} payloads), each run in a "
              f"fresh process, the four ways interleaved {repeats} times; medians.  One case at a time is each "
-             f"case's own `Analysis.run`; in batches, up to {batch} cases (`execute.LOCKSTEP`, fewer so that every "
-             "batch in flight has some) go through one `Analysis.run_many` and one `sweep_rms_many` "
+             f"case's own `Analysis.run`; in batches (about 0.5 s of work each, `execute.GROUP_S`, at most {batch} "
+             "cases, `execute.LOCKSTEP`) the cases go through one `Analysis.run_many` and one `sweep_rms_many` "
              "(optdesign/model/runs.py: every stage over the batch's cases at once, each case's figures its own); "
              "the pool and Dask run such batches.  Client CPU is the study's own process (the pool's and Dask's "
              "processes not counted).", "",

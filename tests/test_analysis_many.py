@@ -111,14 +111,14 @@ def test_masses_alone_share_the_geometry_checks_and_keep_each_cases_numbers():
     names = analysis.mech.parameter_names
     for name in ("b", "xD", "yD"):
         P[:, names.index(name)] = P[0, names.index(name)]
-    calls = []
-    check = analysis.model._dead_centre
-    analysis.model._dead_centre = lambda *args: calls.append(1) or check(*args)
+    calls = []   # the cases whose k is checked between the samples (all groups' at once)
+    check = analysis.model._dead_centre_between
+    analysis.model._dead_centre_between = lambda s, K, *args: calls.append(len(K)) or check(s, K, *args)
     try:
         together = _batch(analysis, P)
     finally:
-        del analysis.model._dead_centre
-    assert len(calls) == 1
+        del analysis.model._dead_centre_between
+    assert calls == [1]
     assert together == [_alone(analysis, p) for p in P]
 
 

@@ -31,6 +31,7 @@ from optdesign.study.blocks import Block, blocks
 from optdesign.study.executors import _Futures, _Inline
 from optdesign.study.journal import JOURNAL
 from optdesign.study.rows import Rows, cell
+from optdesign.study.tasks import case_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 JIB, JIB_DESIGN, CRANE = (ROOT / "problems" / f for f in ("seed1_jib.toml", "seed1_jib_design.toml", "truck_crane.toml"))
@@ -362,3 +363,19 @@ def test_study_json_streams_the_rows_and_prints_what_to_json_of_all_rows_gave(tm
     rows = [study_execute.merged_row(c, synthetic_row(c.index))
             for c in Study(optdesign.load(JIB), [grid("mC", 100, 900, 1200)], mode="analyse").cases()]
     assert text == to_json({**{k: got[k] for k in got if k != "rows"}, "rows": rows}) + "\n"
+
+
+def test_an_axis_in_a_check_that_is_not_a_bound_leaves_every_case_checked_as_a_scene(tmp_path):
+    """The drive's speed is checked against 0 where its efficiency is below 1 (not a bound by
+    constants: the speeds that pass are not an interval): an axis over it, beside one over the
+    efficiency, leaves every case to be checked as a scene, and the corners of the two axes
+    (speeds -0.08 and 0.08) would all pass while the speed 0 between them does not."""
+    text = (CRANE.read_text().replace("speed = 0.08", 'speed = "v"').replace("efficiency = 0.9", 'efficiency = "eta"')
+            .replace("[parameters]\n", "[parameters]\nv = 0.08\neta = 1.0\n"))
+    path = tmp_path / "crane.toml"
+    path.write_text(text)
+    scene = optdesign.load(path)
+    study = Study(scene, [values("eta", [1.0, 0.9]), values("v", [-0.08, 0.0, 0.08])], mode="analyse")
+    assert not study.task(study.cases()[4]).checked   # eta 0.9, v 0: not a valid scene
+    with pytest.raises(optdesign.OptdesignError, match="efficiency 0.9 < 1 needs the direction of power flow"):
+        case_scene(scene, "analyse", dict(study.cases()[4].overrides))

@@ -362,15 +362,18 @@ class Enclosures:
 class Selected:
     """An enclosure of some rows of another, each times a sign (+1/-1): what a caller that
     certifies sign * v of a subset of a Function's rows passes on (an :class:`Unavailable`
-    stays one)."""
+    stays one).  ``case_sign``: of many cases (an Enclosure of many), each case's rows times its
+    own sign as well."""
 
-    def __init__(self, enclosure, rows, sign):
+    def __init__(self, enclosure, rows, sign, case_sign=None):
         self.enclosure, self.rows = enclosure, np.asarray(rows, int)
         self.sign = np.asarray(sign, float)[:, None]
+        self.case_sign = None if case_sign is None else np.asarray(case_sign, float)
         self.reason = getattr(enclosure, "reason", None)
 
     def bounds(self, lo, hi, rows=None, cases=None):
         inner = None if rows is None else self.rows[np.asarray(rows, int)]
         L, U, m_lo, m_hi = (a[self.rows] for a in self.enclosure.bounds(lo, hi, inner, cases))
-        up = self.sign > 0
+        sign = self.sign if self.case_sign is None else self.sign * self.case_sign[np.asarray(cases, int)][None, :]
+        up = sign > 0
         return (np.where(up, L, -U), np.where(up, U, -L), np.where(up, m_lo, -m_hi), np.where(up, m_hi, -m_lo))

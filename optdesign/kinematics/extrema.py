@@ -95,7 +95,8 @@ def _starts(changes, n):
 class Tasks:
     """The requests of N cases as flat arrays, one entry per (case, request): ``case``,
     ``request`` (its index), ``row``, ``code`` (the sense, an index into SENSES),
-    ``only_above`` (-inf for none), ``ends``, ``tol`` (NaN: the default)."""
+    ``only_above`` (-inf for none), ``ends``, ``tol`` (NaN: the default; a request's may be one
+    per case)."""
 
     def __init__(self, requests, n_cases):
         k = len(requests)
@@ -106,7 +107,11 @@ class Tasks:
         self.code = np.array([SENSES.index(r.sense) for r in requests], int)[self.request]
         self.only_above = np.array([-np.inf if r.only_above is None else r.only_above for r in requests])[self.request]
         self.ends = np.array([bool(r.ends) for r in requests], bool)[self.request]
-        self.tol = np.array([np.nan if r.tol is None else r.tol for r in requests])[self.request]
+        tol = np.full((n_cases, k), np.nan)   # (a request's tol: one number, or one per case)
+        for j, r in enumerate(requests):
+            if r.tol is not None:
+                tol[:, j] = r.tol
+        self.tol = tol.ravel()
 
     def __len__(self):
         return len(self.case)
@@ -139,12 +144,18 @@ class Found:
         """Per task: the index into the arrays of its largest target (the first among equals),
         and that target (-inf where a task has none)."""
         t = target(self.v, code[self.task])
-        order = np.lexsort((np.arange(len(t)), -t, self.task))   # per task: largest first, then first found
-        head = _starts(np.diff(self.task[order]) != 0, len(order))
-        top = np.full(self.n_tasks, -1)
-        top[self.task[order][head]] = order[head]
-        best = np.full(self.n_tasks, -np.inf)
-        best[top >= 0] = t[top[top >= 0]]
+        n, none = self.n_tasks, len(t)
+        best = np.full(n, -np.inf)
+        np.fmax.at(best, self.task, t)   # (NaN left out)
+        top = np.full(n, none)
+        hit = np.flatnonzero(t == best[self.task])
+        np.minimum.at(top, self.task[hit], hit)   # the first among equals
+        if np.any(top == none):   # a task with NaN targets only: its first; a task with none: -1
+            first = np.full(n, none)
+            np.minimum.at(first, self.task, np.arange(none))
+            nan_only = (top == none) & (first < none)
+            best[nan_only] = np.nan
+            top = np.where(top < none, top, np.where(first < none, first, -1))
         return top, best
 
 

@@ -10,7 +10,8 @@ The algorithm is written once, over many cases at once (:mod:`.extrema`: the bra
 Newton iteration of every row of every case in lockstep, as arrays; :mod:`.branch_bound`: the
 proof with the enclosure); :func:`continuous_maxima_rows` (many rows of one case),
 :func:`continuous_maxima` (one row), :func:`refine_all` and :func:`refine` are its one-case
-forms, :func:`maxima_of_cases` its form over a batch of cases.
+forms; over a batch of cases :func:`extrema_of_cases` (every located extremum, as lists) and
+:func:`maxima_of_cases` (the largest of each request, as arrays: no Python work per case).
 """
 from __future__ import annotations
 
@@ -107,19 +108,33 @@ def continuous_maxima_rows(evaluate_many, s_grid, V, requests, s_tol=1e-13, encl
     samples that the grid does not bracket are found and located too.  Without it the extrema
     are the refined grid maxima (no proof).  Either way the largest reported target is never
     below the largest sampled one (a :class:`~optdesign.errors.ResultError` otherwise).  The
-    one-case form of :func:`maxima_of_cases`."""
+    one-case form of :func:`extrema_of_cases`."""
+    return extrema_of_cases(lambda s, cases: evaluate_many(s), s_grid, np.asarray(V, float)[None], requests, s_tol,
+                            enclosure, tol)[0]
+
+
+def extrema_of_cases(evaluate, s_grid, V, requests, s_tol=1e-13, enclosure=None, tol=CERTIFY_TOL):
+    """:func:`continuous_maxima_rows` of N cases at once (the arguments as
+    :func:`maxima_of_cases`'): per case, one list of extrema per request, largest target first
+    (the first with the enclosure's ``bound`` and ``note``)."""
     V = np.asarray(V, float)
-    found, top, bound, notes = maxima(lambda s, cases: evaluate_many(s), s_grid, V[None], requests, s_tol,
-                                      enclosure, tol)
+    found, top, bound, notes = maxima(evaluate, s_grid, V, requests, s_tol, enclosure, tol)
+    k = len(requests)
+    order = np.argsort(found.task, kind="stable")   # each task's extrema in the order found
+    starts = np.searchsorted(found.task[order], np.arange(V.shape[0] * k + 1))
+    s, v = found.s[order].tolist(), found.v[order].tolist()
     out = []
-    for k, r in enumerate(requests):
-        mine = np.flatnonzero(found.task == k)
-        ext = sorted((Extremum(float(found.s[i]), float(found.v[i])) for i in mine),
-                     key=lambda e: _target(e.value, r.sense), reverse=True)
-        if enclosure is not None:
-            b = None if np.isnan(bound[k]) else float(bound[k])
-            ext[0] = Extremum(ext[0].s, ext[0].value, b, notes[k])
-        out.append(ext)
+    for c in range(V.shape[0]):
+        lists = []
+        for j, r in enumerate(requests):
+            t = c * k + j
+            ext = sorted((Extremum(s[i], v[i]) for i in range(starts[t], starts[t + 1])),
+                         key=lambda e: _target(e.value, r.sense), reverse=True)
+            if enclosure is not None:
+                b = None if np.isnan(bound[t]) else float(bound[t])
+                ext[0] = Extremum(ext[0].s, ext[0].value, b, notes[t])
+            lists.append(ext)
+        out.append(lists)
     return out
 
 
@@ -128,7 +143,8 @@ def maxima_of_cases(evaluate, s_grid, V, requests, s_tol=1e-13, enclosure=None, 
     x samples on ``s_grid``, the same for every case); ``evaluate(s, cases) -> (V, dV/ds,
     d2V/ds2)``, each rows x len(s), column j at s[j] with case cases[j]'s parameters;
     ``enclosure``: bounds(lo, hi, rows, cases) of the rows (each interval with its case's
-    parameters), or an Unavailable.  Returns (s, value, bound, notes): arrays cases x requests
+    parameters), or an Unavailable; a request's ``tol`` may be one per case.  Returns (s, value,
+    bound, notes): arrays cases x requests
     (bound NaN without an enclosure) and the notes as a list of lists.  Case i's numbers are
     those of :func:`continuous_maxima_rows` of case i alone (its first extremum per request)."""
     V = np.asarray(V, float)

@@ -35,7 +35,7 @@ import numpy as np
 from ..errors import DeadCentreError, SceneError
 from ..kinematics.mechanism import Mechanism, _fmt_s
 from ..kinematics.enclosure import Enclosures, Selected
-from ..kinematics.peaks import Request, continuous_maxima_rows, narrow_minima
+from ..kinematics.peaks import Request, extrema_of_cases, narrow_minima
 from .forces import ForceLoads
 from .intervals_compiled import compile_program
 from ..kinematics.batches import parameters_used, same_cases
@@ -329,43 +329,47 @@ class ReducedModel:
         if K is None:
             n = len(s_values)
             K = self._k_derivatives(np.tile(s_values, len(P)), np.repeat(P, n, axis=0))[0].reshape(len(P), n)
+        groups = same_cases(P, self._k_uses)
+        found, between = {}, []   # per group's first case: its result; the groups checked between samples
+        for first, _ in groups:
+            k = np.asarray(K[first], float)
+            scale = np.max(np.abs(k)) if k.size else 1.0
+            zero = np.flatnonzero(np.abs(k) <= 1e-12 * max(scale, 1e-300))
+            change = np.flatnonzero(np.sign(k[:-1]) * np.sign(k[1:]) < 0)
+            if zero.size and (not change.size or zero[0] <= change[0]):
+                found[first] = self._dead_centre_error(s_values, s_values[zero[0]], P[first])
+            elif change.size:
+                i = change[0]
+                where = _bisect(lambda x: float(self._k_function(x, P[first])), s_values[i], s_values[i + 1])
+                found[first] = self._dead_centre_error(s_values, where, P[first])
+            else:
+                between.append((first, scale))
+        if between:   # all of them at once (the one certification over many cases)
+            firsts = [first for first, _ in between]
+            for first, (where, narrow, note) in zip(firsts, self._dead_centre_between(
+                    s_values, np.asarray(K, float)[firsts], P[firsts], np.array([s for _, s in between]))):
+                found[first] = (narrow, note) if where is None else self._dead_centre_error(s_values, where, P[first])
         out = [None] * len(P)
-        for first, members in same_cases(P, self._k_uses):
-            try:
-                found = self._dead_centre(s_values, np.asarray(K[first], float), P[first])
-            except DeadCentreError as exc:
-                found = exc
+        for first, members in groups:
             for i in members:
-                out[i] = found
+                out[i] = found[first]
         return out
 
-    def _dead_centre(self, s_values, k, p_values):
-        """(narrow, note) of one case with k at the samples, or its DeadCentreError raised."""
-        f = self._k_function
-        scale = np.max(np.abs(k)) if k.size else 1.0
-        zero = np.flatnonzero(np.abs(k) <= 1e-12 * max(scale, 1e-300))
-        change = np.flatnonzero(np.sign(k[:-1]) * np.sign(k[1:]) < 0)
-        if zero.size and (not change.size or zero[0] <= change[0]):
-            where = s_values[zero[0]]
-        elif change.size:
-            i = change[0]
-            where = _bisect(lambda x: float(f(x, p_values)), s_values[i], s_values[i + 1])
-        else:
-            where, narrow, note = self._dead_centre_between(s_values, k, p_values, scale)
-            if where is None:
-                return narrow, note
+    def _dead_centre_error(self, s_values, where, p_values) -> DeadCentreError:
+        """The error of a case whose k = dq/ds vanishes at ``where``: a rest at a stroke end, or
+        a dead centre of the drive."""
         what = "crank angle" if self.rotary else "actuator length"
         pins = "-".join(self.scene.drive.pins)
         name = self.scene.sweep.name
         if where in (s_values[0], s_values[-1]) and self._rests_at(where, s_values, p_values):
-            raise DeadCentreError(
+            return DeadCentreError(
                 f"{self.scene.path}: [sweep] {name} = {_fmt_s(where, self.scene)}: the mechanism rests at this end "
                 f"of the stroke (dq/d{name} = 0 and every point's d/d{name} = 0): a rest of the motion, not a dead "
                 f"centre of the drive ({what} {pins}), but the reduced model along {name} is 0/0 there. State the "
                 "motion on the output: make the coordinate that rests (a rocker angle, a ram height) the sweep and "
                 "give its law in time as a [profiles] entry (kind = \"cycloidal\", \"modified-sine\", ...; "
                 "docs/scenes.md, Example 3): at a rest the drive's dq/d(sweep) stays finite.", s=float(where))
-        raise DeadCentreError(
+        return DeadCentreError(
             f"{self.scene.path}: [drive] dead centre at {self.scene.sweep.name} = {_fmt_s(where, self.scene)}: the "
             f"drive coordinate ({what} {pins}) stops moving there (dq/d{self.scene.sweep.name} = 0), so "
             "the reduced inertia and load are infinite. Narrow the sweep to exclude it, or move the "
@@ -387,30 +391,44 @@ class ReducedModel:
         there = np.abs(np.asarray(f(end, p_values), float).ravel())
         return bool(np.all(there <= self.REST_TOL * np.maximum(np.max(sampled, axis=1), 1e-300)))
 
-    def _dead_centre_between(self, s_values, k, p_values, scale):
-        """(where, narrow, note): where |k| (one sign over the samples) comes within 1e-12 of max |k|
-        between samples, or None; and the minima of |k| narrower than the samples' spacing
-        (:func:`~optdesign.kinematics.peaks.narrow_minima`).  A k that does not vary (a crank
-        swept by its own angle) has neither."""
-        if len(s_values) < 2 or np.ptp(k) <= 1e-12 * max(scale, 1e-300) or not self._k_varies():
-            return None, [], ""
-        sign = 1.0 if k[0] > 0 else -1.0
+    def _dead_centre_between(self, s_values, K, P, scales) -> list:
+        """Per case (k at the samples in a row of ``K``, one sign over them; its parameters a row
+        of ``P``; its max |k| in ``scales``): (where, narrow, note): where |k| comes within 1e-12
+        of max |k| between samples, or None; the minima of |k| narrower than the samples' spacing
+        (:func:`~optdesign.kinematics.peaks.narrow_minima`); and why the minimum has no
+        enclosure's proof ("" when it has).  A k that does not vary (a crank swept by its own
+        angle) has neither.  The cases' minima are located and certified together
+        (:func:`~optdesign.kinematics.peaks.extrema_of_cases`: each case's numbers its own)."""
+        out = [(None, [], "")] * len(P)
+        live = [i for i in range(len(P)) if len(s_values) >= 2 and np.ptp(K[i]) > 1e-12 * max(scales[i], 1e-300)]
+        if not live or not self._k_varies():
+            return out
+        K, P, scales = K[live], P[live], scales[live]
+        sign = np.where(K[:, 0] > 0, 1.0, -1.0)
         ascending = s_values[-1] >= s_values[0]
-        grid, row = (s_values, k) if ascending else (s_values[::-1], k[::-1])
+        grid, rows = (s_values, K) if ascending else (s_values[::-1], K[:, ::-1])
 
-        def evaluate_many(s):
-            return tuple(sign * a for a in self._k_derivatives(s, p_values))
+        def evaluate(s, cases):
+            return tuple(sign[cases] * a for a in self._k_derivatives(s, P[cases]))
 
         if self._k_enclosures is None:
             self._k_enclosures = Enclosures(self._k_derivatives.func, compile_program)   # the same program, in intervals
-        enclosure = Selected(self._k_enclosures.at(p_values), [0], [sign])
-        extrema = continuous_maxima_rows(evaluate_many, grid, sign * row[None, :],
-                                         [Request(0, "min", ends=True, tol=DEAD_CENTRE_TOL * scale)], enclosure=enclosure)[0]
-        low = [e for e in extrema if e.value <= 1e-12 * scale]
-        if not low:
-            spacing = abs(float(s_values[-1] - s_values[0])) / (len(s_values) - 1)
-            return None, narrow_minima(lambda s: tuple(a[0] for a in evaluate_many(s)), extrema, spacing), extrema[0].note
-        return min(low, key=lambda e: e.s if ascending else -e.s).s, [], extrema[0].note
+        enclosure = Selected(self._k_enclosures.at(P), [0], [1.0], case_sign=sign)
+        found = extrema_of_cases(evaluate, grid, (sign[:, None] * rows)[:, None, :],
+                                 [Request(0, "min", ends=True, tol=DEAD_CENTRE_TOL * scales)], enclosure=enclosure)
+        spacing = abs(float(s_values[-1] - s_values[0])) / (len(s_values) - 1)
+        # k and its derivatives at every case's candidate minima (narrow_minima's), in one call
+        at = [[e.s for e in extrema if e.value > 0] for (extrema,) in found]
+        ends = np.cumsum([0] + [len(a) for a in at])
+        values = evaluate(np.concatenate([np.array(a, float) for a in at]), np.repeat(np.arange(len(at)), np.diff(ends)))
+        for j, (i, (extrema,)) in enumerate(zip(live, found)):
+            low = [e for e in extrema if e.value <= 1e-12 * scales[j]]
+            if not low:
+                mine = tuple(a[0, ends[j]:ends[j + 1]] for a in values)
+                out[i] = (None, narrow_minima(lambda s: mine, extrema, spacing), extrema[0].note)
+            else:
+                out[i] = (min(low, key=lambda e: e.s if ascending else -e.s).s, [], extrema[0].note)
+        return out
 
     def _k_varies(self) -> bool:
         """Whether k depends on the sweep (a crank swept by its own angle: it does not), asked once."""

@@ -196,11 +196,13 @@ LOCKSTEP = 4096    # cases per batch at most (1: each case's analysis alone, tas
 
 def _group_size(executor, work, remaining) -> int:
     """Cases per batch of an analyse study: GROUP_S seconds of work at the time per case seen so
-    far (``work``: [seconds, cases]), or fewer so that every batch the executor keeps in flight
-    (its window) has some while few are left."""
+    far (``work``: [seconds, cases]), or fewer (down to a quarter of that) so that every batch the
+    executor keeps in flight (its window) has some while few are left."""
     seconds, n = work
     per = min(GROUP_FIRST, LOCKSTEP) if not n else max(1, min(LOCKSTEP, int(GROUP_S / max(seconds / n, 1e-6))))
-    return max(1, min(per, -(-remaining // getattr(executor, "window", 1))))
+    # near the end, smaller batches keep every worker busy; not below a quarter of GROUP_S (a
+    # batch's round trip costs milliseconds, tens on Dask)
+    return max(1, min(per, max(per // 4, -(-remaining // getattr(executor, "window", 1)))))
 
 
 # --- the scheduling loop -------------------------------------------------------------------

@@ -156,10 +156,11 @@ class Study:
         first = dict(p for a in axes for p in a.points[0])
         calls = recorded_checks(lambda: case_scene(sc, self.mode, first))
         ranged = all_ranged(axes, calls) and len(corners(axes)) <= CORNERS_MAX
-        if ranged:
+        if ranged:   # the corners' checks recorded too: a check that runs only at other values is seen
             for corner in corners(axes):
-                case_scene(sc, self.mode, corner)
-        else:
+                calls += recorded_checks(lambda: case_scene(sc, self.mode, corner))
+            ranged = all_ranged(axes, calls)
+        if not ranged:
             for axis in axes:
                 for point in axis.points:
                     case_scene(sc, self.mode, dict(point))

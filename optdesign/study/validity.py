@@ -14,6 +14,11 @@ those evaluations recorded, shows which expressions each axis's parameter enters
   axis, a half-space's slice on several), so every case passes if the corners of the axes' box
   (each axis's smallest and largest value) do.
 
+The checks are recorded at the first case and at every corner (a check that runs only for some
+values, such as the drive's speed against 0 only when its efficiency is below 1, is seen where it
+runs).  Recording patches the expressions module's ``evaluate`` while one scene is checked: a
+study is made in one thread at a time.
+
 Anything else (a derived parameter, an expression such as ``m^2`` or ``1/m``, a comparison
 between two expressions such as a constraint's min and max or the drive's speed against 0,
 values that are expressions or not finite) leaves the study to check every axis point with a built scene, as
