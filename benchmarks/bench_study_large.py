@@ -28,7 +28,8 @@ cases.csv, cases.parquet, the rows held, the summary) and nothing else; the clie
 per case is measured beside its wall rate.  Its cases per second bound what any executor can deliver through this client;
 its peak resident memory is a fresh million-case study's client's, the computation aside.
 
-Writes its section of results/scaling.md (benchmarks/benchfile.py)."""
+Writes a section of results/scaling.md per part run (study_large, study_large_resumed,
+study_large_client; benchmarks/benchfile.py)."""
 from __future__ import annotations
 
 import argparse
@@ -230,10 +231,12 @@ def main():
             print(json.dumps(cl), flush=True)
     load1 = os.getloadavg()
     cmd = " ".join(["python benchmarks/bench_study_large.py", *sys.argv[1:]])
-    lines = ["# A large study: its client's memory, and its journal after a kill (`python benchmarks/bench_study_large.py`)",
-             "", f"Written by `{cmd}` on {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; {git_state()}; machine "
+    stamp = (f"Written by `{cmd}` on {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; {git_state()}; machine "
              f"{cpu_model()}, nproc {os.cpu_count()}; load average {load0[0]:.2f} before, {load1[0]:.2f} after "
-             "(shared with other sessions' work).", ""]
+             "(shared with other sessions' work).")
+    sections = {}   # each part its own section of results/scaling.md: a run of one part leaves the others
+    lines = ["# A large study: its journal after a kill, its client's memory (`python benchmarks/bench_study_large.py "
+             "--live N`)", "", stamp, ""]
     if lv:
         a = lv["again"]
         first_rate = lv["at_kill"] / lv["killed_s"]
@@ -256,7 +259,12 @@ def main():
                   f"cases.csv cell by cell: {'yes' if lv['parquet_ok'] else 'NO'}.",
                   "- The client's progress log (every 10 s or 5 %), first and last lines of each run:", "", "```",
                   *lv["log"][:3], "...", *[ln for ln in lv["log"] if ln.startswith("cases")][-2:], "```", ""]
+        rate = a["computed"] / a["wall"]
+        lines += [f"At the resumed run's rate ({rate:.0f} cases/s) a 1,000,000-case study would take "
+                  f"{1e6 / rate / 60:.0f} min on this machine (an extrapolation, not a measurement).", ""]
+        sections["study_large"] = lines
     if rs:
+        lines = ["# A finished large study resumed (`python benchmarks/bench_study_large.py --resumed N`)", "", stamp, ""]
         lines += [f"**Resumed**: a finished analyse study of the truck crane of {rs['n']:,} cases (its journal "
                   f"{rs['journal_MB']:.0f} MB: one real row under each case's id) run again in a fresh client, "
                   "figures included: the journal opened, the cases listed, the rows held, cases.csv "
@@ -264,11 +272,9 @@ def main():
                   f"{rs['wall']:.0f} s wall, client peak resident memory {rs['hwm_kB'] / 1024:.0f} MB "
                   f"({rs['hwm_kB'] * 1024 / rs['n']:.0f} B per case, the imports included); "
                   f"{rs['reused']:,} taken from the journal, {rs['computed']} computed, complete: {rs['complete']}.", ""]
-        if lv:
-            lines += [f"No {rs['n']:,}-case study was computed here: at the live run's rate a million cases would take "
-                      f"{1e6 / (lv['again']['computed'] / lv['again']['wall']) / 3600:.0f} h on this machine "
-                      "(an extrapolation, not a measurement).", ""]
+        sections["study_large_resumed"] = lines
     if cl:
+        lines = ["# The client alone (`python benchmarks/bench_study_large.py --client N`)", "", stamp, ""]
         lines += [f"**Client alone**: a fresh study of {cl['n']:,} cases answered at once by a stand-in executor (one "
                   "real row for every case, from the pool's 2 processes): the client listed the cases, sent their "
                   "batches, journalled them (group commit), wrote cases.csv, cases.parquet and the summary in "
@@ -277,8 +283,10 @@ def main():
                   f"client peak resident memory {cl['hwm_kB'] / 1024:.0f} MB "
                   f"({cl['hwm_kB'] * 1024 / cl['n']:.0f} B per case, the imports included); the journal holds "
                   f"{cl['journal']:,} distinct ids, {cl['bad']} damaged lines; complete: {cl['complete']}.", ""]
-    write_section("study_large", "\n".join(lines) + "\n", SCALING_MD)
-    print("\n".join(lines))
+        sections["study_large_client"] = lines
+    for name, lines in sections.items():
+        write_section(name, "\n".join(lines) + "\n", SCALING_MD)
+        print("\n".join(lines))
 
 
 if __name__ == "__main__":

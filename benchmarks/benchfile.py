@@ -21,7 +21,8 @@ TITLE = "# Benchmarks\n\nEach section is written by the script it names, in one 
 
 SCALING_MD = ROOT / "results" / "scaling.md"
 TITLES = {SCALING_MD: "# Scaling\n\nEach section is written by the script it names, in one run of that script.\n"}
-ORDERS = {SCALING_MD: ("problem_size", "study_scale", "study_io", "study_large")}
+ORDERS = {SCALING_MD: ("problem_size", "study_scale", "study_io", "study_large", "study_large_resumed", "study_large_client",
+                      "study_dask")}
 
 
 def write_section(name: str, markdown: str, path: Path = BENCH_MD) -> Path:

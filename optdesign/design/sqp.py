@@ -114,7 +114,7 @@ def _library(pb):
     """The compiled library of the SQP's functions, or None: looked up in the disk cache, else
     compiled now or in the background as model/compiled.py decides for every NLP (None for this
     run when in the background, or with no compiler, or with the cache turned off)."""
-    key = compiled.entry_key("nlpsol", pb._nlp_function.serialize(), {"plugin": "sqpmethod"})
+    key = compiled.nlpsol_key(pb._nlp_function.serialize(), "sqpmethod")   # the key compiled.solver stores under
     if key is None:
         return None
     found = compiled.lookup(key)

@@ -144,12 +144,18 @@ class Found:
         """Per task: the index into the arrays of its largest target (the first among equals),
         and that target (-inf where a task has none)."""
         t = target(self.v, code[self.task])
-        order = np.lexsort((np.arange(len(t)), -t, self.task))   # per task: largest first, then first found
-        head = _starts(np.diff(self.task[order]) != 0, len(order))
-        top = np.full(self.n_tasks, -1)
-        top[self.task[order][head]] = order[head]
-        best = np.full(self.n_tasks, -np.inf)
-        best[top >= 0] = t[top[top >= 0]]
+        n, none = self.n_tasks, len(t)
+        best = np.full(n, -np.inf)
+        np.fmax.at(best, self.task, t)   # (NaN left out)
+        top = np.full(n, none)
+        hit = np.flatnonzero(t == best[self.task])
+        np.minimum.at(top, self.task[hit], hit)   # the first among equals
+        if np.any(top == none):   # a task with NaN targets only: its first; a task with none: -1
+            first = np.full(n, none)
+            np.minimum.at(first, self.task, np.arange(none))
+            nan_only = (top == none) & (first < none)
+            best[nan_only] = np.nan
+            top = np.where(top < none, top, np.where(first < none, first, -1))
         return top, best
 
 

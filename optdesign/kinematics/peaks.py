@@ -10,7 +10,8 @@ The algorithm is written once, over many cases at once (:mod:`.extrema`: the bra
 Newton iteration of every row of every case in lockstep, as arrays; :mod:`.branch_bound`: the
 proof with the enclosure); :func:`continuous_maxima_rows` (many rows of one case),
 :func:`continuous_maxima` (one row), :func:`refine_all` and :func:`refine` are its one-case
-forms, :func:`maxima_of_cases` its form over a batch of cases.
+forms; over a batch of cases :func:`extrema_of_cases` (every located extremum, as lists) and
+:func:`maxima_of_cases` (the largest of each request, as arrays: no Python work per case).
 """
 from __future__ import annotations
 

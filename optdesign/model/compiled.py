@@ -413,6 +413,13 @@ def _compile(cc, flags, c_file: Path, stem: Path):
         return subprocess.CompletedProcess([], 1, "", f"timed out after {COMPILE_TIMEOUT_S} s")
 
 
+def nlpsol_key(graph: str, plugin: str, functions: dict | None = None):
+    """The cache key of an NLP solver's library (its serialized NLP ``graph``, the ``plugin``, the
+    options that change its functions): the one key :func:`solver` stores under and a caller
+    that looks the library up itself (design/sqp.py) must use."""
+    return entry_key("nlpsol", graph, {"plugin": plugin, **(functions or {}), "optimised_up_to": NLP_OPTIMISED_SOURCE})
+
+
 def _nlpsol_source(job, c_file: Path):
     """C of an NLP solver's functions (CasADi's code generator), from the NLP's serialized Function."""
     import casadi as ca
@@ -455,7 +462,7 @@ def solver(name: str, plugin: str, nlp, options: dict, wait: bool | None = None)
 
     functions = {k: v for k, v in options.items() if k in ("ipopt.hessian_approximation", "expand")}
     graph = nlp.serialize()
-    key = entry_key("nlpsol", graph, {"plugin": plugin, **functions, "optimised_up_to": NLP_OPTIMISED_SOURCE})
+    key = nlpsol_key(graph, plugin, functions)
 
     def prepare(folder):
         serial = folder / f"{key}.fn{os.getpid()}"

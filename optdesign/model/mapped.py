@@ -8,6 +8,8 @@ import numpy as np
 
 from ..errors import check_interrupt
 
+PER_POINT_CHUNK = 1024   # values per mapped call with a parameter row per value at most
+
 
 class MappedFunction:
     """A CasADi Function (s, p) evaluated at a row of sweep values with one parameter vector.
@@ -65,6 +67,10 @@ class MappedFunction:
             raise ValueError(f"p: one row of {self.func.nnz_in(1)} parameters per value ({n}); got {p.shape}")
         if not n:
             return [np.zeros((self.func.size1_out(j), 0)) for j in range(self.func.n_out())]
+        if n > PER_POINT_CHUNK:   # in pieces: less padding (each value on its own)
+            parts = [self._per_point(s[i:i + PER_POINT_CHUNK], p[i:i + PER_POINT_CHUNK])
+                     for i in range(0, n, PER_POINT_CHUNK)]
+            return [np.concatenate(a, axis=1) for a in zip(*parts)]
         size = max(8, 1 << (n - 1).bit_length())
         key = ("per point", size)
         if key not in self._maps:
