@@ -106,7 +106,7 @@ def _dependencies(scene, names: set) -> set:
 # --- per-process caches ----------------------------------------------------------------------
 def _cache():
     if not hasattr(_LOCAL, "scenes"):
-        _LOCAL.scenes, _LOCAL.models, _LOCAL.unbounded = {}, {}, {}
+        _LOCAL.scenes, _LOCAL.models, _LOCAL.unbounded, _LOCAL.structural = {}, {}, {}, {}
     return _LOCAL
 
 
@@ -115,6 +115,16 @@ def _scene(task: Task):
     if task.scene_digest not in c.scenes:
         c.scenes[task.scene_digest] = pickle.loads(task.scene_blob)
     return c.scenes[task.scene_digest]
+
+
+def _structural(task: Task, base) -> frozenset:
+    """:func:`structural_names` of the case's scene ``base``, found once per process and scene
+    (it walks every expression of the scene: 0.15 ms, once per case before)."""
+    c = _cache()
+    key = (task.scene_digest, task.mode)
+    if key not in c.structural:
+        c.structural[key] = frozenset(structural_names(base, task.mode))
+    return c.structural[key]
 
 
 def _unbounded(task: Task, base):
@@ -192,7 +202,8 @@ def _prepare(task: Task):
 
     base = _scene(task)
     overrides = dict(task.overrides)
-    structural = {k: v for k, v in overrides.items() if k in structural_names(base, task.mode)}
+    names = _structural(task, base)
+    structural = {k: v for k, v in overrides.items() if k in names}
     # a case whose overrides are numbers the study validated together (one axis) is a vector of
     # leaf values for the built model: no case scene rebuilt and validated again (94
     # dataclasses.replace per case on the truck crane); else the case's scene gives them
