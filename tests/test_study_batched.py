@@ -62,12 +62,12 @@ def crane_study():
 @pytest.fixture(scope="module")
 def one_by_one(crane_study, tmp_path_factory):
     folder = tmp_path_factory.mktemp("one_by_one")
-    old = study_execute.LOCKSTEP
-    study_execute.LOCKSTEP = 1   # batches of one case: each run alone (tasks.run_task)
+    old = study_execute.BATCH_MAX
+    study_execute.BATCH_MAX = 1   # batches of one case: each run alone (tasks.run_task)
     try:
         crane_study.run(out=folder, workers=1, figures=False)
     finally:
-        study_execute.LOCKSTEP = old
+        study_execute.BATCH_MAX = old
     return (folder / "cases.csv").read_bytes()
 
 

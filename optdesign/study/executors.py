@@ -242,7 +242,7 @@ class _Pool(_Futures):
         again = []
         for b in suspects:
             b.deaths += 1
-            if len(b.cases) > 1:   # analyse cases in lockstep: which one died is not known; each alone
+            if len(b.cases) > 1:   # analyse cases run together: which one died is not known; each alone
                 again += [_Batch([c], [t], b.deaths) for c, t in zip(b.cases, b.tasks)]
                 continue
             if b.deaths < MAX_DEATHS:
