@@ -253,8 +253,11 @@ class BlockedFunction:
         whatever the other cases."""
         s = np.asarray(s_row, float).ravel()
         P = np.atleast_2d(np.asarray(P, float))
-        out = self.ragged(np.tile(s, len(P)), np.full(len(P), len(s)), P)
-        return {k: v.reshape(len(P), len(s)) for k, v in out.items()}
+        n, per = len(s), max(-(-len(s) // self.block), 1)
+        row = np.empty(per * self.block)   # a case's blocks: its row padded with its last value
+        row[:n], row[n:] = s, s[-1] if n else 0.0
+        outs = self._run(np.tile(row, len(P)), np.repeat(P, per, axis=0))
+        return {k: v.reshape(len(P), per * self.block)[:, :n].copy() for k, v in outs.items()}
 
     def ragged(self, s, counts, P) -> dict:
         """{output name: array over ``s``}: the first ``counts[0]`` values of ``s`` with the
@@ -272,14 +275,37 @@ class BlockedFunction:
         last = np.where(counts > 0, s[np.maximum(ends - 1, 0)] if len(s) else 0.0, 0.0)
         s_in = np.repeat(last, per * block)
         s_in[where] = s
-        p_in = np.repeat(P, per, axis=0)
-        total = int(per.sum())
+        return {name: values[where] for name, values in self._run(s_in, np.repeat(P, per, axis=0)).items()}
+
+    def _run(self, s_in, p_in) -> dict:
+        """{output name: values over ``s_in``} (whole blocks; block j with the parameters
+        ``p_in[j]``), in mapped calls of CHUNK blocks that read and write the arrays in place,
+        the rest of at most CHUNK blocks through :meth:`_blocks`."""
+        block, total = self.block, len(p_in)
         outs = {name: np.empty(total * block) for name in self.names}
-        for start in range(0, total, CHUNK):
-            part = self._blocks(s_in[start * block:(start + CHUNK) * block], p_in[start:start + CHUNK])
+        full = total // CHUNK * CHUNK
+        if full:
+            buffer, run = self._direct()
+            p_in = np.ascontiguousarray(p_in)
+            for start in range(0, full, CHUNK):
+                at = slice(start * block, (start + CHUNK) * block)
+                buffer.set_arg(0, memoryview(s_in[at]))
+                buffer.set_arg(1, memoryview(p_in[start:start + CHUNK].reshape(-1)))
+                for j, name in enumerate(self.names):
+                    buffer.set_res(j, memoryview(outs[name][at]))
+                run()
+        if full < total:
+            part = self._blocks(s_in[full * block:], p_in[full:])
             for name, values in part.items():
-                outs[name][start * block:start * block + len(values)] = values
-        return {name: values[where] for name, values in outs.items()}
+                outs[name][full * block:] = values
+        return outs
+
+    def _direct(self):
+        """The mapped Function of CHUNK blocks whose buffer :meth:`_run` points at its arrays."""
+        if "direct" not in self._maps:
+            mapped = self.external.map(f"{self.external.name()}_blocks_{CHUNK}", "serial", CHUNK, [], [])
+            self._maps["direct"] = mapped.buffer()
+        return self._maps["direct"]
 
     def _blocks(self, s_in, p_rows) -> dict:
         """The outputs over whole blocks ``s_in``, block j with the parameters ``p_rows[j]`` (at

@@ -156,9 +156,11 @@ class CaseResult:
 class CaseAnalysis:
     """Every case of a scene over the stroke, compiled once (under :class:`optdesign.model.analysis.Analysis`)."""
 
-    def __init__(self, mech, s_values, joints=False, certify=True):
+    def __init__(self, mech, s_values, joints=False, certify=True, compile=False):
         """``joints``: each case's joint forces too (columns pin_force(P), ...: model/joints.py),
-        their peaks certified over the continuous stroke unless ``certify`` is False."""
+        their peaks certified over the continuous stroke unless ``certify`` is False;
+        ``compile``: the cases' columns from the disk cache of compiled code
+        (:class:`~.mapped.MappedFunction`: the same numbers, several times faster)."""
         self.mech = mech
         self.s_values = np.asarray(s_values, float)
         self.cases = [CaseModel(mech, c) for c in mech.scene.cases]
@@ -184,7 +186,8 @@ class CaseAnalysis:
             outs["hold_load"] = cm.static_load() + 0 * mech.s
             self.quantities = tuple(k for k in mech.quantities if k not in outs)   # [quantities], as columns
             outs.update({k: mech.quantities[k] + 0 * mech.s for k in self.quantities})
-            self.functions.append((list(outs), MappedFunction(mech.function(f"case_{len(self.functions)}", outs))))
+            self.functions.append((list(outs), MappedFunction(mech.function(f"case_{len(self.functions)}", outs),
+                                                                    compile=compile)))
         self.duty = DutyCycle(mech.scene, self.cases)
 
     def _outputs(self, cm, motor, joints) -> dict:
