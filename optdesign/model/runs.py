@@ -116,15 +116,19 @@ def run_cases(a, P):
             r.constraint_extremes = {k: dict(e, min_sampled=e["min"], max_sampled=e["max"])
                                      for k, e in r.constraint_extremes.items()}
     t2 = time.perf_counter()
-    for i, r in enumerate(runs):
+    for r in runs:
+        if r.error is None:
+            try:
+                check_values(a, {**{f"constraint {k!r}": v for k, v in r.stroke.items()},
+                                 **{f"peak |{k}|": v for k, v in r.peaks.items()}})
+            except OptdesignError as exc:
+                r.error = exc
+    live = [i for i in range(n) if runs[i].error is None]
+    if a.case_analysis and live:   # the load cases of every case at once (model/case_runs.py)
+        for i, found in zip(live, a.case_analysis.run_many(P[live])):
+            runs[i].cases, runs[i].error = (None, found) if isinstance(found, OptdesignError) else (found, None)
+    for r in runs:
         if r.error is not None:
-            continue
-        try:
-            check_values(a, {**{f"constraint {k!r}": v for k, v in r.stroke.items()},
-                             **{f"peak |{k}|": v for k, v in r.peaks.items()}})
-            r.cases = a.case_analysis.run(P[i]) if a.case_analysis else None
-        except OptdesignError as exc:
-            r.error = exc
             continue
         r.timings = {"build_s": a.build_time, "evaluate_s": (t1 - t0) / n}
         if a.certified is not None:
