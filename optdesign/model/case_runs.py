@@ -19,6 +19,7 @@ from .duty import PEAK_KEYS, CaseTimes, case_integrals, motor_report
 from .finite import check_cases
 from .joints import PEAKED
 from .profiles import check_law
+from .time_integrals import certified_integrals, columns_at
 from .train import cylinder_sizing
 
 
@@ -39,12 +40,13 @@ def run_many(ca_, P) -> list:
                 errors[i] = exc
         staged = _evaluated(ca_, cm, names, function, nodes, p_case, errors)
         pins = _pin_peaks(pin_peaks, nodes, p_case, staged, errors)
+        integrals = _integrals(ca_, cm, names, function, nodes, p_case, staged, errors)
         for i, (values, times, sampled) in staged.items():
             if errors[i] is not None:
                 continue
             try:
                 results[i][cm.name], evaluated[i][cm.name] = _case_result(
-                    ca_, cm, names, function, p_case[i], nodes, on_sample, values, times, sampled, pins.get(i))
+                    ca_, cm, nodes, on_sample, values, times, sampled, pins.get(i), integrals[i])
             except OptdesignError as exc:
                 errors[i] = exc
     out = []
@@ -73,13 +75,13 @@ def _evaluated(ca_, cm, names, function, nodes, p_case, errors) -> dict:
     for j, i in enumerate(live):
         values = dict(zip(names, (v[:, j].ravel() for v in raw)))
         try:
-            staged[i] = _finish(ca_, cm, names, function, nodes, p_case[i], values)
+            staged[i] = finish_columns(ca_, cm, names, function, nodes, p_case[i], values)
         except OptdesignError as exc:
             errors[i] = exc
     return staged
 
 
-def _finish(ca_, cm, names, function, nodes, p_case, values):
+def finish_columns(ca_, cm, names, function, nodes, p_case, values):
     """One vector's columns made whole: q unwrapped for a crank, a law's checks and end limits,
     its times; and its columns for the peaks (the motors' torques, the load inertia)."""
     if ca_.mech.scene.drive.kind == "rotary":
@@ -108,10 +110,51 @@ def _pin_peaks(pin_peaks, nodes, p_case, staged, errors) -> dict:
         P = np.array([p_case[i] for i in which])
         columns = {} if pin_peaks.in_time is not None else {
             name: np.array([staged[i][2][name] for i in which]) for name in pin_peaks.names}
-        return dict(zip(which, pin_peaks.many(nodes, P, columns)))
+        return pin_peaks.many(nodes, P, columns)
 
+    return _batch_or_each(peaks, live, errors)
+
+
+def _integrals(ca_, cm, names, function, nodes, p_case, staged, errors) -> dict:
+    """i -> the integrals over time of vector i's load case ``cm``: on its samples
+    (:func:`~.duty.case_integrals`), then to :data:`.time_integrals.TOLERANCE` by the adaptive
+    quadrature of all the live vectors at once (:func:`~.time_integrals.certified_integrals`),
+    with ``errors``, ``sampled`` (the rule on the samples, as the NLP has them) and
+    ``unresolved`` (those the quadrature could not bring within its tolerance)."""
+    sigma = cm.profile.sigma if cm.profile is not None else 1.0
+    sampled = {}
+    for i in (i for i in staged if errors[i] is None):
+        values, times, _ = staged[i]
+        try:
+            sampled[i] = case_integrals(times, {"s": nodes, **values}, sigma, ca_.quantities)
+        except OptdesignError as exc:
+            errors[i] = exc
+    live = [i for i, v in sampled.items() if v]
+    if not live:
+        return sampled
+
+    def exact(which):
+        return certified_integrals(cm, columns_at(function, names, [p_case[i] for i in which]), nodes, sigma,
+                                   len(which), quantities=ca_.quantities)
+
+    out = dict(sampled)
+    for i, found in _batch_or_each(exact, live, errors).items():
+        out[i] = {k: found[k] for k in sampled[i]}
+        out[i]["duration"] = found["duration"]   # a law's by the quadrature (tanh-sinh's was 1e-7 off at a square root)
+        out[i].update(errors=found["errors"], sampled=dict(sampled[i]), intervals=found["intervals"])
+        out[i]["unresolved"] = {k: {"value": found[k], "error": found["errors"][k], "samples": len(ca_.s_values),
+                                    "sampled_value": sampled[i][k]}
+                                for k in ("energy", "rms_time") if k in found["not_converged"] or (
+                                    k == "rms_time" and {"drive_squared", "time"} & set(found["not_converged"]))}
+    return out
+
+
+def _batch_or_each(compute, live, errors) -> dict:
+    """i -> compute(live)'s result for each i of ``live`` (one per vector, in order); a batch
+    that raises an OptdesignError is computed again vector by vector (each one's result is the
+    same alone), a vector that raises alone gets its error in ``errors``."""
     try:
-        return peaks(live)
+        return dict(zip(live, compute(live)))
     except OptdesignError as exc:
         if len(live) == 1:
             errors[live[0]] = exc
@@ -119,15 +162,16 @@ def _pin_peaks(pin_peaks, nodes, p_case, staged, errors) -> dict:
     out = {}
     for i in live:
         try:
-            out.update(peaks([i]))
+            out[i] = compute([i])[0]
         except OptdesignError as exc:
             errors[i] = exc
     return out
 
 
-def _case_result(ca_, cm, names, function, p_case, nodes, on_sample, values, times, sampled, pins):
+def _case_result(ca_, cm, nodes, on_sample, values, times, sampled, pins, integrals):
     """One vector's :class:`~.cases.CaseResult` of the load case ``cm`` and what the duty cycle
-    reads of it, from its columns and its certified peaks ``pins`` (None without)."""
+    reads of it, from its columns, its certified peaks ``pins`` (None without) and its
+    ``integrals`` (:func:`_integrals`)."""
     hold = values.pop("hold_load")
     constraints = {k.split(":", 1)[1]: values.pop(k) for k in list(values) if k.startswith("constraint:")}
     distance = np.abs(nodes - cm.begins_at(np.sign(values["k"][0])))
@@ -160,10 +204,6 @@ def _case_result(ca_, cm, names, function, p_case, nodes, on_sample, values, tim
                      "peak_sampled": sampled_pins.pop(_motor_key(name), None),
                      "certificate": certificates.pop(f"peak |{_motor_key(name)}|", None)}
               for name in ca_.motor_inertias}
-    sigma = cm.profile.sigma if cm.profile is not None else 1.0
-    integrals = case_integrals(times, columns, sigma, ca_.quantities)
-    if integrals:
-        integrals = ca_._certified(cm, names, function, p_case, nodes, sigma, integrals)
     profile = None if cm.case.profile is None else (cm.case.profile if isinstance(cm.case.profile, str)
                                                     else f"inline {cm.profile.shape.kind}")
     result = CaseResult(cm.name, cm.case.direction, profile, cm.case.efficiency,

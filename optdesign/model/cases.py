@@ -25,7 +25,6 @@ from .joints import PEAKED
 from .mapped import MappedFunction
 from .profiles import constant_motion, case_profile
 from .reduction import ReducedModel
-from .time_integrals import certified_integrals, columns_at
 from .train import cylinder_outputs, gear_outputs, motor_numbers
 
 
@@ -229,19 +228,14 @@ class CaseAnalysis:
 
         return run_many(self, P)
 
-    def _certified(self, cm, names, function, p_case, nodes, sigma, sampled) -> dict:
-        """The case's integrals over time to :data:`.time_integrals.TOLERANCE` (adaptive
-        quadrature), with ``errors``, ``sampled`` (the rule on the samples, as the NLP has them)
-        and ``unresolved`` (those the quadrature could not bring within its tolerance)."""
-        exact = certified_integrals(cm, columns_at(function, names, p_case), nodes, sigma, quantities=self.quantities)
-        out = {k: exact[k] for k in sampled}
-        out["duration"] = exact["duration"]   # a law's by the quadrature (tanh-sinh's was 1e-7 off at a square root)
-        out.update(errors=exact["errors"], sampled=dict(sampled), intervals=exact["intervals"])
-        out["unresolved"] = {k: {"value": exact[k], "error": exact["errors"][k], "samples": len(self.s_values),
-                                 "sampled_value": sampled[k]}
-                             for k in ("energy", "rms_time") if k in exact["not_converged"] or (
-                                 k == "rms_time" and {"drive_squared", "time"} & set(exact["not_converged"]))}
-        return out
+    def _evaluate(self, cm, names, function, nodes, p_case):
+        """Case ``cm``'s outputs at ``nodes`` with its parameters ``p_case`` (q unwrapped for a
+        crank, a law's checks) and its times (:func:`.case_runs.finish_columns`)."""
+        from .case_runs import finish_columns
+
+        values = dict(zip(names, (np.asarray(v, float).ravel() for v in function(nodes, p_case))))
+        return finish_columns(self, cm, names, function, nodes, p_case, values)[:2]
+
 
 
 

@@ -185,8 +185,10 @@ class CertifiedPeaks:
         self.in_time = None if time is None else InTime(mech, v, *time)
         if time is None:
             dv = mech.ds(v)
-            self.derivatives = MappedFunction(mech.function("peaks_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)}))
-            self.enclosures = Enclosures(self.derivatives.func, compile_program)
+            func = mech.function("peaks_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)})
+            # compiled from the disk cache where it is there (the same numbers, as CertifiedExtremes')
+            self.derivatives = MappedFunction(func, compile=True)
+            self.enclosures = Enclosures(func, compile_program)
 
     def __call__(self, s_values, p, columns, names=None, certify=True) -> dict:
         """name -> (|peak|, {s, value}, certificate {bound, note}) at parameters ``p``, from the
@@ -239,7 +241,7 @@ class InTime:
         dv = ca.jacobian(v, tau)
         opts = {"cse": True} if mech.sym is ca.SX else {}
         func = ca.Function("rows_in_time", [tau, mech.p], [v, dv, ca.jacobian(dv, tau)], ["s", "p"], ["v", "dv", "d2v"], opts)
-        self.derivatives = MappedFunction(func)
+        self.derivatives = MappedFunction(func, compile=True)   # (as CertifiedPeaks')
         self.enclosures = Enclosures(func, compile_program)
 
     def grid(self, s_values) -> np.ndarray:
