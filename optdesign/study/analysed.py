@@ -28,18 +28,41 @@ def analyse(prepared: list) -> list:
         if isinstance(model, OptdesignError):
             failed.append((i, model))
             continue
-        try:
-            p = _leaf_values(model.mech.parameter_names, scene, model.mech.parameter_values)
-        except OptdesignError as exc:
-            failed.append((i, exc))
-            continue
+        if type(scene) is not dict:   # a case scene (or None): its values
+            try:
+                scene = _leaf_values(model.mech.parameter_names, scene, model.mech.parameter_values)
+            except OptdesignError as exc:
+                failed.append((i, exc))
+                continue
         groups.setdefault(id(model), (model, [], []))
         groups[id(model)][1].append(i)
-        groups[id(model)][2].append(p)
+        groups[id(model)][2].append(scene)
     pieces = [_failed_piece(failed)] if failed else []
-    for analysis, where, P in groups.values():
+    for analysis, where, values in groups.values():
+        P = _parameters(analysis, values)
         pieces += [([where[j] for j in at], keys, columns) for at, keys, columns in _columns(analysis, P)]
     return pieces
+
+
+def _parameters(analysis, values):
+    """The leaf values of cases (cases x parameters): ``values[j]`` case j's, or a dict of the
+    numbers it sets (the others keep the build's: :func:`.tasks._leaf_values`), set a column at
+    a time for the cases that set the same names."""
+    import numpy as np
+
+    names = analysis.mech.parameter_names
+    P = np.tile(np.asarray(analysis.mech.parameter_values, float), (len(values), 1))
+    same = {}
+    for j, v in enumerate(values):
+        if type(v) is dict:
+            same.setdefault(tuple(v), []).append(j)
+        else:
+            P[j] = v
+    for keys, js in same.items():
+        for name in keys:
+            for k in (k for k, n in enumerate(names) if n == name):
+                P[js, k] = [values[j][name] for j in js]
+    return P
 
 
 def rows(pieces: list, n: int) -> list:
