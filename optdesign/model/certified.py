@@ -269,7 +269,7 @@ class InTime:
         V = self.derivatives(np.tile(tau, n), np.repeat(P, m, axis=0))[0].reshape(-1, n, m).transpose(1, 0, 2)
         s, v, bound, notes = maxima_of_cases(lambda t, cases: self.derivatives(t, P[cases]), tau, V, requests,
                                              enclosure=self.enclosures.at(P) if certify else None)
-        s = np.array([[self.sweep(x) for x in row] for row in s.tolist()]).reshape(s.shape)
+        s = self.profile.law_sweep(s.ravel()).reshape(s.shape)   # (element by element: each as :meth:`sweep`'s)
         return s, v, bound, [[self._note(x) for x in row] for row in notes]
 
     def sweep(self, tau) -> float:
