@@ -18,7 +18,8 @@ connection to the cluster (and ``import distributed``) or the pool's processes' 
 study's preparation, every case, the folder's files.  A user pays it, so the table's cases/s and
 Dask / pool are those of the whole run; the steady state beside it counts only the cases after the
 first durable one (``progress`` calls: cases done and times), from that moment to the last: the
-rate once both are running.  The time to the first result is given too.
+rate once both are running.  The time to the first durable result is given too, and the
+client's start-up in it (to the moment the study starts feeding cases: connection, preparation).
 
 ``--base REV``: Dask runs also with the code at REV (``git archive`` of optdesign and problems;
 its own cluster, its workers and helpers importing that code), interleaved with this code's runs,
@@ -58,12 +59,14 @@ t0, c0 = time.perf_counter(), time.process_time()
 r = study.run(out=out, restart=True, figures=False, progress=lambda done, total: seen.append((time.perf_counter(), done)),
               **kw)
 wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-(t1, d1), (t2, d2) = seen[0], seen[-1]
+start = seen[0][0] - t0   # the first call, before any case: the client's start-up (connection, preparation)
+came = [(t, d) for t, d in seen if d > 0]
+(t1, d1), (t2, d2) = came[0], came[-1]
 steady = (d2 - d1) / (t2 - t1) if t2 > t1 and d2 > d1 else float("nan")
 with open("/proc/self/status") as fh:
     hwm = next(int(l.split()[1]) for l in fh if l.startswith("VmHWM:"))
 assert r.complete and r.computed == n, r
-print(json.dumps({"wall": wall, "cpu": cpu, "hwm_kB": hwm, "ok": int(r.column("success").sum()), "first_s": t1 - t0,
+print(json.dumps({"wall": wall, "cpu": cpu, "hwm_kB": hwm, "ok": int(r.column("success").sum()), "start_s": start, "first_s": t1 - t0,
                   "steady": steady}))
 """
 
@@ -176,7 +179,7 @@ def report(args, got, load0, rounds):
     cols = [("this", 1)] + ([(f"base {args.base}", 2)] if args.base else [])
     head = " | ".join(f"Dask / pool whole ({name}) | Dask / pool steady ({name})" for name, _ in cols)
     lines += [f"| study | cases | pool cases/s whole / steady | Dask cases/s whole / steady | {head} | first result s "
-              "pool / Dask | client CPU per case pool / Dask [us] | client peak MB pool / Dask | scheduler peak MB (at "
+              "pool / Dask (client start-up) | client CPU per case pool / Dask [us] | client peak MB pool / Dask | scheduler peak MB (at "
               "start) |", "|---|---|---|---|" + "---|---|" * len(cols) + "---|---|---|---|"]
 
     def med(rs, j, key):
@@ -189,7 +192,8 @@ def report(args, got, load0, rounds):
         lines.append(f"| {kind} | {n:,} | {med(rs, 0, 'whole'):,.1f} / {med(rs, 0, 'steady'):,.1f} | "
                      f"{med(rs, 1, 'whole'):,.1f} / {med(rs, 1, 'steady'):,.1f} | {ratios} | "
                      f"{statistics.median(r[0]['first_s'] for r in rs):.1f} / "
-                     f"{statistics.median(r[1]['first_s'] for r in rs):.1f} | "
+                     f"{statistics.median(r[1]['first_s'] for r in rs):.1f} (start-up {statistics.median(r[0]['start_s'] for r in rs):.1f} / "
+                     f"{statistics.median(r[1]['start_s'] for r in rs):.1f}) | "
                      f"{statistics.median(1e6 * r[0]['cpu'] / n for r in rs):,.0f} / "
                      f"{statistics.median(1e6 * r[1]['cpu'] / n for r in rs):,.0f} | "
                      f"{p['hwm_kB'] / 1024:.0f} / {d['hwm_kB'] / 1024:.0f} | "
