@@ -4,13 +4,16 @@
     python benchmarks/bench_geometry_study.py [--cases 256] [--load-cases 16] [--batch 256]
         [--repeats 3] [--base REV]
 
-writes the section ``geometry_study`` of results/scaling.md.  Two studies of Sobol points over
+writes the section ``geometry_study`` of results/scaling.md.  Three studies of Sobol points over
 pivot coordinates, so that every case is a distinct geometry:
 
 * the truck crane (problems/truck_crane.toml) over its cylinder base xD, yD and rod eye b
   (``--cases`` cases; some do not assemble, or reach a dead centre, part of the stroke);
 * the hatch cover (problems/hatch_cover.toml, three load cases: open, close, open with snow)
-  over its cylinder base xD, yD and rod eye b (``--load-cases`` cases).
+  over its cylinder base xD, yD and rod eye b (``--load-cases`` cases);
+* the ventilator (problems/ventilator_squeeze.toml: a four-bar, two load cases on laws in time)
+  over its crank, coupler and rocker lengths a, b, c (``--load-cases`` cases; most do not
+  assemble part of the stroke: the assembly check's errors are much of its work).
 
 Timed: ``Analysis.run_many`` over the cases in batches of ``--batch``, CPU time of the process
 (compiled intervals and rows: ``OPTDESIGN_COMPILE=wait``, after a warm-up batch), medians of
@@ -37,6 +40,7 @@ os.environ.setdefault("OPTDESIGN_COMPILE", "wait")
 STUDIES = {
     "truck_crane": ("problems/truck_crane.toml", {"xD": (-0.1, 0.6), "yD": (-1.8, -0.9), "b": (0.7, 1.6)}),
     "hatch_cover": ("problems/hatch_cover.toml", {"xD": (-0.2, 0.8), "yD": (-1.2, -0.3), "b": (0.25, 1.2)}),
+    "ventilator_squeeze": ("problems/ventilator_squeeze.toml", {"a": (0.018, 0.032), "b": (0.08, 0.12), "c": (0.065, 0.095)}),
 }
 # (module, class or None, function, the stage's name): wrapped when the code measured has them
 STAGES = (
@@ -158,7 +162,7 @@ def main(argv=None):
     ap.add_argument("--base", default=None, help="a commit to measure in the same run")
     args = ap.parse_args(argv)
     load = os.getloadavg()
-    sizes = {"truck_crane": args.cases, "hatch_cover": args.load_cases}
+    sizes = {"truck_crane": args.cases, "hatch_cover": args.load_cases, "ventilator_squeeze": args.load_cases}
     with tempfile.TemporaryDirectory() as tmp:
         codes = {}
         if args.base:

@@ -253,11 +253,18 @@ class BlockedFunction:
         whatever the other cases."""
         s = np.asarray(s_row, float).ravel()
         P = np.atleast_2d(np.asarray(P, float))
-        n, per = len(s), max(-(-len(s) // self.block), 1)
-        row = np.empty(per * self.block)   # a case's blocks: its row padded with its last value
-        row[:n], row[n:] = s, s[-1] if n else 0.0
-        outs = self._run(np.tile(row, len(P)), np.repeat(P, per, axis=0))
-        return {k: v.reshape(len(P), per * self.block)[:, :n].copy() for k, v in outs.items()}
+        return {k: v.reshape(len(P), len(s)) for k, v in self._rows(np.broadcast_to(s, (len(P), len(s))), P).items()}
+
+    def _rows(self, S, P) -> dict:
+        """{output name: values over ``S.ravel()``}: row i of ``S`` (cases x values) with the
+        parameters ``P[i]``, each row in blocks of its own padded with its last value."""
+        cases, n = S.shape
+        per = max(-(-n // self.block), 1)
+        rows = np.empty((cases, per * self.block))   # a case's blocks: its row padded with its last value
+        rows[:, :n] = S
+        rows[:, n:] = S[:, -1:] if n else 0.0
+        outs = self._run(rows.reshape(-1), np.repeat(P, per, axis=0))
+        return {k: v.reshape(cases, per * self.block)[:, :n].reshape(-1) for k, v in outs.items()}
 
     def ragged(self, s, counts, P) -> dict:
         """{output name: array over ``s``}: the first ``counts[0]`` values of ``s`` with the
@@ -266,6 +273,8 @@ class BlockedFunction:
         s = np.asarray(s, float).ravel()
         counts = np.asarray(counts, int)
         P = np.atleast_2d(np.asarray(P, float))
+        if len(counts) and counts[0] > 0 and np.all(counts == counts[0]):   # as many values each: many()'s layout
+            return self._rows(s.reshape(len(counts), counts[0]), P)
         block = self.block
         per = -(-counts // block)
         first = np.cumsum(per) - per
