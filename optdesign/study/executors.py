@@ -33,27 +33,21 @@ from concurrent.futures.process import BrokenProcessPool
 from ..errors import OptdesignError, worker_process
 from .results import ClusterLost
 from .analysed import batch_blocks
-from .blocks import as_blocks, blocks
+from .blocks import as_blocks
 from .tasks import died_output, run_batch
-from .worker import MAX_DEATHS, prestart, run_batch_in_helper
+from .worker import MAX_DEATHS, lines_made, blocks_in_helper, prestart
 
 
 def computed(tasks, index, ids) -> list:
     """:func:`~.tasks.run_batch` where the batch runs (a pool's process), its outputs handed back
     as blocks with their text made there (:func:`.analysed.batch_blocks`): the client's work per
     case done by the workers, in parallel."""
-    return _texts_made(batch_blocks(tasks, index, ids))
+    return lines_made(batch_blocks(tasks, index, ids))
 
 
 def computed_in_helper(tasks, index, ids) -> list:
     """:func:`computed` on a Dask worker (the batch in its helper process: :mod:`.worker`)."""
-    return _texts_made(blocks(index, ids, run_batch_in_helper(tasks)))
-
-
-def _texts_made(made):
-    for block in made:
-        block.lines()
-    return made
+    return blocks_in_helper(tasks, index, ids)
 
 
 def _where(batch):
