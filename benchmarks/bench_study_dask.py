@@ -4,7 +4,7 @@ single-threaded workers on loopback, the scheduler and the workers each a proces
 (``dask scheduler``, ``dask worker``), started afresh for every Dask run so that the scheduler's
 peak memory is that run's.
 
-    python benchmarks/bench_study_dask.py [--sizes 2000,20000] [--optimise 24] [--repeats 1]
+    python benchmarks/bench_study_dask.py [--sizes 2000,20000] [--optimise 24] [--repeats 1] [--base REV]
 
 Each study runs in a fresh client process (``Study.run``) that reports its wall time, its CPU
 time and its peak resident memory (``VmHWM``, imports included); the scheduler's is read from
@@ -12,6 +12,17 @@ its process after the run.  Before each measured Dask run a small study warms th
 workers' helper processes started, the scene's model built), while the pool's processes start
 with its study (forked, they build the model in the run): with studies of seconds this favours
 Dask.  The pool and Dask runs are interleaved.
+
+Start-up.  The wall time of a study counts from ``Study.run`` to its return: the client's
+connection to the cluster (and ``import distributed``) or the pool's processes' start, the
+study's preparation, every case, the folder's files.  A user pays it, so the table's cases/s and
+Dask / pool are those of the whole run; the steady state beside it counts only the cases after the
+first durable one (``progress`` calls: cases done and times), from that moment to the last: the
+rate once both are running.  The time to the first result is given too.
+
+``--base REV``: Dask runs also with the code at REV (``git archive`` of optdesign and problems;
+its own cluster, its workers and helpers importing that code), interleaved with this code's runs,
+against the same pool runs (this code): Dask / pool before and after in one run.
 
 Writes its section (study_dask) of results/scaling.md (benchmarks/benchfile.py)."""
 from __future__ import annotations
@@ -42,20 +53,25 @@ if kind == "analyse":
 else:   # chains of 4 warm-started cases: n // 4 chains in parallel
     study = Study(optdesign.load("problems/seed1_jib_design.toml"), [grid("mC", 300, 750, n)], starts=2, chain=4)
 kw = {"workers": 2} if where == "pool" else {"scheduler": where}
+seen = []   # (time, cases done) at each progress call
 t0, c0 = time.perf_counter(), time.process_time()
-r = study.run(out=out, restart=True, figures=False, **kw)
+r = study.run(out=out, restart=True, figures=False, progress=lambda done, total: seen.append((time.perf_counter(), done)),
+              **kw)
 wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+(t1, d1), (t2, d2) = seen[0], seen[-1]
+steady = (d2 - d1) / (t2 - t1) if t2 > t1 and d2 > d1 else float("nan")
 with open("/proc/self/status") as fh:
     hwm = next(int(l.split()[1]) for l in fh if l.startswith("VmHWM:"))
 assert r.complete and r.computed == n, r
-print(json.dumps({"wall": wall, "cpu": cpu, "hwm_kB": hwm, "ok": int(r.column("success").sum())}))
+print(json.dumps({"wall": wall, "cpu": cpu, "hwm_kB": hwm, "ok": int(r.column("success").sum()), "first_s": t1 - t0,
+                  "steady": steady}))
 """
 
 
-def client(kind, n, where, folder):
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg"}
+def client(kind, n, where, folder, code=ROOT):
+    env = {**os.environ, "PYTHONPATH": str(code), "MPLBACKEND": "Agg"}
     done = subprocess.run([sys.executable, "-c", CLIENT, kind, str(n), str(folder), where], capture_output=True,
-                          text=True, cwd=ROOT, env=env)
+                          text=True, cwd=code, env=env)
     if done.returncode:
         raise SystemExit(f"{kind} study of {n} cases on {where} failed:\n{done.stderr[-3000:]}")
     return json.loads(done.stdout.strip().splitlines()[-1])
@@ -67,7 +83,7 @@ def status_kB(pid, key):
 
 
 @contextlib.contextmanager
-def cluster(workers=2):
+def cluster(workers=2, code=ROOT):
     """A scheduler and ``workers`` single-threaded workers, each its own process, on loopback:
     (address, the scheduler's pid)."""
     import distributed
@@ -77,13 +93,13 @@ def cluster(workers=2):
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     address = f"tcp://127.0.0.1:{port}"
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    env = {**os.environ, "PYTHONPATH": str(code)}
     procs = [subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"],
-                              stderr=subprocess.DEVNULL, env=env, cwd=ROOT)]
+                              stderr=subprocess.DEVNULL, env=env, cwd=code)]
     try:
         time.sleep(2)
         procs += [subprocess.Popen([dask, "worker", address, "--nthreads", "1", "--nworkers", "1", "--no-dashboard",
-                                    "--memory-limit", "0"], stderr=subprocess.DEVNULL, env=env, cwd=ROOT)
+                                    "--memory-limit", "0"], stderr=subprocess.DEVNULL, env=env, cwd=code)
                   for _ in range(workers)]
         with distributed.Client(address, timeout=60) as c:
             t0 = time.monotonic()
@@ -99,14 +115,20 @@ def cluster(workers=2):
             p.wait(timeout=60)
 
 
-def measure(kind, n, tmp, k):
-    pool = client(kind, n, "pool", tmp / f"{kind}-{n}-{k}-pool")
-    with cluster() as (address, scheduler):
-        client(kind, 40 if kind == "analyse" else 4, address, tmp / f"{kind}-{n}-{k}-warm")
+def on_dask(kind, n, folder, code=ROOT):
+    with cluster(code=code) as (address, scheduler):
+        client(kind, 40 if kind == "analyse" else 4, address, folder.with_name(folder.name + "-warm"), code)
         before = status_kB(scheduler, "VmRSS")
-        dask = client(kind, n, address, tmp / f"{kind}-{n}-{k}-dask")
+        dask = client(kind, n, address, folder, code)
         dask["scheduler_kB"], dask["scheduler_before_kB"] = status_kB(scheduler, "VmHWM"), before
-    return pool, dask
+    return dask
+
+
+def measure(kind, n, tmp, k, base=None):
+    """(pool, Dask, Dask with the base's code or None), interleaved."""
+    pool = client(kind, n, "pool", tmp / f"{kind}-{n}-{k}-pool")
+    dask = on_dask(kind, n, tmp / f"{kind}-{n}-{k}-dask")
+    return pool, dask, (on_dask(kind, n, tmp / f"{kind}-{n}-{k}-base", base) if base else None)
 
 
 def main():
@@ -114,42 +136,70 @@ def main():
     ap.add_argument("--sizes", default="2000,20000", help="analyse studies' cases")
     ap.add_argument("--optimise", type=int, default=24, help="cases of the optimise study (0: none)")
     ap.add_argument("--repeats", type=int, default=1, help="runs of each (medians)")
+    ap.add_argument("--base", default=None, help="a commit whose Dask runs are measured in the same run")
     args = ap.parse_args()
     load0 = os.getloadavg()
     runs = [("analyse", int(s)) for s in args.sizes.split(",") if s] + ([("optimise", args.optimise)] if args.optimise else [])
     got = {}
     with tempfile.TemporaryDirectory() as tmp:
+        base = None
+        if args.base:
+            base = Path(tmp) / "base"
+            base.mkdir()
+            archive = subprocess.run(["git", "archive", args.base, "optdesign", "problems"], cwd=ROOT, check=True,
+                                     capture_output=True).stdout
+            subprocess.run(["tar", "-x", "-C", str(base)], input=archive, check=True)
         for k in range(args.repeats):
             for kind, n in runs:
-                pool, dask = measure(kind, n, Path(tmp), k)
-                got.setdefault((kind, n), []).append((pool, dask))
-                print(kind, n, json.dumps(pool), json.dumps(dask), flush=True)
+                measured = measure(kind, n, Path(tmp), k, base)
+                got.setdefault((kind, n), []).append(measured)
+                print(kind, n, *(json.dumps(m) for m in measured), flush=True)
+            report(args, got, load0, k + 1)   # written after every round: a cut-short run leaves its rounds
+
+
+def report(args, got, load0, rounds):
     load1 = os.getloadavg()
     cmd = " ".join(["python benchmarks/bench_study_dask.py", *sys.argv[1:]])
     lines = ["# Dask against the pool (`python benchmarks/bench_study_dask.py`)", "",
              f"Written by `{cmd}` on {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; {git_state()}; machine "
              f"{cpu_model()}, nproc {os.cpu_count()}; load average {load0[0]:.2f} before, {load1[0]:.2f} after "
-             "(shared with other sessions' work).", "",
+             f"(shared with other sessions' work); {rounds} of {args.repeats} round(s) done.", "",
              "2 workers each: the local pool (2 processes) and a Dask cluster of 2 single-threaded worker processes and "
              "a scheduler process on loopback (a fresh cluster per run, warmed by a small study: its helpers "
              "started, the model built; the pool's runs include their processes' start). Analyse: the truck crane, "
              "10 boom masses x payloads; optimise: the jib (seed1_jib_design), mC on a grid, 2 starts, chains of 4. "
-             f"Medians of {args.repeats} interleaved run(s). Peak memory is VmHWM (the client's imports included; "
-             "the scheduler's since it started, the warm-up included).", "",
-             "| study | cases | pool cases/s | Dask cases/s | Dask / pool | client peak MB pool / Dask | client CPU per "
-             "case pool / Dask [us] | scheduler peak MB (at start) |", "|---|---|---|---|---|---|---|---|"]
+             f"Medians of {rounds} interleaved run(s) (pool, Dask{', Dask at the base' if args.base else ''}). "
+             "Whole run: wall time from Study.run to its return, start-up included (the client's connection or the "
+             "pool's start, the first case's wait); steady: the cases after the first durable one over the time from "
+             "it to the last. Peak memory is VmHWM (the client's imports included; the scheduler's since it "
+             "started, the warm-up included).", ""]
+    cols = [("this", 1)] + ([(f"base {args.base}", 2)] if args.base else [])
+    head = " | ".join(f"Dask / pool whole ({name}) | Dask / pool steady ({name})" for name, _ in cols)
+    lines += [f"| study | cases | pool cases/s whole / steady | Dask cases/s whole / steady | {head} | first result s "
+              "pool / Dask | client CPU per case pool / Dask [us] | client peak MB pool / Dask | scheduler peak MB (at "
+              "start) |", "|---|---|---|---|" + "---|---|" * len(cols) + "---|---|---|---|"]
+
+    def med(rs, j, key):
+        return statistics.median((n / r[j]["wall"]) if key == "whole" else r[j][key] for r in rs)
+
     for (kind, n), rs in got.items():
-        pool_rate = statistics.median(n / p["wall"] for p, _ in rs)
-        dask_rate = statistics.median(n / d["wall"] for _, d in rs)
-        p, d = rs[-1]
-        lines.append(f"| {kind} | {n:,} | {pool_rate:,.1f} | {dask_rate:,.1f} | {dask_rate / pool_rate:.2f}x | "
-                     f"{p['hwm_kB'] / 1024:.0f} / {d['hwm_kB'] / 1024:.0f} | {1e6 * p['cpu'] / n:,.0f} / "
-                     f"{1e6 * d['cpu'] / n:,.0f} | {d['scheduler_kB'] / 1024:.0f} ({d['scheduler_before_kB'] / 1024:.0f}) |")
+        ratios = " | ".join(f"{med(rs, j, 'whole') / med(rs, 0, 'whole'):.2f}x | "
+                            f"{med(rs, j, 'steady') / med(rs, 0, 'steady'):.2f}x" for _, j in cols)
+        p, d = rs[-1][0], rs[-1][1]
+        lines.append(f"| {kind} | {n:,} | {med(rs, 0, 'whole'):,.1f} / {med(rs, 0, 'steady'):,.1f} | "
+                     f"{med(rs, 1, 'whole'):,.1f} / {med(rs, 1, 'steady'):,.1f} | {ratios} | "
+                     f"{statistics.median(r[0]['first_s'] for r in rs):.1f} / "
+                     f"{statistics.median(r[1]['first_s'] for r in rs):.1f} | "
+                     f"{statistics.median(1e6 * r[0]['cpu'] / n for r in rs):,.0f} / "
+                     f"{statistics.median(1e6 * r[1]['cpu'] / n for r in rs):,.0f} | "
+                     f"{p['hwm_kB'] / 1024:.0f} / {d['hwm_kB'] / 1024:.0f} | "
+                     f"{d['scheduler_kB'] / 1024:.0f} ({d['scheduler_before_kB'] / 1024:.0f}) |")
     lines.append("")
-    lines.append("Every run's cases all finished; successful cases: " + ", ".join(
-        f"{kind} {n:,}: {rs[-1][0]['ok']:,} / {rs[-1][1]['ok']:,}" for (kind, n), rs in got.items()) + ".")
+    lines.append("Every run's cases all finished; successful cases (pool / Dask" + (" / base" if args.base else "") + "): "
+                 + ", ".join(f"{kind} {n:,}: " + " / ".join(f"{r['ok']:,}" for r in rs[-1] if r) for (kind, n), rs in got.items())
+                 + ".")
     write_section("study_dask", "\n".join(lines) + "\n", SCALING_MD)
-    print("\n".join(lines))
+    print("\n".join(lines), flush=True)
 
 
 if __name__ == "__main__":

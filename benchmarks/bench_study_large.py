@@ -185,7 +185,8 @@ study = Study(optdesign.load(%r), [grid("mB", 500, 800, %d), grid("mP", 500, 300
 # the pool's workers (forked after this) answer every case at once with one real row, claiming
 # 0.4 ms of work per case (the 5,000 cases/s on 2 cores: the batches sized for that)
 out = dict(run_task(study.task(study.cases()[0])), time_s=0.0004)
-executors.run_batch = lambda tasks: [dict(out) for _ in tasks]
+from optdesign.study.blocks import blocks
+executors.batch_blocks = lambda tasks, index, ids: blocks(index, ids, [dict(out) for _ in tasks])
 t0, c0 = time.perf_counter(), time.process_time()
 r = study.run(out=folder, workers=2, figures=False)
 wall, cpu = time.perf_counter() - t0, time.process_time() - c0

@@ -62,7 +62,7 @@ import optdesign
 from optdesign.study import Study, grid
 from optdesign.study import execute
 n, out, where, batch = int(sys.argv[1]), sys.argv[2], sys.argv[3], int(sys.argv[5])
-execute.LOCKSTEP = 1 if where == "one by one" else batch   # 1: each case's analysis alone (tasks.run_task)
+execute.BATCH_MAX = 1 if where == "one by one" else batch   # 1: each case's analysis alone (tasks.run_task)
 masses = 10
 study = Study(optdesign.load(sys.argv[4]), [grid("mB", 500, 800, masses), grid("mP", 500, 3000, n // masses)],
               mode="analyse")
@@ -174,7 +174,7 @@ def batched_section(n, repeats, tmp, batch) -> str:
              f"An analyse study of the truck crane ({n:,} cases: 10 boom masses x {n // 10} payloads), each run in a "
              f"fresh process, the four ways interleaved {repeats} times; medians.  One case at a time is each "
              f"case's own `Analysis.run`; in batches (about 0.5 s of work each, `execute.GROUP_S`, at most {batch} "
-             "cases, `execute.LOCKSTEP`) the cases go through one `Analysis.run_many` and one `sweep_rms_many` "
+             "cases, `execute.BATCH_MAX`) the cases go through one `Analysis.run_many` and one `sweep_rms_many` "
              "(optdesign/model/runs.py: every stage over the batch's cases at once, each case's figures its own); "
              "the pool and Dask run such batches.  Client CPU is the study's own process (the pool's and Dask's "
              "processes not counted).", "",

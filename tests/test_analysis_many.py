@@ -257,3 +257,65 @@ def test_a_loop_closed_by_newton_mx_graphs_gives_each_case_its_own_run():
     assert _batch(analysis, P) == [_alone(analysis, p) for p in P]
     assert _batch(analysis, P[::-1]) == [_alone(analysis, p) for p in P[::-1]]
     assert analysis.sweep_rms_many(P) == [analysis.sweep_rms(p) for p in P]
+
+
+def test_per_stroke_values_with_located_extrema_are_those_of_the_samples_and_the_located_together():
+    """StrokeConstraints.values(columns, P, extra): each case's located values (a different number
+    per case, none, or NaN) count in its max(...)/min(...) as if they were samples: the values of
+    the columns with each case's located values appended (padded with its first sample)."""
+    scene = optdesign.load(ROOT / "problems" / "truck_crane.toml")
+    analysis = Analysis(ResolvedScene(scene, variable=CRANE))
+    stroke = analysis.stroke
+    assert {f for calls in stroke.calls for f, _ in calls} == {"max", "min"}
+    rng = np.random.default_rng(4)
+    n, samples = 7, 9
+    P = np.repeat(np.asarray(analysis.mech.parameter_values, float)[None, :], n, axis=0)
+    columns = {key: rng.uniform(-1, 1, (n, samples)) + 2.0 for key in stroke.keys}
+    extra = [rng.uniform(-2, 2, (len(stroke.keys), k)) + 2.0 if k is not None else None
+             for k in (3, None, 0, 1, 5, 2, 4)]
+    extra[5][0, 1] = math.nan
+    longest = max(e.shape[1] for e in extra if e is not None)
+    joined = {}
+    for row, key in enumerate(stroke.keys):
+        joined[key] = np.column_stack([columns[key], np.empty((n, longest))])
+        for case in range(n):
+            more = extra[case][row] if extra[case] is not None else np.zeros(0)
+            joined[key][case, samples:] = np.r_[more, np.full(longest - len(more), columns[key][case, 0])]
+    got, expected = stroke.values(columns, P, extra), stroke.values(joined, P)
+    assert np.isnan(got[5]).any() and np.array_equal(got, expected, equal_nan=True)
+    assert not np.array_equal(got, stroke.values(columns, P), equal_nan=True)   # the located values count
+
+
+def test_a_per_stroke_value_that_is_not_finite_stops_its_case_alone_and_large_finite_ones_pass():
+    """A per-stroke constraint that divides by zero for one case of a batch (mP = 1000): that case
+    carries the ResultError naming the constraint, the others their figures; two per-stroke
+    values near the largest double (their sum overflows) are finite and pass."""
+    from optdesign.errors import ResultError
+
+    text = (ROOT / "problems" / "truck_crane.toml").read_text()
+    text = text.replace("[objective]", """[[constraints]]
+name = "per payload"
+expr = "max(drive) / (mP - 1000)"
+max = 1e300
+
+[[constraints]]
+name = "huge one"
+expr = "max(drive) * 0 + 1.5e308"
+max = 1.7e308
+
+[[constraints]]
+name = "huge two"
+expr = "min(drive) * 0 + 1.5e308"
+max = 1.7e308
+
+[objective]""", 1)
+    scene = optdesign.loads(text, "truck_crane_checks.toml")
+    analysis = Analysis(ResolvedScene(scene.without_bounds("mP"), variable=["mP"]))
+    names = analysis.mech.parameter_names
+    P = np.repeat(np.asarray(analysis.mech.parameter_values, float)[None, :], 3, axis=0)
+    P[:, names.index("mP")] = [900.0, 1000.0, 1100.0]
+    runs = analysis.run_many(P)
+    assert isinstance(runs[1].error, ResultError) and "'per payload'" in str(runs[1].error)
+    for r in (runs[0], runs[2]):
+        assert r.error is None and r.stroke["huge one"] == r.stroke["huge two"] == 1.5e308
+        assert math.isfinite(r.stroke["per payload"])

@@ -77,6 +77,36 @@ def test_small_function_compiled_equals_the_virtual_machine(cache):
     assert sorted(p.suffix for p in cache.glob("external-*") if p.suffix != ".lock") == [".json", ".so"]
 
 
+def test_many_cases_in_whole_chunks_equal_each_case_alone(cache):
+    """BlockedFunction.many and .ragged (as many values per case, and not) over enough cases for
+    several whole mapped calls of CHUNK blocks (read and written in place) and a partial one: each
+    case's values are those of its own call (==), whatever the batch; NaN where the case's sqrt is
+    undefined."""
+    from optdesign.model.blocked import BLOCK, CHUNK
+
+    ev = stroke_evaluator(small_function())
+    rng = np.random.default_rng(7)
+    cases = 2 * CHUNK + 5   # S: 16 blocks per case, many whole chunks and a partial one
+    params = np.column_stack([rng.uniform(0.2, 3.0, cases), rng.uniform(-1, 1, cases), rng.uniform(-1, 1, cases)])
+    got = ev.many(S, params)
+    counts = rng.integers(0, 3 * BLOCK, cases)
+    counts[3] = 0   # a case without values
+    points = rng.uniform(-1.5, 1.5, counts.sum())
+    ragged = ev.ragged(points, counts, params)
+    ends = np.cumsum(counts)
+    even = rng.uniform(-1.5, 1.5, 100 * cases)
+    equal = ev.ragged(even, np.full(cases, 100), params)   # as many values each
+    for i in range(cases):
+        alone = ev(S, params[i])
+        mine = ev(points[ends[i] - counts[i]:ends[i]], params[i])
+        mine_equal = ev(even[100 * i:100 * (i + 1)], params[i])
+        for name in ev.names:
+            assert got[name].shape == (cases, len(S)) and got[name].flags.c_contiguous
+            assert np.array_equal(got[name][i], alone[name], equal_nan=True), (i, name)
+            assert np.array_equal(ragged[name][ends[i] - counts[i]:ends[i]], mine[name], equal_nan=True), (i, name)
+            assert np.array_equal(equal[name][100 * i:100 * (i + 1)], mine_equal[name], equal_nan=True), (i, name)
+
+
 @pytest.mark.parametrize("scene", ["level_luffing_crane", "seed1_slider_crank"])
 def test_reduced_model_compiled_equals_the_virtual_machine(cache, scene):
     analysis = Analysis(load(ROOT / "problems" / f"{scene}.toml"), samples=2001, certify=False)

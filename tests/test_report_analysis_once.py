@@ -4,6 +4,7 @@ the figures share :func:`optdesign.report.design_cases.optimum_analysis`, and th
 draws with the analysis the command sends it instead of making its own."""
 from __future__ import annotations
 
+import time
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -41,7 +42,7 @@ def test_the_cases_and_the_figures_share_one_analysis(result, monkeypatch):
 def test_the_figure_process_draws_with_the_analysis_it_is_sent(result, monkeypatch, tmp_path):
     sent = SimpleNamespace(cases="the command's analysis (a stand-in)")
 
-    def draw(result, folder, workers, animate):   # in the forked process: the analysis kept, none made
+    def draw(result, folder, workers, animate, before_html=None):   # in the forked process: the analysis kept, none made
         monkeypatch.setattr(analysis_module, "analyse", lambda scene: pytest.fail("analysed again"))
         assert design_cases.optimum_analysis(result) == sent
         assert design_cases.cases_at_optimum(result) == sent.cases
@@ -55,7 +56,7 @@ def test_the_figure_process_draws_with_the_analysis_it_is_sent(result, monkeypat
 
 
 def test_a_failed_check_in_the_figure_process_reaches_the_command(result, monkeypatch, tmp_path):
-    def draw(result, folder, workers, animate):
+    def draw(result, folder, workers, animate, before_html=None):
         assert design_cases.optimum_analysis(result) == "another analysis"
         return []
 
@@ -64,3 +65,26 @@ def test_a_failed_check_in_the_figure_process_reaches_the_command(result, monkey
         assert figures.send(result, tmp_path, 1, False, SimpleNamespace(cases=None))
         with pytest.raises(RuntimeError, match="(?s)drawing the figures failed.*AssertionError"):
             figures.receive()
+
+
+def test_the_figure_process_writes_the_page_after_the_json(result, monkeypatch, tmp_path):
+    """report.html's drive-train section reads the folder's result.json: the figure process
+    waits for the command's word that it is written (the slow set once saw a page without its
+    motors table: the page was written while the command still computed the JSON)."""
+    def draw(result, folder, workers, animate, before_html=None):
+        (Path(folder) / "figures.png").write_text("drawn")
+        if before_html is not None:
+            before_html()   # where write_figures writes report.html
+        return [Path(folder) / ("page after the JSON" if (Path(folder) / "result.json").exists()
+                                else "page before the JSON")]
+
+    monkeypatch.setattr(design_figures, "write_figures", draw)
+    with FigureProcess() as figures:
+        assert figures.send(result, tmp_path, 1, False, SimpleNamespace(cases=None))
+        for _ in range(3000):   # the figures drawn while the command computes the JSON (a catalogue's: slow)
+            if (tmp_path / "figures.png").exists():
+                break
+            time.sleep(0.01)
+        (tmp_path / "result.json").write_text("{}\n")
+        assert figures.receive() == [tmp_path / "page after the JSON"]
+

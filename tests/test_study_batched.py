@@ -53,6 +53,52 @@ def test_a_family_of_four_bars_in_a_batch_gives_each_its_own_row():
     assert _rows(run_batch(tasks)) == _rows(alone)
 
 
+def test_a_batch_made_column_by_column_gives_the_blocks_of_its_cases_run_alone():
+    """analysed.batch_blocks (a batch's rows made a column at a time on the worker) gives the
+    blocks that .blocks.blocks makes from the rows of each case run alone: the same cases in the
+    same blocks in the same order, the same keys and values, the same journal lines (but for the
+    batch's shared time_s); a case that does not assemble mid-batch makes a block of its own."""
+    import re
+
+    from optdesign.study.analysed import batch_blocks
+    from optdesign.study.blocks import blocks
+
+    cases = [{k: float(v) for k, v in d.items()} for d in designs(8, seed=5)]
+    scene = optdesign.loads(SCENE.format(side="left", g=G, omega=OMEGA, m2=M2, m3=M3, **cases[0]), "four-bars")
+    cases.insert(2, dict(cases[0], a=4.0))   # not a crank-rocker: does not assemble over the sweep
+    study = Study(scene, [together(cases)], mode="analyse")
+    tasks = _tasks(study)
+    index, ids = [c.index for c in study.cases()], [c.id for c in study.cases()]
+    made, alone = batch_blocks(tasks, index, ids), blocks(index, ids, [run_task(t) for t in tasks])
+    assert len(made) == len(alone) == 2 and sum(len(b) for b in made) == len(cases)
+    timeless = re.compile(r'"time_s":[^}]*}')
+    for mine, theirs in zip(made, alone):
+        assert (mine.index, mine.ids, mine.keys, mine.values, mine.x) == \
+            (theirs.index, theirs.ids, theirs.keys, theirs.values, theirs.x)
+        assert [type(v) for c in mine.values for v in c] == [type(v) for c in theirs.values for v in c]
+        assert [timeless.sub("", line) for line in mine.lines()] == [timeless.sub("", line) for line in theirs.lines()]
+
+
+def test_a_models_cache_key_is_the_json_of_what_it_depends_on_also_when_found_again():
+    """tasks._model_key: the key found again by values and types (not json.dumps per case) is
+    the JSON of the case's inputs; values equal in Python but not in JSON (1, 1.0, True; 0.0
+    and -0.0) keep their own keys; settings that cannot be hashed still give their JSON."""
+    import dataclasses
+
+    from optdesign.study.tasks import Task, _model_key
+
+    base = Task(b"", "d1", "analyse", (("mP", 1.0),), (), 1, 0, 1, (("tol", 1e-10), ("grid", 13)), None)
+    cases = [({}, ()), ({"n": 1}, ()), ({"n": 1.0}, ()), ({"n": True}, ()), ({"n": 0.0}, ()), ({"n": -0.0}, ()),
+             ({"n": "1"}, ()), ({}, (("c", "upper", 2.0),)), ({}, (("c", "upper", 2),))]
+    for settings in (base.settings, (("tol", 1e-10), ("grid", 13.0)), (("options", {"a": 1}),)):
+        task = dataclasses.replace(base, settings=settings)
+        for _ in range(2):   # made, then found again
+            keys = [_model_key(task, structural, bounds, ["mP"]) for structural, bounds in cases]
+            assert keys == [json.dumps(["d1", "analyse", sorted(structural.items()), bounds, settings, ["mP"]],
+                                       default=repr) for structural, bounds in cases]
+            assert len(set(keys)) == len(cases)
+
+
 @pytest.fixture(scope="module")
 def crane_study():
     scene = optdesign.load(ROOT / "problems" / "truck_crane.toml")
@@ -62,12 +108,12 @@ def crane_study():
 @pytest.fixture(scope="module")
 def one_by_one(crane_study, tmp_path_factory):
     folder = tmp_path_factory.mktemp("one_by_one")
-    old = study_execute.LOCKSTEP
-    study_execute.LOCKSTEP = 1   # batches of one case: each run alone (tasks.run_task)
+    old = study_execute.BATCH_MAX
+    study_execute.BATCH_MAX = 1   # batches of one case: each run alone (tasks.run_task)
     try:
         crane_study.run(out=folder, workers=1, figures=False)
     finally:
-        study_execute.LOCKSTEP = old
+        study_execute.BATCH_MAX = old
     return (folder / "cases.csv").read_bytes()
 
 

@@ -18,7 +18,7 @@ from scipy.optimize import brentq
 from optdesign.model.analysis import RMS_PANEL, Analysis, rms_starts
 from optdesign.model.time_integrals import TOLERANCE
 from optdesign.scene.file import load
-from optdesign.study.tasks import _analyse_rows
+from optdesign.study.analysed import case_rows
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ref_press_servo import STROKE, Press  # noqa: E402
@@ -48,7 +48,7 @@ def test_the_study_rows_rms_is_the_continuous_one():
     stated and below 1e-9.  On the old code (the trapezoid rule on the 161 samples) the row was off
     by more than that."""
     analysis = Analysis(load(SCENE))
-    row = _analyse_rows(analysis, [analysis.mech.parameter_values])[0]
+    row = case_rows(analysis, [analysis.mech.parameter_values])[0]
     drive, power = reference()
     assert row["rms:drive"] == pytest.approx(drive, rel=1e-9)
     assert row["rms:power"] == pytest.approx(power, rel=1e-9)

@@ -57,7 +57,10 @@ def rms_key(what) -> tuple:
 
 def _light(pb):
     """The cases without their peaks' certificates (their integrals are certified), built once."""
-    return pb._once("cycle integrals", lambda: CaseAnalysis(pb.mech, pb.mech.stroke(), certify=False))
+    # compiled: every start's certificate runs the cases at the adaptive quadrature's nodes and
+    # its recheck on grids 16 and 8 times the scene's (crane_luffing_drive: ~1 s of a 2.5 s start
+    # on the virtual machine)
+    return pb._once("cycle integrals", lambda: CaseAnalysis(pb.mech, pb.mech.stroke(), certify=False, compile=True))
 
 
 def cycle_rms(pb, x, fixed=None) -> dict:

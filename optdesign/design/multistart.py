@@ -35,7 +35,8 @@ from .starts import RETRIES, StartPlan, plan_starts
 
 
 def optimise(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSettings | None = None,
-             progress=None, x_starts=None, workers: int = 1, prepared=None, finished=None) -> OptimisationResult:
+             progress=None, x_starts=None, workers: int = 1, prepared=None, finished=None,
+             retry_if_fits: bool = False) -> OptimisationResult:
     """Minimise the scene's objective over its design variables (front door).
 
     ``starts`` local solves from reproducible starts (the scene's start, then the best of a
@@ -46,7 +47,15 @@ def optimise(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSett
     can fork; the result does not depend on the number of workers).  ``prepared``: the
     :class:`Prepared` problem and plan of these arguments, made beforehand (the motor
     catalogue makes the next motor's while this one's starts run); ``finished(report)`` is
-    called with each start's :class:`StartReport` as it finishes."""
+    called with each start's :class:`StartReport` as it finishes.
+
+    ``retry_if_fits`` (the motor catalogue's rule, :mod:`.catalogue`): each start first tries
+    its own point alone; only when one of them found a design feasible at the sample points are
+    the others retried from the reserve, as without the rule (the same result: a start's
+    retries depend on its index alone).  When phase 1 failed from every start's own point, the
+    problem is reported infeasible without the retries (a catalogue motor that cannot fit:
+    crane_luffing_drive's 4 and 5.5 kW motors, whose every retry ended at the same least
+    violation as its start)."""
     starts, seed, workers = optimise_arguments(scene_argument("optimise", scene), starts, seed, workers)
     t0 = time.perf_counter()
     with interruptible():   # Ctrl-C: stop at once, keep the finished starts
@@ -62,7 +71,10 @@ def optimise(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSett
             try:
                 if progress is not None:
                     progress(0, len(plan.points))  # the starts are planned (a caller may stop here: Ctrl-C)
-                runs = solve_starts(solver, repair, plan, workers, progress, finished)
+                if retry_if_fits:
+                    runs = solve_then_retry(solver, repair, plan, workers, progress, finished)
+                else:
+                    runs = solve_starts(solver, repair, plan, workers, progress, finished)
                 reports, solutions = [r for r, _ in runs], [s for _, s in runs]
                 return summarise(problem, solver, reports, solutions, spent(), plan)
             except KeyboardInterrupt as exc:   # during the starts, or while all of them are summarised
@@ -133,38 +145,89 @@ def draw_starts(problem: DesignProblem, starts: int, seed: int, fixed=None) -> n
     return plan_starts(problem, starts, seed, fixed).points
 
 
-def solve_starts(solver: Solver, repair: Repair, plan, workers=1, progress=None, finished=None) -> list:
+def solve_then_retry(solver: Solver, repair: Repair, plan, workers=1, progress=None, finished=None) -> list:
+    """:func:`solve_starts` with ``retry_if_fits`` (:func:`optimise`): every start from its own
+    point alone; then, if any start reached phase 1's feasibility (its objective phase ran),
+    the starts that failed retried as :func:`solve_starts` would (phase 1 from their own point
+    not repeated: its result is the first pass's), giving the same (report, solution) per start.
+    ``progress`` and ``finished`` see the first pass."""
+    firsts = solve_starts(solver, repair, plan, workers, progress, finished, retries=False)
+    if not any(_fits(report) for report, _ in firsts):
+        return firsts
+    again = [i for i, (report, _) in enumerate(firsts) if not report.success]
+    if not again:
+        return firsts
+    earlier = {i: _first_try(solver.pb, firsts[i][0]) for i in again}
+    try:
+        retried = solve_starts(solver, repair, plan, workers, indices=again, earlier=earlier)
+    except KeyboardInterrupt as exc:   # keep the first pass's successes and the retried starts finished
+        done = dict(zip(getattr(exc, "finished_at", []), getattr(exc, "finished", [])))
+        exc.finished = [done.get(i, run) for i, run in enumerate(firsts) if i in done or run[0].success]
+        raise
+    runs = list(firsts)
+    for i, run in zip(again, retried):
+        runs[i] = run
+    return runs
+
+
+def _fits(report) -> bool:
+    """Whether a start's phase 1 reached a design feasible at the sample points."""
+    return report.success or not report.status.startswith("phase 1 failed")
+
+
+def _first_try(pb, report):
+    """(Phase1Result or None, repaired) of a start's own point, from its report of a pass
+    without retries: what :func:`feasible_start` returned there; None when the objective phase
+    ran from it (the start is then solved again whole)."""
+    from .phase1 import Phase1Result
+
+    if _fits(report) or len(report.tried) != 1:
+        return None
+    entry = report.tried[0]
+    if entry["violation"] is None:   # did not assemble and could not be repaired
+        return (None, entry["repaired"])
+    x = np.array([report.feasible_start[n] for n in pb.design_names])
+    return (Phase1Result(x, entry["violation"], entry["phase1"], entry["phase1_iterations"]), entry["repaired"])
+
+
+def solve_starts(solver: Solver, repair: Repair, plan, workers=1, progress=None, finished=None, retries=True,
+                 indices=None, earlier=None) -> list:
     """(StartReport, Solution) of every start of ``plan`` (a :class:`StartPlan` or an array of
     start points), in order: in this process, or shared among ``workers`` forked processes
     (``finished(report)`` called here as each one finishes).
     Each start is solved on its own (nothing passes between starts), so the result is the
-    same for any number of workers."""
+    same for any number of workers.  ``retries`` False: each start from its own point alone;
+    ``indices``: only these starts (in this order; all by default), ``earlier``: index ->
+    (Phase1Result or None, repaired) of that start's own point, already found
+    (:func:`solve_then_retry`)."""
     if not isinstance(plan, StartPlan):
         plan = StartPlan(plan, np.zeros((0, len(solver.pb.design_names))), 0, "given")
-    n = len(plan.points)
+    indices = list(range(len(plan.points))) if indices is None else list(indices)
+    earlier = earlier or {}
+    n = len(indices)
     workers = max(1, min(int(workers), n))
     if workers == 1 or "fork" not in multiprocessing.get_all_start_methods():
         runs = []
         try:
-            for i in range(n):
-                runs.append(solve_start(solver, repair, i, plan.points[i], retry=lambda k, i=i: plan.retry(i, k)))
+            for i in indices:
+                runs.append(_solve_one(i, (solver, repair, plan, retries, earlier))[1])
                 if finished is not None:
                     finished(runs[-1][0])
                 if progress is not None:
-                    progress(i + 1, n)
+                    progress(len(runs), n)
         except KeyboardInterrupt as exc:   # Ctrl-C: the caller keeps the starts that finished
-            exc.finished = runs
+            exc.finished, exc.finished_at = runs, indices[:len(runs)]
             raise
         return runs
     global _FORKED
     ctx = multiprocessing.get_context("fork")
-    _FORKED = (solver, repair, plan)
+    _FORKED = (solver, repair, plan, retries, earlier)
     runs = {}
     # a pool that says when one of its processes died (a multiprocessing.Pool replaces it and
     # waits for ever for the start it was solving)
     pool = cf.ProcessPoolExecutor(workers, mp_context=ctx, initializer=worker_process, initargs=(os.getpid(),))
     try:
-        for f in cf.as_completed([pool.submit(_solve_one, i) for i in range(n)]):
+        for f in cf.as_completed([pool.submit(_solve_one, i) for i in indices]):
             i, run = f.result()   # a worker's exception is raised here
             runs[i] = run
             if finished is not None:
@@ -172,7 +235,8 @@ def solve_starts(solver: Solver, repair: Repair, plan, workers=1, progress=None,
             if progress is not None:
                 progress(len(runs), n)
     except KeyboardInterrupt as exc:   # Ctrl-C: the caller keeps the starts that finished
-        exc.finished = [runs[i] for i in sorted(runs)]
+        exc.finished_at = [i for i in indices if i in runs]
+        exc.finished = [runs[i] for i in exc.finished_at]
         raise
     except BrokenProcessPool:
         raise SolverError(f"a worker process of --workers {workers} died while solving the starts (killed, out of "
@@ -181,7 +245,7 @@ def solve_starts(solver: Solver, repair: Repair, plan, workers=1, progress=None,
     finally:
         _FORKED = None
         _end_pool(pool, wait=len(runs) == n)
-    return [runs[i] for i in range(n)]
+    return [runs[i] for i in indices]
 
 
 def _end_pool(pool, wait):
@@ -194,12 +258,13 @@ def _end_pool(pool, wait):
             process.terminate()
 
 
-_FORKED = None  # what forked workers inherit: (solver, repair, plan)
+_FORKED = None  # what forked workers inherit: (solver, repair, plan, retries, earlier)
 
 
-def _solve_one(i):
-    solver, repair, plan = _FORKED
-    return i, solve_start(solver, repair, i, plan.points[i], retry=lambda k: plan.retry(i, k))
+def _solve_one(i, given=None):
+    solver, repair, plan, retries, earlier = given or _FORKED
+    return i, solve_start(solver, repair, i, plan.points[i], retry=(lambda k: plan.retry(i, k)) if retries else None,
+                          first=earlier.get(i))
 
 
 def feasible_start(solver: Solver, repair: Repair, x0, fixed):
@@ -224,11 +289,13 @@ def feasible_start(solver: Solver, repair: Repair, x0, fixed):
     return phase1(w0, p, lbg, ubg), repaired
 
 
-def solve_start(solver: Solver, repair: Repair, index, x0, fixed=None, retry=None) -> tuple:
+def solve_start(solver: Solver, repair: Repair, index, x0, fixed=None, retry=None, first=None) -> tuple:
     """One start: phase 1 (a design feasible at the sample points, repairing the point first if
     it does not assemble), then the objective phase from the feasible design.  While phase 1
     cannot make the point feasible, or the objective phase fails, the start is retried from
-    ``retry(k)`` (k = 0, 1, ...: fresh points; None when spent).  (StartReport, Solution)"""
+    ``retry(k)`` (k = 0, 1, ...: fresh points; None when spent).  ``first``: what
+    :func:`feasible_start` returned from ``x0``, found before (then not found again).
+    (StartReport, Solution)"""
     pb = solver.pb
     t0 = time.perf_counter()
     fixed_v = solver.fixed_values(fixed)
@@ -240,7 +307,7 @@ def solve_start(solver: Solver, repair: Repair, index, x0, fixed=None, retry=Non
             point = None if retry is None else retry(k - 1)
             if point is None:
                 break
-        ph1, repaired = feasible_start(solver, repair, point, fixed_v)
+        ph1, repaired = first if k == 0 and first is not None else feasible_start(solver, repair, point, fixed_v)
         entry = {"start": dict(zip(names, map(float, point))), "repaired": repaired}
         tried.append(entry)
         if ph1 is None:

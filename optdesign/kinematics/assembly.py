@@ -36,7 +36,7 @@ from ..errors import AssemblyError
 from ..scene.written import sweep_unit
 from .batches import parameters_used, same_cases
 from .enclosure import Enclosures, Selected
-from .peaks import Request, continuous_maxima_rows, narrow_minima
+from .peaks import Request, extrema_of_cases, narrow_minima
 
 # A dyad or slider whose relative margin is below this is at (or numerically at) its limit
 # position: velocities there grow like 1/sqrt(margin) and the derivatives lose about
@@ -174,64 +174,110 @@ class AssemblyCheck:
             self._sampled = self._sampled_function()
             self._uses = parameters_used(self.mech, *self._sampled[0].call([self.mech.s, self.mech.p]))
         out = [None] * len(P)
-        for first, members in same_cases(P, self._uses):
-            try:
-                found = self._check(np.asarray(s_values, float), P[first])
-            except AssemblyError as exc:
-                found = exc
+        groups = same_cases(P, self._uses)
+        for (first, members), found in zip(groups, self._checks(np.asarray(s_values, float), P[[g for g, _ in groups]])):
             for i in members:
                 out[i] = found
         return out
 
-    def _check(self, s_values, p):
-        """(narrow, notes) of one case, or its AssemblyError raised."""
+    def _checks(self, s_values, P) -> list:
+        """Per case (a row of ``P``): (narrow, notes), or its AssemblyError.  The samples of every
+        case in one call, the continuous minima of the margins of all cases in one branch and
+        bound (:func:`~.peaks.extrema_of_cases`: every decision the case's own, so that a case's
+        result is the same in any batch); the rest (the failures' messages) per case."""
         f, closing = self._sampled
-        n = len(s_values)
-        if n not in self._maps:  # built once per stroke length, not on every call
-            self._maps[n] = f.map(n)
-        res = self._maps[n](s=s_values[None, :], p=p)
-        R = np.asarray(res["r"], float).reshape(len(self.rows), n)
+        n, G = len(s_values), len(P)
+        if "points" not in self._maps:   # one parameter row per point (model/mapped.py's way, here by CasADi's map)
+            self._maps["points"] = _PerPoint(f)
+        res = self._maps["points"](np.tile(s_values, G), np.repeat(P, n, axis=0))
         direction = 1.0 if n < 2 or s_values[-1] >= s_values[0] else -1.0
-        failures = self._loops(res, closing, s_values, direction)
-        more, narrow, notes = self._margins(R, s_values, p, direction)
-        failures += more
-        if failures:
-            first = min(failures, key=lambda x: (x.at, x.order))
-            raise AssemblyError(first.message, construction=first.construction, s=first.s)
-        return narrow, notes
+        staged = []
+        for c in range(G):
+            one = {k: v[:, c * n:(c + 1) * n] for k, v in res.items()}
+            R = one["r"].reshape(len(self.rows), n)
+            failures = self._loops(one, closing, s_values, direction)
+            more, sign, T, first_bad, rows = self._sampled_margins(R, s_values, P[c], direction)
+            staged.append((failures + more, sign, T, first_bad, rows))
+        between = self._between(s_values, P, staged, direction)
+        out = []
+        for c, (failures, sign, T, first_bad, rows) in enumerate(staged):
+            failures, narrow, notes = self._continuous(s_values, P[c], sign, first_bad, rows, between.get(c), direction,
+                                                       failures)
+            if failures:
+                first = min(failures, key=lambda x: (x.at, x.order))
+                out.append(AssemblyError(first.message, construction=first.construction, s=first.s))
+            else:
+                out.append((narrow, notes))
+        return out
 
-    def _margins(self, R, s_values, p, direction):
-        """Failures of the relative margins, at the samples and between them, and the minima
-        that pass but are narrower than the samples' spacing ((s, width) each:
-        :func:`~.peaks.narrow_minima`)."""
+    def _sampled_margins(self, R, s_values, p, direction):
+        """(failures at the samples, each row's sign, the signed margins T, row -> its first failing
+        sample, the rows whose continuous minima are looked for: those that vary with s and have
+        a finite value) of one case's relative margins ``R`` (rows x samples)."""
         sign = np.ones(len(self.rows))
         for i, (m, _, _) in enumerate(self.rows):
             if m.kind == "loop":  # a loop's determinant keeps the sign of its branch
                 finite = R[i][np.isfinite(R[i])]
                 sign[i] = 1.0 if not finite.size or finite[0] >= 0 else -1.0
         T = sign[:, None] * R
-        failures, narrow, notes = [], [], {}
-        first_bad = {}
+        failures, first_bad = [], {}
         for i, (m, _, limit) in enumerate(self.rows):
             bad = np.flatnonzero(~(T[i] > limit))
             if bad.size:
                 first_bad[i] = k = int(bad[0])
                 failures.append(self._sampled_failure(i, k, T, s_values, p, sign, direction))
-        # between the samples: the continuous minima of every margin that varies with s
         rows = [i for i in range(len(self.rows)) if self.varies[i] and np.any(np.isfinite(T[i]))]
-        if rows and len(s_values) >= 2:
-            ascending = direction > 0
-            s_grid = s_values if ascending else s_values[::-1]
-            V = T[rows] if ascending else T[rows][:, ::-1]
+        return failures, sign, T, first_bad, tuple(rows)
 
-            def evaluate_many(s):
-                out = self._derivatives_many(s, p)
-                return tuple(sign[rows, None] * a[rows] for a in out)
+    def _between(self, s_values, P, staged, direction) -> dict:
+        """case -> the continuous minima of its rows (one list of extrema per row), all cases with
+        the same rows and signs in one :func:`~.peaks.extrema_of_cases` (the enclosure's proof
+        between the samples)."""
+        if len(s_values) < 2:
+            return {}
+        kinds = {}
+        for c, (_, sign, _, _, rows) in enumerate(staged):
+            if rows:
+                kinds.setdefault((rows, tuple(sign[list(rows)])), []).append(c)
+        self._build_derivatives()
+        ascending = direction > 0
+        s_grid = s_values if ascending else s_values[::-1]
+        out = {}
+        for (rows, signs), cases in kinds.items():
+            rows, signs, cases = list(rows), np.array(signs)[:, None], np.array(cases)
+            V = np.stack([staged[c][2][rows] for c in cases])
+            V = V if ascending else V[:, :, ::-1]
+            Pc = P[cases]
+
+            def evaluate(s, which, rows=rows, signs=signs, Pc=Pc):
+                found = self._derivative_points(s, Pc[which])
+                return tuple(signs * a[rows] for a in found)
 
             requests = [Request(j, "min", ends=True, tol=ASSEMBLY_TOL) for j in range(len(rows))]
-            self._build_derivatives()
-            enclosure = Selected(self._enclosures.at(p), rows, sign[rows])   # the proof between the samples
-            extrema = continuous_maxima_rows(evaluate_many, s_grid, V, requests, enclosure=enclosure)
+            enclosure = Selected(self._enclosures.at(Pc), rows, signs.ravel())   # the proof between the samples
+            out.update(zip(cases.tolist(), extrema_of_cases(evaluate, s_grid, V, requests, enclosure=enclosure)))
+        return out
+
+    def _derivative_points(self, s, P):
+        """(R, dR/ds, d2R/ds2) of every relative margin at each sweep value of ``s`` with its own
+        parameter row of ``P``."""
+        if "derivative points" not in self._maps:
+            self._maps["derivative points"] = _PerPoint(self._derivatives)
+        found = self._maps["derivative points"](np.asarray(s, float), P)
+        return found["r"], found["dr"], found["d2r"]
+
+    def _continuous(self, s_values, p, sign, first_bad, rows, extrema, direction, failures):
+        """One case's ``failures`` (at the samples) with those between the samples, the minima
+        that pass but are narrower than the samples' spacing ((s, width) each:
+        :func:`~.peaks.narrow_minima`) and the notes, from its rows' continuous minima
+        ``extrema`` (None without)."""
+        failures, narrow, notes = list(failures), [], {}
+        if extrema is not None:
+            rows = list(rows)
+
+            def evaluate_many(s):
+                return tuple(sign[rows, None] * a[rows] for a in self._derivative_points(s, np.tile(p, (len(s), 1))))
+
             notes = {self.rows[i][0].construction: extrema[j][0].note for j, i in enumerate(rows)
                      if extrema[j][0].note}
             for j, i in enumerate(rows):
@@ -358,6 +404,30 @@ class AssemblyCheck:
                         f"{fmt_s(s_values[k + 1], self.mech.scene)}. Give initial guesses that follow the branch (they "
                         "may use the sweep variable), or narrow the sweep.")))
         return failures
+
+
+class _PerPoint:
+    """A Function (s, p) evaluated at many sweep values, each with its own parameter row:
+    CasADi's map over both inputs (the same numbers, point by point, as a map over s with one
+    p), padded to a power of two so that the maps are few, in pieces of at most CHUNK points."""
+
+    CHUNK = 1 << 15
+
+    def __init__(self, func):
+        self.func, self._maps = func, {}
+
+    def __call__(self, s, P) -> dict:
+        s, P = np.asarray(s, float), np.asarray(P, float)
+        n = len(s)
+        if n > self.CHUNK:
+            parts = [self(s[i:i + self.CHUNK], P[i:i + self.CHUNK]) for i in range(0, n, self.CHUNK)]
+            return {k: np.concatenate([part[k] for part in parts], axis=1) for k in parts[0]}
+        size = max(8, 1 << max(n - 1, 0).bit_length())
+        if size not in self._maps:
+            self._maps[size] = self.func.map(size)
+        pad = size - n
+        out = self._maps[size](s=np.r_[s, np.full(pad, s[-1])][None, :], p=np.r_[P, np.repeat(P[-1:], pad, axis=0)].T)
+        return {k: np.asarray(v, float)[:, :n] for k, v in out.items()}
 
 
 def _spacing(s_values):

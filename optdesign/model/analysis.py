@@ -152,7 +152,8 @@ class Analysis:
         self._stroke_rows = None   # the aggregates' rows at located sweep values, built on first use
         self.assembly = AssemblyCheck(self.mech)
         self.certified = CertifiedExtremes(self) if certify else None
-        self.case_analysis = CaseAnalysis(self.mech, self.s_values, joints, certify) if scene.cases else None
+        # the load cases' columns compiled from the disk cache (the same numbers: CasADi's C)
+        self.case_analysis = CaseAnalysis(self.mech, self.s_values, joints, certify, compile=True) if scene.cases else None
         self.build_time = time.perf_counter() - t0
 
     def sweep_rms(self, p_values) -> dict:

@@ -253,8 +253,18 @@ class BlockedFunction:
         whatever the other cases."""
         s = np.asarray(s_row, float).ravel()
         P = np.atleast_2d(np.asarray(P, float))
-        out = self.ragged(np.tile(s, len(P)), np.full(len(P), len(s)), P)
-        return {k: v.reshape(len(P), len(s)) for k, v in out.items()}
+        return {k: v.reshape(len(P), len(s)) for k, v in self._rows(np.broadcast_to(s, (len(P), len(s))), P).items()}
+
+    def _rows(self, S, P) -> dict:
+        """{output name: values over ``S.ravel()``}: row i of ``S`` (cases x values) with the
+        parameters ``P[i]``, each row in blocks of its own padded with its last value."""
+        cases, n = S.shape
+        per = max(-(-n // self.block), 1)
+        rows = np.empty((cases, per * self.block))   # a case's blocks: its row padded with its last value
+        rows[:, :n] = S
+        rows[:, n:] = S[:, -1:] if n else 0.0
+        outs = self._run(rows.reshape(-1), np.repeat(P, per, axis=0))
+        return {k: v.reshape(cases, per * self.block)[:, :n].reshape(-1) for k, v in outs.items()}
 
     def ragged(self, s, counts, P) -> dict:
         """{output name: array over ``s``}: the first ``counts[0]`` values of ``s`` with the
@@ -263,6 +273,8 @@ class BlockedFunction:
         s = np.asarray(s, float).ravel()
         counts = np.asarray(counts, int)
         P = np.atleast_2d(np.asarray(P, float))
+        if len(counts) and counts[0] > 0 and np.all(counts == counts[0]):   # as many values each: many()'s layout
+            return self._rows(s.reshape(len(counts), counts[0]), P)
         block = self.block
         per = -(-counts // block)
         first = np.cumsum(per) - per
@@ -272,14 +284,37 @@ class BlockedFunction:
         last = np.where(counts > 0, s[np.maximum(ends - 1, 0)] if len(s) else 0.0, 0.0)
         s_in = np.repeat(last, per * block)
         s_in[where] = s
-        p_in = np.repeat(P, per, axis=0)
-        total = int(per.sum())
+        return {name: values[where] for name, values in self._run(s_in, np.repeat(P, per, axis=0)).items()}
+
+    def _run(self, s_in, p_in) -> dict:
+        """{output name: values over ``s_in``} (whole blocks; block j with the parameters
+        ``p_in[j]``), in mapped calls of CHUNK blocks that read and write the arrays in place,
+        the rest of at most CHUNK blocks through :meth:`_blocks`."""
+        block, total = self.block, len(p_in)
         outs = {name: np.empty(total * block) for name in self.names}
-        for start in range(0, total, CHUNK):
-            part = self._blocks(s_in[start * block:(start + CHUNK) * block], p_in[start:start + CHUNK])
+        full = total // CHUNK * CHUNK
+        if full:
+            buffer, run = self._direct()
+            p_in = np.ascontiguousarray(p_in)
+            for start in range(0, full, CHUNK):
+                at = slice(start * block, (start + CHUNK) * block)
+                buffer.set_arg(0, memoryview(s_in[at]))
+                buffer.set_arg(1, memoryview(p_in[start:start + CHUNK].reshape(-1)))
+                for j, name in enumerate(self.names):
+                    buffer.set_res(j, memoryview(outs[name][at]))
+                run()
+        if full < total:
+            part = self._blocks(s_in[full * block:], p_in[full:])
             for name, values in part.items():
-                outs[name][start * block:start * block + len(values)] = values
-        return {name: values[where] for name, values in outs.items()}
+                outs[name][full * block:] = values
+        return outs
+
+    def _direct(self):
+        """The mapped Function of CHUNK blocks whose buffer :meth:`_run` points at its arrays."""
+        if "direct" not in self._maps:
+            mapped = self.external.map(f"{self.external.name()}_blocks_{CHUNK}", "serial", CHUNK, [], [])
+            self._maps["direct"] = mapped.buffer()
+        return self._maps["direct"]
 
     def _blocks(self, s_in, p_rows) -> dict:
         """The outputs over whole blocks ``s_in``, block j with the parameters ``p_rows[j]`` (at

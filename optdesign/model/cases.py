@@ -20,14 +20,12 @@ import numpy as np
 from ..scene.cases import CASE_COLUMNS, Case, case_values
 from ..scene.expressions import evaluate
 from .certified import CertifiedPeaks
-from .duty import PEAK_KEYS, CaseTimes, DutyCycle, case_integrals, motor_report
-from .finite import check_cases
+from .duty import PEAK_KEYS, DutyCycle
 from .joints import PEAKED
 from .mapped import MappedFunction
-from .profiles import check_law, constant_motion, case_profile
+from .profiles import constant_motion, case_profile
 from .reduction import ReducedModel
-from .time_integrals import certified_integrals, columns_at
-from .train import cylinder_outputs, cylinder_sizing, gear_outputs, motor_numbers
+from .train import cylinder_outputs, gear_outputs, motor_numbers
 
 
 class CaseModel:
@@ -157,9 +155,11 @@ class CaseResult:
 class CaseAnalysis:
     """Every case of a scene over the stroke, compiled once (under :class:`optdesign.model.analysis.Analysis`)."""
 
-    def __init__(self, mech, s_values, joints=False, certify=True):
+    def __init__(self, mech, s_values, joints=False, certify=True, compile=False):
         """``joints``: each case's joint forces too (columns pin_force(P), ...: model/joints.py),
-        their peaks certified over the continuous stroke unless ``certify`` is False."""
+        their peaks certified over the continuous stroke unless ``certify`` is False;
+        ``compile``: the cases' columns from the disk cache of compiled code
+        (:class:`~.mapped.MappedFunction`: the same numbers, several times faster)."""
         self.mech = mech
         self.s_values = np.asarray(s_values, float)
         self.cases = [CaseModel(mech, c) for c in mech.scene.cases]
@@ -185,7 +185,8 @@ class CaseAnalysis:
             outs["hold_load"] = cm.static_load() + 0 * mech.s
             self.quantities = tuple(k for k in mech.quantities if k not in outs)   # [quantities], as columns
             outs.update({k: mech.quantities[k] + 0 * mech.s for k in self.quantities})
-            self.functions.append((list(outs), MappedFunction(mech.function(f"case_{len(self.functions)}", outs))))
+            self.functions.append((list(outs), MappedFunction(mech.function(f"case_{len(self.functions)}", outs),
+                                                                    compile=compile)))
         self.duty = DutyCycle(mech.scene, self.cases)
 
     def _outputs(self, cm, motor, joints) -> dict:
@@ -213,123 +214,32 @@ class CaseAnalysis:
 
     def run(self, p_values) -> "CasesResult":
         """Every case, the governing case of each peak, the duty cycle and the drive train at
-        the parameter vector ``p_values``."""
-        results, evaluated = {}, {}
-        for cm, (names, function), pin_peaks in zip(self.cases, self.functions, self.pin_peaks):
-            p_case = cm.case_parameters(np.asarray(p_values, float))
-            nodes, on_sample = case_nodes(self.s_values, cm.profile)
-            values, times = self._evaluate(cm, names, function, nodes, p_case)
-            hold = values.pop("hold_load")
-            constraints = {k.split(":", 1)[1]: values.pop(k) for k in list(values) if k.startswith("constraint:")}
-            distance = np.abs(nodes - cm.begins_at(np.sign(values["k"][0])))
-            at = {"start": int(np.argmin(distance)), "end": int(np.argmax(distance))}
-            ends = {k: hold[i] for k, i in at.items()}
-            columns = {"s": nodes}
-            columns.update({k: v for k, v in values.items()})
-            peaks, peak_at = {}, {}
-            for key in PEAK_KEYS + tuple(k for k in columns if k.startswith(PEAKED)):
-                if key in columns:
-                    i = int(np.argmax(np.abs(columns[key])))
-                    peaks[key] = float(abs(columns[key][i]))
-                    peak_at[key] = {"s": float(nodes[i]), "value": float(columns[key][i])}
-            sampled_pins, certificates = {}, {}
-            for name, J in self.motor_inertias.items():   # each motor's torque, sampled
-                torque = columns["motor_load_torque"] + J * columns["motor_acceleration"]
-                i = int(np.argmax(np.abs(torque)))
-                peaks[_motor_key(name)] = float(abs(torque[i]))
-                peak_at[_motor_key(name)] = {"s": float(nodes[i]), "value": float(torque[i])}
-            if pin_peaks is not None:   # every peak over the continuous stroke, located and certified
-                sampled = dict(columns, **{_motor_key(name): columns["motor_load_torque"] + J * columns["motor_acceleration"]
-                                           for name, J in self.motor_inertias.items()})
-                if LOAD in pin_peaks.names:   # sampled as the model's reduced inertia without its efficiency
-                    sampled[LOAD] = columns["reduced_inertia"] / columns.get("efficiency_factor", 1.0)
-                    peaks[LOAD] = float(np.max(np.abs(sampled[LOAD])))
-                for key, (value, where, certificate) in pin_peaks(nodes, p_case, sampled).items():
-                    sampled_pins[key], peaks[key], peak_at[key] = peaks[key], value, where
-                    certificates[f"peak |{key}|"] = certificate
-            load = None if LOAD not in peaks else {
-                "value": peaks.pop(LOAD), "at": peak_at.pop(LOAD), "sampled": sampled_pins.pop(LOAD),
-                "certificate": certificates.pop(f"peak |{LOAD}|")}
-            motors = {name: {"peak": peaks.pop(_motor_key(name)), "at": peak_at.pop(_motor_key(name)),
-                             "peak_sampled": sampled_pins.pop(_motor_key(name), None),
-                             "certificate": certificates.pop(f"peak |{_motor_key(name)}|", None)}
-                      for name in self.motor_inertias}
-            sigma = cm.profile.sigma if cm.profile is not None else 1.0
-            integrals = case_integrals(times, columns, sigma, self.quantities)
-            if integrals:
-                integrals = self._certified(cm, names, function, p_case, nodes, sigma, integrals)
-            profile = None if cm.case.profile is None else (cm.case.profile if isinstance(cm.case.profile, str)
-                                                            else f"inline {cm.profile.shape.kind}")
-            results[cm.name] = CaseResult(cm.name, cm.case.direction, profile, cm.case.efficiency,
-                                          {k: cm.values[k] for k in cm.case.overrides}, columns, peaks, peak_at,
-                                          integrals.get("duration", times.duration), integrals, on_sample, constraints,
-                                          sampled_pins, certificates, motors, _rests(cm.profile), load)
-            evaluated[cm.name] = {"hold": ends, "on_sample": on_sample,   # the quantities at a hold too
-                                  "quantities": {q: {k: columns[q][i] for k, i in at.items()} for q in self.quantities}}
-        duty = self.duty.evaluate(results, evaluated, p_values, self.mech)
-        env = self.mech.resolved.environment(np.asarray(p_values, float))
-        values = {k: float(v) for k, v in env.items()}
-        train = {}
-        if self.mech.scene.gearbox is not None:
-            ratio = float(evaluate(self.mech.scene.gearbox.ratio, values, {}, "[gearbox] ratio"))
-            train = {"ratio": ratio, **motor_report(self.mech.scene, values, results, duty, ratio)}
-            if train.get("motors"):
-                chosen = train["smallest_fitting"] or next(iter(train["motors"]))
-                train["shown"] = chosen
-                add_motor_torque(results, duty, train["motors"][chosen], chosen)
-        if self.mech.scene.cylinder is not None:
-            train = cylinder_report(self.mech.scene, values, results)
-        result = CasesResult(results, governing_cases(results), duty, train)
-        check_cases(result, "N m" if self.mech.scene.drive.kind == "rotary" else "N")
-        return result
+        the parameter vector ``p_values`` (the batch of one of :meth:`run_many`)."""
+        found = self.run_many(np.asarray(p_values, float).ravel()[None, :])[0]
+        if isinstance(found, Exception):
+            raise found
+        return found
+
+    def run_many(self, P) -> list:
+        """:meth:`run` of every row of ``P`` (cases x parameters): per row its
+        :class:`CasesResult` or the OptdesignError that stopped it, each bit for bit what the row
+        alone gives (:func:`.case_runs.run_many`)."""
+        from .case_runs import run_many
+
+        return run_many(self, P)
 
     def _evaluate(self, cm, names, function, nodes, p_case):
-        """The case's outputs at ``nodes`` (q unwrapped for a crank) and its times."""
+        """Case ``cm``'s outputs at ``nodes`` with its parameters ``p_case`` (q unwrapped for a
+        crank, a law's checks) and its times (:func:`.case_runs.finish_columns`)."""
+        from .case_runs import finish_columns
+
         values = dict(zip(names, (np.asarray(v, float).ravel() for v in function(nodes, p_case))))
-        if self.mech.scene.drive.kind == "rotary":
-            values["q"] = np.unwrap(values["q"])
-        if cm.profile is not None and cm.profile.law_speed is not None:
-            check_law(cm.profile, nodes, cm.profile.sigma * values["sd"], cm.name, self.mech.scene.path)   # V: a reverse case has sd = -V
-            _law_end_limits(cm.profile, nodes, values, lambda s: function(s, p_case), names)
-        times = CaseTimes.of(cm, nodes, values)
-        values["t"] = times.t
-        return values, times
-
-    def _certified(self, cm, names, function, p_case, nodes, sigma, sampled) -> dict:
-        """The case's integrals over time to :data:`.time_integrals.TOLERANCE` (adaptive
-        quadrature), with ``errors``, ``sampled`` (the rule on the samples, as the NLP has them)
-        and ``unresolved`` (those the quadrature could not bring within its tolerance)."""
-        exact = certified_integrals(cm, columns_at(function, names, p_case), nodes, sigma, quantities=self.quantities)
-        out = {k: exact[k] for k in sampled}
-        out["duration"] = exact["duration"]   # a law's by the quadrature (tanh-sinh's was 1e-7 off at a square root)
-        out.update(errors=exact["errors"], sampled=dict(sampled), intervals=exact["intervals"])
-        out["unresolved"] = {k: {"value": exact[k], "error": exact["errors"][k], "samples": len(self.s_values),
-                                 "sampled_value": sampled[k]}
-                             for k in ("energy", "rms_time") if k in exact["not_converged"] or (
-                                 k == "rms_time" and {"drive_squared", "time"} & set(exact["not_converged"]))}
-        return out
+        return finish_columns(self, cm, names, function, nodes, p_case, values)[:2]
 
 
-def _rests(profile) -> tuple:
-    """The dwells of a segments profile in time: (t from, t to, sweep value) each."""
-    law = profile.shape.motion_law if profile is not None else None
-    return tuple((law.time * a, law.time * b, stop) for a, b, stop in getattr(law, "rests", ()))
 
 
-def _law_end_limits(profile, nodes, values, function, names):
-    """A law's columns at a stroke's end where its speed falls to 0 like a square root: its
-    acceleration V dV/ds is 0 x inf there in the graph (it printed peak drive = nan), so each
-    column that is not finite there is replaced by its limit from inside, extrapolated linearly
-    from 1e-6 and 2e-6 of the stroke in (off by O(1e-12) of the column's curvature)."""
-    for i in (0, len(nodes) - 1):
-        if all(np.isfinite(v[i]) for v in values.values()):
-            continue
-        inward = 1.0 if nodes[i] == min(nodes[0], nodes[-1]) else -1.0
-        h = 1e-6 * profile.length
-        inner = dict(zip(names, (np.asarray(v, float).ravel() for v in function(nodes[i] + inward * np.array([h, 2 * h])))))
-        for k, v in values.items():
-            if k in inner and not np.isfinite(v[i]):
-                v[i] = 2 * inner[k][0] - inner[k][1]
+
 
 
 def case_nodes(s, profile):
@@ -373,21 +283,6 @@ class CasesResult:
     train: dict
 
 
-def cylinder_report(scene, values, results) -> dict:
-    """The [cylinder]'s sizes from the cases' peak forces and speeds (:func:`.train.cylinder_sizing`)."""
-    cyl = scene.cylinder
-
-    def number(key):
-        expr = getattr(cyl, key)
-        return None if expr is None else float(evaluate(expr, values, {}, f"[cylinder] {key}"))
-
-    cols = [r.columns for r in results.values()]
-    push = max(float(np.max(c["drive"])) for c in cols)
-    pull = max(float(np.max(-c["drive"])) for c in cols)
-    length = max(float(np.max(c["full_extension"])) for c in cols)
-    extend = max(float(np.max(c["drive_speed"])) for c in cols)
-    retract = max(float(np.max(-c["drive_speed"])) for c in cols)
-    return cylinder_sizing(number, push, pull, length, max(extend, 0.0), max(retract, 0.0))
 
 
 LOAD = "load_inertia"   # the load inertia's row among a case's certified peaks
@@ -398,34 +293,8 @@ def _motor_key(name) -> str:
     return f"motor_torque[{name}]"
 
 
-def add_motor_torque(results, duty, motor, name):
-    """The torque of ``motor`` named ``name`` (its rotor inertia J_r) as a column of every
-    case, its peak (over the continuous stroke, as :class:`CaseAnalysis` certified it), and its
-    RMS over the cycle: T_m = T_g + J_r eps_m."""
-    J = motor["inertia"]
-    for r in results.values():
-        r.columns["motor_torque"] = r.columns["motor_load_torque"] + J * r.columns["motor_acceleration"]
-        own = r.motors[name]
-        r.peaks["motor_torque"], r.peak_at["motor_torque"] = own["peak"], own["at"]
-        if own["peak_sampled"] is not None:
-            r.peaks_sampled["motor_torque"] = own["peak_sampled"]
-            r.certificates["peak |motor_torque|"] = own["certificate"]
-    if "rms" in motor:
-        duty["rms_time"]["motor_torque"] = motor["rms"]
-        if "rms_error" in motor and "errors" in duty:
-            duty["errors"]["rms_time"]["motor_torque"] = motor["rms_error"]
 
 
-def governing_cases(results: dict) -> dict:
-    """For each peak, the case with the largest one: {case, value, s} (brute force over cases)."""
-    out = {}
-    pins = dict.fromkeys(k for r in results.values() for k in r.peaks if k.startswith(PEAKED))
-    for key in PEAK_KEYS + tuple(pins):
-        have = [(r.peaks[key], name) for name, r in results.items() if key in r.peaks]
-        if have:
-            value, name = max(have, key=lambda v: v[0])
-            out[key] = {"case": name, "value": value, "s": results[name].peak_at[key]["s"]}
-    return out
 
 
 def _joint_outputs(cm, mech) -> dict:

@@ -185,29 +185,46 @@ class CertifiedPeaks:
         self.in_time = None if time is None else InTime(mech, v, *time)
         if time is None:
             dv = mech.ds(v)
-            self.derivatives = MappedFunction(mech.function("peaks_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)}))
-            self.enclosures = Enclosures(self.derivatives.func, compile_program)
+            func = mech.function("peaks_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)})
+            # compiled from the disk cache where it is there (the same numbers, as CertifiedExtremes')
+            self.derivatives = MappedFunction(func, compile=True)
+            self.enclosures = Enclosures(func, compile_program)
 
     def __call__(self, s_values, p, columns, names=None, certify=True) -> dict:
         """name -> (|peak|, {s, value}, certificate {bound, note}) at parameters ``p``, from the
         sampled ``columns`` on ``s_values`` (ascending or descending), for the rows ``names``
         (all by default); without ``certify`` located only (the refined sample maxima, no
-        enclosure: certificate None)."""
+        enclosure: certificate None).  The batch of one case of :meth:`many`."""
+        return self.many(s_values, np.asarray(p, float).ravel()[None, :],
+                         {k: np.asarray(v, float)[None] for k, v in columns.items()}, names, certify)[0]
+
+    def many(self, s_values, P, columns, names=None, certify=True) -> list:
+        """:meth:`__call__` of N cases at once, all on the same ``s_values``: case i at
+        parameters ``P[i]`` with its sampled ``columns`` in row i (name -> N x len(s_values)).
+        One dict per case, bit for bit what the case alone gives (every decision per case:
+        :func:`~optdesign.kinematics.peaks.maxima_of_cases`); one evaluation of the rows per
+        Newton step and one of the enclosure per pass of the branch and bound for the batch."""
         s_values = np.asarray(s_values, float)
+        P = np.atleast_2d(np.asarray(P, float))
         chosen = [n for n in self.names if names is None or n in names]
         if not chosen:
-            return {}
+            return [{} for _ in P]
         requests = [Request(self.names.index(n), "abs", ends=True) for n in chosen]
         if self.in_time is not None:
-            found = self.in_time.maxima(s_values, p, requests, certify)
+            s, v, bound, notes = self.in_time.maxima_of_cases(s_values, P, requests, certify)
         else:
-            V = np.array([columns[name] for name in self.names], float)
+            V = np.stack([np.asarray(columns[name], float) for name in self.names], axis=1)   # cases x rows x S
             if len(s_values) > 1 and s_values[-1] < s_values[0]:
-                s_values, V = s_values[::-1], V[:, ::-1]
-            found = continuous_maxima_rows(lambda s: self.derivatives(s, p), s_values, V, requests,
-                                           enclosure=self.enclosures.at(p) if certify else None)
-        return {name: (abs(ext[0].value), {"s": ext[0].s, "value": ext[0].value}, _certificate(ext[0].bound, ext[0].note) if certify else None)
-                for name, ext in zip(chosen, found)}
+                s_values, V = s_values[::-1], V[:, :, ::-1]
+            s, v, bound, notes = maxima_of_cases(lambda x, cases: self.derivatives(x, P[cases]), s_values, V, requests,
+                                                 enclosure=self.enclosures.at(P) if certify else None)
+        out = []
+        for c in range(len(P)):
+            sc, vc, bc = s[c].tolist(), v[c].tolist(), bound[c].tolist()
+            out.append({name: (abs(vc[j]), {"s": sc[j], "value": vc[j]},
+                               _certificate(None if bc[j] != bc[j] else bc[j], notes[c][j]) if certify else None)
+                        for j, name in enumerate(chosen)})
+        return out
 
 
 class InTime:
@@ -224,7 +241,7 @@ class InTime:
         dv = ca.jacobian(v, tau)
         opts = {"cse": True} if mech.sym is ca.SX else {}
         func = ca.Function("rows_in_time", [tau, mech.p], [v, dv, ca.jacobian(dv, tau)], ["s", "p"], ["v", "dv", "d2v"], opts)
-        self.derivatives = MappedFunction(func)
+        self.derivatives = MappedFunction(func, compile=True)   # (as CertifiedPeaks')
         self.enclosures = Enclosures(func, compile_program)
 
     def grid(self, s_values) -> np.ndarray:
@@ -241,6 +258,19 @@ class InTime:
         found = continuous_maxima_rows(lambda t: self.derivatives(t, p), tau, self.derivatives(tau, p)[0], requests,
                                        enclosure=self.enclosures.at(p) if certify else None)
         return [[Extremum(self.sweep(e.s), e.value, e.bound, self._note(e.note)) for e in ext] for ext in found]
+
+    def maxima_of_cases(self, s_values, P, requests, certify=True):
+        """The largest extremum of each request of N cases (parameters ``P``: N x parameters)
+        over the law's time, as :func:`~optdesign.kinematics.peaks.maxima_of_cases` gives them
+        (s, value, bound: arrays cases x requests; notes), each s and note's position a sweep
+        value: case i's numbers those of :meth:`maxima` of case i alone."""
+        tau = self.grid(s_values)
+        n, m = len(P), len(tau)
+        V = self.derivatives(np.tile(tau, n), np.repeat(P, m, axis=0))[0].reshape(-1, n, m).transpose(1, 0, 2)
+        s, v, bound, notes = maxima_of_cases(lambda t, cases: self.derivatives(t, P[cases]), tau, V, requests,
+                                             enclosure=self.enclosures.at(P) if certify else None)
+        s = self.profile.law_sweep(s.ravel()).reshape(s.shape)   # (element by element: each as :meth:`sweep`'s)
+        return s, v, bound, [[self._note(x) for x in row] for row in notes]
 
     def sweep(self, tau) -> float:
         """The sweep value at the fraction ``tau`` of the law's time."""

@@ -44,6 +44,7 @@ from .profiles import speed_function, tanh_sinh
 from .time_integrals import rms_error
 from .train import gear_factor_at_rest, motor_numbers
 
+KEPT_WEIGHTS = 32   # a case model's time weights kept for the node sets last used (CaseTimes.of)
 PEAK_KEYS = ("drive", "static_load", "reduced_inertia", "power", "motor_torque", "motor_load_torque",
              "motor_speed", "rod_buckling")
 
@@ -74,8 +75,19 @@ class CaseTimes:
             t = np.abs(values["q"] - q_begin) / abs(cm.speed)
             return cls(t, float(np.max(t)), time_weights(nodes, t))
         t = np.asarray(values["t"] if "t" in values else profile.times(nodes), float)
-        return cls(t, profile.duration, time_weights(nodes, t, profile), "",
-                   work_weights(nodes, t, profile, np.abs(values["sd"])))
+        speed = np.abs(np.asarray(values["sd"], float))
+        # the weights are a function of the nodes, their times, the sweep speed there and the
+        # profile alone (the same for every design whose case runs on these: an optimisation's
+        # checks at each start's solution), kept per case model: the numbers computed before
+        nodes = np.asarray(nodes, float)
+        key = (nodes.tobytes(), t.tobytes(), speed.tobytes())
+        kept = cm.__dict__.setdefault("_time_weights", {})
+        if key not in kept:
+            if len(kept) >= KEPT_WEIGHTS:
+                kept.pop(next(iter(kept)))
+            kept[key] = (time_weights(nodes, t, profile), work_weights(nodes, t, profile, speed))
+        weights, work = kept[key]
+        return cls(t, profile.duration, weights.copy(), "", work.copy())
 
     def integral(self, g) -> float:
         """int g dt over the stroke (the module's rule)."""

@@ -70,13 +70,15 @@ class StrokeConstraints:
             v = columns[key]
             A[i] = v[:, 0] if func == "start" else v[:, -1] if func == "end" else \
                 np.max(v, axis=1) if func == "max" else np.min(v, axis=1)
-        for case, more in enumerate(extra or ()):
-            if more is not None and more.shape[1]:
-                for i, func in enumerate(funcs):
-                    if func == "max":
-                        A[i, case] = np.maximum(A[i, case], np.max(more[i]))
-                    elif func == "min":
-                        A[i, case] = np.minimum(A[i, case], np.min(more[i]))
+        cases = [case for case, more in enumerate(extra or ()) if more is not None and more.shape[1]]
+        if cases:   # each case's located values joined to its max/min (exact: in any order)
+            joined = np.concatenate([extra[case] for case in cases], axis=1)
+            starts = np.cumsum([0] + [extra[case].shape[1] for case in cases[:-1]])
+            for i, func in enumerate(funcs):
+                if func == "max":
+                    A[i, cases] = np.maximum(A[i, cases], np.maximum.reduceat(joined[i], starts))
+                elif func == "min":
+                    A[i, cases] = np.minimum(A[i, cases], np.minimum.reduceat(joined[i], starts))
         n = len(P)
         if n not in self._maps:
             self._maps[n] = self.function.map(n)

@@ -14,6 +14,7 @@ is in; a case that fails (it does not assemble, a dead centre, a value that is n
 its error, and the others are unaffected."""
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 
@@ -80,28 +81,31 @@ def run_cases(a, P):
     lows = {k: (v[rows, lo].tolist(), s[lo].tolist(), v[rows, hi].tolist(), s[hi].tolist())
             for (k, (lo, hi)), v in zip(extremes.items(), constraints.values())}
     t1 = time.perf_counter()
+    keys = list(found)
+    by_case = list(zip(*(f[0] for f in found.values()))) if keys else [()] * n   # |peak| per case
+    stroke_rows = sampled.tolist()
+    certify = a.certified is not None
     for i in (i for i in range(n) if runs[i].error is None):
         r = runs[i]
-        r.peaks_sampled = {k: f[0][i] for k, f in found.items()}
-        r.peak_at = {k: {"s": f[1][i], "q": f[2][i], "value": f[3][i]} for k, f in found.items()}
-        r.constraint_extremes = {k: {"min": e[0][i], "min_s": e[1][i], "max": e[2][i], "max_s": e[3][i]}
-                                 for k, e in lows.items()}
-        r.stroke_sampled = dict(zip(names, sampled[i].tolist()))
+        r.peaks_sampled = dict(zip(keys, by_case[i]))
+        r.stroke_sampled = dict(zip(names, stroke_rows[i]))
         r.peaks, r.stroke = dict(r.peaks_sampled), dict(r.stroke_sampled)
+        if not certify:   # (certified: the certificate's, or the samples' where it fails, below)
+            _sampled_places(r, i, found, lows)
     extra = [None] * n
-    if a.certified is not None:
+    if certify:
         live = [i for i in range(n) if runs[i].error is None]
         for i, got in zip(live, _certified(a, s, P, columns, constraints, narrow, live)):
             r = runs[i]
             if isinstance(got, OptdesignError):
                 r.error = got
+                _sampled_places(r, i, found, lows)
                 continue
             r.peaks, r.peak_at, r.certificates = got["peaks"], got["peak_at"], got["certificates"]
             located = sorted({x for where in got["aggregates"].values() for x in where})
             if located:
                 extra[i] = np.asarray(located, float)
-            r.constraint_extremes = {k: dict(e, min_sampled=r.constraint_extremes[k]["min"],
-                                             max_sampled=r.constraint_extremes[k]["max"])
+            r.constraint_extremes = {k: dict(e, min_sampled=lows[k][0][i], max_sampled=lows[k][2][i])
                                      for k, e in got["constraint_extremes"].items()}
             r.certificates.update({f"assembly of {name}": {"bound": None, "note": note}
                                    for name, note in notes[i].items()})
@@ -116,20 +120,42 @@ def run_cases(a, P):
             r.constraint_extremes = {k: dict(e, min_sampled=e["min"], max_sampled=e["max"])
                                      for k, e in r.constraint_extremes.items()}
     t2 = time.perf_counter()
-    for i, r in enumerate(runs):
+    for r in runs:
+        if r.error is None and not _finite_sum(r.stroke, r.peaks):   # (finite sum: every value finite)
+            try:
+                check_values(a, {**{f"constraint {k!r}": v for k, v in r.stroke.items()},
+                                 **{f"peak |{k}|": v for k, v in r.peaks.items()}})
+            except OptdesignError as exc:
+                r.error = exc
+    live = [i for i in range(n) if runs[i].error is None]
+    if a.case_analysis and live:   # the load cases of every case at once (model/case_runs.py)
+        for i, found in zip(live, a.case_analysis.run_many(P[live])):
+            runs[i].cases, runs[i].error = (None, found) if isinstance(found, OptdesignError) else (found, None)
+    for r in runs:
         if r.error is not None:
-            continue
-        try:
-            check_values(a, {**{f"constraint {k!r}": v for k, v in r.stroke.items()},
-                             **{f"peak |{k}|": v for k, v in r.peaks.items()}})
-            r.cases = a.case_analysis.run(P[i]) if a.case_analysis else None
-        except OptdesignError as exc:
-            r.error = exc
             continue
         r.timings = {"build_s": a.build_time, "evaluate_s": (t1 - t0) / n}
         if a.certified is not None:
             r.timings["certify_s"] = (t2 - t1) / n
     return runs, values
+
+
+def _sampled_places(r, i, found, lows):
+    """Case ``i``'s peaks' and constraint extremes' places at the samples (the figures where no
+    certificate gives them)."""
+    r.peak_at = {k: {"s": f[1][i], "q": f[2][i], "value": f[3][i]} for k, f in found.items()}
+    r.constraint_extremes = {k: {"min": e[0][i], "min_s": e[1][i], "max": e[2][i], "max_s": e[3][i]}
+                             for k, e in lows.items()}
+
+
+def _finite_sum(*named) -> bool:
+    """Whether the sum of the values of the dicts ``named`` is finite: then every value is (a
+    value that is not finite, or None, makes it not; so may an overflow, which the exact check
+    then clears)."""
+    try:
+        return math.isfinite(sum(sum(d.values()) for d in named))
+    except TypeError:
+        return False
 
 
 def _certified(a, s, P, columns, constraints, narrow, live) -> list:

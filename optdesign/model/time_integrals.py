@@ -26,7 +26,7 @@ import math
 import numpy as np
 
 from .profiles import speed_function
-from .quadrature import end_power, integrate
+from .quadrature import end_power, integrate_many
 
 TOLERANCE = 1e-10   # relative to the integral of |integrand| over the stroke
 FIRST_INTERVALS = 128
@@ -34,30 +34,31 @@ KEYS = ("drive_squared", "energy", "energy_driving", "motor_load_squared", "moto
         "motor_acceleration_squared", "time")
 
 
-def columns_at(function, names, p_case):
-    """A function of sweep values -> {name: array} evaluating a case's outputs (``function``: a
-    :class:`.mapped.MappedFunction`, one call per batch padded to a power of two, so that its
-    mapped Functions are few)."""
-    def run(s):
-        s = np.asarray(s, float)
-        n = len(s)
-        size = max(256, 1 << (n - 1).bit_length())
-        padded = np.r_[s, np.full(size - n, s[-1] if n else 0.0)]
-        out = function(padded, p_case)
-        return dict(zip(names, (np.asarray(v, float).ravel()[:n] for v in out)))
+def columns_at(function, names, P):
+    """A function of (sweep values, their cases) -> {name: array} evaluating a load case's
+    outputs (``function``: a :class:`.mapped.MappedFunction`) at each value with its case's
+    parameters (a row of ``P``): one call, a parameter row per value (the same numbers, value by
+    value, as a call per case)."""
+    P = np.atleast_2d(np.asarray(P, float))
+
+    def run(s, case):
+        out = function(np.asarray(s, float), P[np.asarray(case, int)])
+        return dict(zip(names, (np.asarray(v, float).ravel() for v in out)))
     return run
 
 
-def certified_integrals(cm, columns, nodes, sigma, tol=TOLERANCE, quantities=()) -> dict:
-    """The case's integrals over its stroke's time (keys as :func:`.duty.case_integrals`'s, with
-    ``errors``: each one's error estimate, and ``converged``), from ``columns(s)`` -> {name: array}
-    (:func:`columns_at`); ``nodes``: the case's samples (the quadrature's first intervals);
-    ``quantities``: [quantities] columns whose squares are integrated too (``squared:NAME``)."""
+def certified_integrals(cm, columns, nodes, sigma, cases=1, tol=TOLERANCE, quantities=()) -> list:
+    """Per case (``cases`` of them over the same stroke: :func:`.quadrature.integrate_many`,
+    every decision the case's own) its integrals over its stroke's time (keys as
+    :func:`.duty.case_integrals`'s, with ``errors``: each one's error estimate, and
+    ``converged``), from ``columns(s, case)`` -> {name: array} (:func:`columns_at`); ``nodes``:
+    the load case's samples (the quadrature's first intervals); ``quantities``: [quantities]
+    columns whose squares are integrated too (``squared:NAME``)."""
     nodes = np.asarray(nodes, float)
     lo, hi = float(np.min(nodes)), float(np.max(nodes))
     profile = cm.profile
     if profile is not None and profile.shape.motion_law is not None:
-        return _in_time(profile, columns, tol, quantities)
+        return _in_time(profile, columns, tol, quantities, cases)
     if profile is None:
         speed = abs(cm.speed)
         V, breaks, m_lo, m_hi = None, np.zeros(0), 1.0, 1.0
@@ -87,9 +88,9 @@ def certified_integrals(cm, columns, nodes, sigma, tol=TOLERANCE, quantities=())
     anchored_hi = pieces[-1][2] > 1 and pieces[-1][0] == hi
     motor = None
 
-    def f(s, d, piece):
+    def f(s, d, piece, case):
         nonlocal motor
-        c = columns(s)
+        c = columns(s, case)
         from_lo = np.where(piece == 0, d, s - lo) if pieces[0][0] == lo else s - lo
         from_hi = np.where(piece == last, d, hi - s) if anchored_hi else hi - s
         if V is None:
@@ -103,9 +104,10 @@ def certified_integrals(cm, columns, nodes, sigma, tol=TOLERANCE, quantities=())
         motor = "motor_load_torque" in c
         return _rows(c, e, w, quantities)
 
-    result = integrate(f, pieces, starts, tol)
+    results = integrate_many(f, pieces, starts, tol, cases=cases)
     closed = profile is not None and profile.law_speed is None
-    return _report(result, motor, profile.duration if closed else None, exact_time=closed, quantities=quantities)
+    return [_report(r, motor, profile.duration if closed else None, exact_time=closed, quantities=quantities)
+            for r in results]
 
 
 def _rows(c, e, w, quantities):
@@ -141,7 +143,7 @@ def _report(result, motor, duration, exact_time, quantities=()) -> dict:
     return out
 
 
-def _in_time(profile, columns, tol, quantities=()) -> dict:
+def _in_time(profile, columns, tol, quantities=(), cases=1) -> list:
     """A law in time (s = s_begin + sigma L f(tau), t = T tau): the integrals in tau on each of
     its pieces, dt = T dtau (no weight to invert: the law's inverse is exact only to 2^-16 of
     tau next to a rest), P dt = T_S qd T dtau."""
@@ -151,12 +153,13 @@ def _in_time(profile, columns, tol, quantities=()) -> dict:
     starts = [np.linspace(a, b, FIRST_INTERVALS // len(pieces) + 1)[1:-1] for a, b, _ in pieces]
     motor = None
 
-    def f(tau, d, piece):
+    def f(tau, d, piece, case):
         nonlocal motor
-        c = columns(profile.law_sweep(tau))
+        c = columns(profile.law_sweep(tau), case)
         motor = "motor_load_torque" in c
         return _rows(c, c["drive"] * c["drive_speed"] * T, np.full(len(tau), T), quantities)
-    return _report(integrate(f, pieces, starts, tol), motor, T, exact_time=True, quantities=quantities)
+    return [_report(r, motor, T, exact_time=True, quantities=quantities)
+            for r in integrate_many(f, pieces, starts, tol, cases=cases)]
 
 
 def rms_error(squared, squared_error, duration, duration_error) -> float:

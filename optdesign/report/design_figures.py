@@ -78,10 +78,12 @@ def sized_figures(result, folder) -> list:
         cases, folder, "the optimum")
 
 
-def write_figures(result, folder, workers=1, animate=True) -> list:
+def write_figures(result, folder, workers=1, animate=True, before_html=None) -> list:
     """Every figure and report.html into ``folder``; returns the paths written.  With
     ``workers`` > 1 the animation (the longest) is forked as soon as the optimum's analysis
-    is made, the drawing once the start's is, and this process draws the load figure."""
+    is made, the drawing once the start's is, and this process draws the load figure.
+    ``before_html``: called (if given) once the figures are drawn, before report.html is
+    written from the folder's result.json (the figure process waits there for the JSON)."""
     from ..model.analysis import Analysis
     from .design_cases import optimum_analysis
     from .html import write_html
@@ -114,6 +116,8 @@ def write_figures(result, folder, workers=1, animate=True) -> list:
         target(*args)   # in this process (a child writes atomically: should it have failed, done here)
     written += [folder / n for n in ("mechanism.png", "mechanism.svg", "animation.gif", "animation.mp4")
                 if (folder / n).exists()]
+    if before_html is not None:
+        before_html()
     written.append(write_html(result, folder, runs, [p.name for p in written]))
     return written
 

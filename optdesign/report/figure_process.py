@@ -5,7 +5,10 @@ an optimisation's command would otherwise spend after the solve, on the user's t
 :class:`FigureProcess` forks as soon as the scene is loaded: the child imports them while the
 parent solves (on the other core), then waits for the result; :meth:`FigureProcess.write`
 sends it and gets back the paths of the figures written (:func:`.design_figures.write_figures`,
-whose own forks then start from a process that has everything imported).
+whose own forks then start from a process that has everything imported).  report.html shows the
+numbers result.json holds (its drive-train section reads the file), so the child writes it only
+after the parent says result.json is written (:meth:`FigureProcess.receive`): the figures are
+drawn while the parent computes and writes the JSON, the page after it.
 
 Where anything goes wrong with the process (it was killed, a Ctrl-C reached it, the platform
 cannot fork), :meth:`~FigureProcess.write` returns None and the caller draws in its own process:
@@ -56,10 +59,12 @@ class FigureProcess:
 
     def receive(self) -> list | None:
         """The paths of the figures :meth:`send` asked for, or None when the process is gone
-        (the caller then draws them itself); an error while drawing is raised here."""
+        (the caller then draws them itself); an error while drawing is raised here.  Call it
+        once result.json is in the folder: the process writes report.html from it then."""
         if self._proc is None:
             return None
         try:
+            self._conn.send("result.json written")
             kind, value = self._conn.recv()
         except (EOFError, OSError):
             return None
@@ -100,7 +105,9 @@ def _serve(conn, parents):
 
             keep_optimum_analysis(result, analysis)
         try:
-            reply = ("ok", [str(p) for p in write_figures(result, Path(folder), workers, animate)])
+            # report.html waits for the parent's word that result.json is written (receive)
+            reply = ("ok", [str(p) for p in write_figures(result, Path(folder), workers, animate,
+                                                          before_html=conn.recv)])
         except OptdesignError as exc:
             reply = ("error", exc)
         except Exception:            # a bug: its traceback, in the parent's error

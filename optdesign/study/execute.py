@@ -191,7 +191,7 @@ def case_table(study, rows, shown=30) -> list:
 
 GROUP_FIRST = 32   # analyse cases in a batch before a case's time is known
 GROUP_S = 0.5      # then about this many seconds of work per batch (tasks.run_batch analyses them together)
-LOCKSTEP = 4096    # cases per batch at most (1: each case's analysis alone, tasks.run_task)
+BATCH_MAX = 4096    # cases per batch at most (1: each case's analysis alone, tasks.run_task)
 
 
 def _group_size(executor, work, remaining) -> int:
@@ -199,7 +199,7 @@ def _group_size(executor, work, remaining) -> int:
     far (``work``: [seconds, cases]), or fewer (down to a quarter of that) so that every batch the
     executor keeps in flight (its window) has some while few are left."""
     seconds, n = work
-    per = min(GROUP_FIRST, LOCKSTEP) if not n else max(1, min(LOCKSTEP, int(GROUP_S / max(seconds / n, 1e-6))))
+    per = min(GROUP_FIRST, BATCH_MAX) if not n else max(1, min(BATCH_MAX, int(GROUP_S / max(seconds / n, 1e-6))))
     # near the end, smaller batches keep every worker busy; not below a quarter of GROUP_S (a
     # batch's round trip costs milliseconds, tens on Dask)
     return max(1, min(per, max(per // 4, -(-remaining // getattr(executor, "window", 1)))))

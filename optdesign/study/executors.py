@@ -32,27 +32,22 @@ from concurrent.futures.process import BrokenProcessPool
 
 from ..errors import OptdesignError, worker_process
 from .results import ClusterLost
-from .blocks import as_blocks, blocks
+from .analysed import batch_blocks
+from .blocks import as_blocks
 from .tasks import died_output, run_batch
-from .worker import MAX_DEATHS, prestart, run_batch_in_helper
+from .worker import MAX_DEATHS, lines_made, blocks_in_helper, prestart
 
 
 def computed(tasks, index, ids) -> list:
     """:func:`~.tasks.run_batch` where the batch runs (a pool's process), its outputs handed back
-    as blocks with their text made there (:func:`.blocks.blocks`): the client's work per case
-    done by the workers, in parallel."""
-    return _texts_made(blocks(index, ids, run_batch(tasks)))
+    as blocks with their text made there (:func:`.analysed.batch_blocks`): the client's work per
+    case done by the workers, in parallel."""
+    return lines_made(batch_blocks(tasks, index, ids))
 
 
 def computed_in_helper(tasks, index, ids) -> list:
     """:func:`computed` on a Dask worker (the batch in its helper process: :mod:`.worker`)."""
-    return _texts_made(blocks(index, ids, run_batch_in_helper(tasks)))
-
-
-def _texts_made(made):
-    for block in made:
-        block.lines()
-    return made
+    return blocks_in_helper(tasks, index, ids)
 
 
 def _where(batch):
@@ -242,7 +237,7 @@ class _Pool(_Futures):
         again = []
         for b in suspects:
             b.deaths += 1
-            if len(b.cases) > 1:   # analyse cases in lockstep: which one died is not known; each alone
+            if len(b.cases) > 1:   # analyse cases run together: which one died is not known; each alone
                 again += [_Batch([c], [t], b.deaths) for c, t in zip(b.cases, b.tasks)]
                 continue
             if b.deaths < MAX_DEATHS:

@@ -106,7 +106,8 @@ def _dependencies(scene, names: set) -> set:
 # --- per-process caches ----------------------------------------------------------------------
 def _cache():
     if not hasattr(_LOCAL, "scenes"):
-        _LOCAL.scenes, _LOCAL.models, _LOCAL.unbounded = {}, {}, {}
+        _LOCAL.scenes, _LOCAL.models, _LOCAL.unbounded, _LOCAL.structural = {}, {}, {}, {}
+        _LOCAL.keys, _LOCAL.settings = {}, (None, None)
     return _LOCAL
 
 
@@ -115,6 +116,16 @@ def _scene(task: Task):
     if task.scene_digest not in c.scenes:
         c.scenes[task.scene_digest] = pickle.loads(task.scene_blob)
     return c.scenes[task.scene_digest]
+
+
+def _structural(task: Task, base) -> frozenset:
+    """:func:`structural_names` of the case's scene ``base``, found once per process and scene
+    (it walks every expression of the scene: 0.15 ms, once per case before)."""
+    c = _cache()
+    key = (task.scene_digest, task.mode)
+    if key not in c.structural:
+        c.structural[key] = frozenset(structural_names(base, task.mode))
+    return c.structural[key]
 
 
 def _unbounded(task: Task, base):
@@ -144,8 +155,7 @@ def _built(task: Task, base, structural: dict, bounds: tuple):
     """The built problem and repair (optimise) or analysis (analyse), cached per thread."""
     c = _cache()
     varied = sorted(k for k, _ in task.overrides) if task.mode == "analyse" else []
-    key = json.dumps([task.scene_digest, task.mode, sorted(structural.items()), bounds,
-                      task.settings, varied], default=repr)
+    key = _model_key(task, structural, bounds, varied)
     if key in c.models:
         c.models[key] = c.models.pop(key)   # most recently used last
         return c.models[key]
@@ -173,6 +183,44 @@ def _built(task: Task, base, structural: dict, bounds: tuple):
     return model
 
 
+def _model_key(task: Task, structural: dict, bounds: tuple, varied: list) -> str:
+    """The key of a case's model in the cache: the JSON of what the model depends on, found by
+    the values and their types (:func:`_typed`) once made (json.dumps of the solver settings:
+    ~25 us a case)."""
+    c = _cache()
+    try:
+        if c.settings[0] is not task.settings:   # the last settings seen (a batch's tasks share them)
+            c.settings = (task.settings, _typed(task.settings))
+        fast = (task.scene_digest, task.mode, _typed(tuple(sorted(structural.items()))), _typed(bounds),
+                c.settings[1], tuple(varied))
+        key = c.keys.get(fast)
+    except TypeError:   # a value that is not hashable: the JSON made each time
+        fast = key = None
+    if key is None:
+        key = json.dumps([task.scene_digest, task.mode, sorted(structural.items()), bounds,
+                          task.settings, varied], default=repr)
+        if fast is not None and len(c.keys) < 4096:
+            c.keys[fast] = key
+    return key
+
+
+def _typed(value):
+    """``value`` (tuples, lists and scalars) as a hashable value that is equal only for values
+    of the same types with the same JSON (1, 1.0 and True apart; floats by their repr: -0.0 and
+    0.0 apart); TypeError for anything else (a dict, an object: its JSON is made each time)."""
+    kind = type(value)
+    if kind is tuple or kind is list:
+        return kind, tuple(map(_typed, value))
+    if kind is float:
+        return kind, repr(value)
+    if kind not in _EXACT:
+        raise TypeError(kind.__name__)
+    return kind, value
+
+
+_EXACT = (str, int, bool, type(None))   # equal values of one of these types have the same JSON
+
+
 # --- one case --------------------------------------------------------------------------------
 def run_task(task: Task) -> dict:
     """Compute one case: {'row': {column: value}, 'x': optimum or None, 'time_s': seconds}.
@@ -192,7 +240,8 @@ def _prepare(task: Task):
 
     base = _scene(task)
     overrides = dict(task.overrides)
-    structural = {k: v for k, v in overrides.items() if k in structural_names(base, task.mode)}
+    names = _structural(task, base)
+    structural = {k: v for k, v in overrides.items() if k in names}
     # a case whose overrides are numbers the study validated together (one axis) is a vector of
     # leaf values for the built model: no case scene rebuilt and validated again (94
     # dataclasses.replace per case on the truck crane); else the case's scene gives them
@@ -222,7 +271,7 @@ def _finish(prepared):
             return _optimise(task, model, scene)
     except OptdesignError as exc:
         return _failed(exc), None
-    return _analyse_all([prepared])[0], None
+    return _analyse_rows([prepared])[0], None
 
 
 def _failed(exc) -> dict:
@@ -239,7 +288,7 @@ def run_batch(tasks: list, each=None) -> list:
     order; ``each(output)`` is called as each case finishes (an analyse batch: all at its end)."""
     if len(tasks) > 1 and all(t.mode == "analyse" for t in tasks):
         t0 = time.perf_counter()
-        rows = _analyse_all([_prepare(task) for task in tasks])
+        rows = _analyse_rows([_prepare(task) for task in tasks])
         per_case = (time.perf_counter() - t0) / len(tasks)   # the batch's time, shared
         outs = []
         for row in rows:
@@ -335,78 +384,9 @@ def _optimise(task: Task, model, scene):
     return row, [result.design[n] for n in problem.design_names]
 
 
-def _analyse_all(prepared: list) -> list:
+def _analyse_rows(prepared: list) -> list:
     """The rows of prepared analyse cases (:func:`_prepare`), those that share a built analysis
-    together: one :meth:`~optdesign.model.analysis.Analysis.run_many` and one
-    :meth:`~optdesign.model.analysis.Analysis.sweep_rms_many` over their leaf values."""
-    from ..errors import OptdesignError
+    together (:func:`.analysed.analyse`)."""
+    from . import analysed
 
-    rows, groups = [None] * len(prepared), {}
-    for i, (task, model, scene) in enumerate(prepared):
-        if isinstance(model, OptdesignError):
-            rows[i] = _failed(model)
-            continue
-        try:
-            p = _leaf_values(model.mech.parameter_names, scene, model.mech.parameter_values)
-        except OptdesignError as exc:
-            rows[i] = _failed(exc)
-            continue
-        groups.setdefault(id(model), (model, [], []))
-        groups[id(model)][1].append(i)
-        groups[id(model)][2].append(p)
-    for analysis, where, P in groups.values():
-        for i, row in zip(where, _analyse_rows(analysis, P)):
-            rows[i] = row
-    return rows
-
-
-def _analyse_rows(analysis, P) -> list:
-    """The rows of the cases ``P`` (leaf values, cases x parameters) of one built analysis."""
-    import numpy as np
-
-    P = np.array(P, float).reshape(len(P), -1)
-    runs = analysis.run_many(P)
-    live = [i for i, r in enumerate(runs) if r.error is None]
-    rms = dict(zip(live, analysis.sweep_rms_many(P[live]) if live else []))
-    rows = []
-    for i, res in enumerate(runs):
-        if res.error is not None:
-            rows.append(_failed(res.error))
-            continue
-        row = {"status": "ok", "success": True}
-        # peaks and constraint extremes over the continuous stroke (certified), with where they lie
-        # and the samples' own values beside them
-        row.update({f"peak:{k}": v for k, v in res.peaks.items()})
-        row.update({f"peak_at:{k}": at["s"] for k, at in res.peak_at.items()})
-        row.update({f"peak_sampled:{k}": v for k, v in res.peaks_sampled.items()})
-        # rms over the continuous sweep (adaptive quadrature, model/analysis.Analysis.sweep_rms)
-        row.update({f"rms:{k}": value for k, (value, _) in rms[i].items()})
-        for name, e in res.constraint_extremes.items():
-            row[f"constraint:{name}:min"], row[f"constraint:{name}:max"] = e["min"], e["max"]
-        row.update({f"constraint:{name}": float(v) for name, v in res.stroke.items()})
-        if res.cases is not None:
-            row.update(_cases_row(res.cases))
-        rows.append(row)
-    return rows
-
-
-def _cases_row(cases) -> dict:
-    """A scene's load cases in an analyse study's row (the peaks above are the nominal state's, at
-    the [drive] speed and acceleration): each peak's governing case and value, the duty cycle's
-    RMS over time and energy, each motor's fit, the cylinder's sizes."""
-    row = {}
-    for key, g in cases.governing.items():
-        row[f"case_peak:{key}"], row[f"case_peak_case:{key}"] = g["value"], g["case"]
-    duty = cases.duty
-    row.update({f"cycle_rms:{k}": v for k, v in duty.get("rms_time", {}).items()})
-    if "energy" in duty:
-        row["cycle:time"], row["cycle:energy"] = duty["cycle_time"], duty["energy"]
-    train = cases.train
-    for name, m in train.get("motors", {}).items():
-        row[f"motor_fits:{name}"] = bool(m["fits"])
-    if "smallest_fitting" in train:
-        row["smallest_motor"] = train["smallest_fitting"] or "none"
-    for key in ("bore", "bore_needed", "rod", "rod_needed_buckling", "buckling_utilisation", "pump_flow"):
-        if key in train:
-            row[f"cylinder:{key}"] = train[key]
-    return row
+    return analysed.rows(analysed.analyse(prepared), len(prepared))

@@ -16,8 +16,9 @@ those evaluations recorded, shows which expressions each axis's parameter enters
 
 The checks are recorded at the first case and at every corner (a check that runs only for some
 values, such as the drive's speed against 0 only when its efficiency is below 1, is seen where it
-runs).  Recording patches the expressions module's ``evaluate`` while one scene is checked: a
-study is made in one thread at a time.
+runs).  Recording patches the expressions module's ``evaluate`` while one scene is checked, one
+recording at a time (a lock), each recording only its own thread's calls: studies may be made in
+several threads at once.
 
 Anything else (a derived parameter, an expression such as ``m^2`` or ``1/m``, a comparison
 between two expressions such as a constraint's min and max or the drive's speed against 0,
@@ -27,11 +28,13 @@ from __future__ import annotations
 
 import itertools
 import math
+import threading
 
 # places (table, key) whose checks bound one value by constants (scene/validate.py)
 # (a derived parameter that uses an axis's parameter is not among them: its value enters other
 # checks under its own name)
 CONVEX = {("bodies", "mass"), ("bodies", "inertia"), ("gravity", "g"), ("drive", "efficiency"), ("drive", "inertia")}
+_RECORDING = threading.Lock()
 CORNERS_MAX = 64   # corners checked at most (6 axes); more axes: every point, as before
 
 
@@ -40,17 +43,20 @@ def recorded_checks(build) -> list:
     [(expression, where), ...]."""
     from ..scene import expressions
 
-    calls, original = [], expressions.evaluate
+    calls, me = [], threading.get_ident()
+    with _RECORDING:   # one recording at a time: each restores the function it replaced
+        original = expressions.evaluate
 
-    def traced(expr, values, points=None, where=""):
-        calls.append((expr, where))
-        return original(expr, values, points, where)
+        def traced(expr, values, points=None, where=""):
+            if threading.get_ident() == me:   # (another thread's evaluations are not this scene's checks)
+                calls.append((expr, where))
+            return original(expr, values, points, where)
 
-    expressions.evaluate = traced
-    try:
-        build()
-    finally:
-        expressions.evaluate = original
+        expressions.evaluate = traced
+        try:
+            build()
+        finally:
+            expressions.evaluate = original
     return calls
 
 

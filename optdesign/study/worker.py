@@ -33,7 +33,37 @@ _GUARD = threading.Lock()
 _HEADER = struct.Struct("<Q")
 
 
-def run_batch_in_helper(tasks: list) -> list:
+def blocks_in_helper(tasks, index: list, ids: list) -> list:
+    """The blocks of a batch (:func:`.executors.computed`'s) made in a helper process of this
+    worker: a batch of analyse cases is analysed together and its blocks, their journal text
+    made, come back in one message (the worker's own process only passes them on); other
+    batches case by case (:func:`run_batch_in_helper`).  A helper that dies on a batch of
+    analyse cases is replaced and the cases are run one per call, as there."""
+    from .blocks import blocks
+
+    if len(tasks) > 1 and all(t.mode == "analyse" for t in tasks):
+        helper = _take()
+        try:
+            _send(helper.stdin, ("blocks", tasks, index, ids))
+            kind, value = _receive(helper.stdout)
+        except (OSError, EOFError, pickle.UnpicklingError):
+            helper.kill()
+            helper.wait()   # which case died is not known yet: each alone
+            return lines_made(blocks(index, ids, run_batch_in_helper(tasks, alone=True)))
+        _give(helper)
+        if kind == "error":
+            raise RuntimeError(f"a case failed in the study's helper process:\n{value}")
+        return value
+    return lines_made(blocks(index, ids, run_batch_in_helper(tasks)))
+
+
+def lines_made(made: list) -> list:
+    for block in made:
+        block.lines()
+    return made
+
+
+def run_batch_in_helper(tasks: list, alone: bool = False) -> list:
     """:func:`.tasks.run_batch` in a helper process of this worker (one per batch running at the
     same time; each kept for the worker's life).  The helper sends each case's output as it
     finishes; a helper that dies (killed, out of memory, crashed) is replaced and the batch
@@ -41,7 +71,7 @@ def run_batch_in_helper(tasks: list) -> list:
     ``MAX_DEATHS`` times is recorded as failed with the reason."""
     from .tasks import died_output, warm_from
 
-    outs, deaths, alone = [], 0, False
+    outs, deaths = [], 0
     while len(outs) < len(tasks):
         # after a death that no case's output preceded (a batch of analyse cases run together
         # gives them all at its end), the rest one case per call: the case that dies is known
@@ -139,6 +169,7 @@ def _receive(stream):
 
 def serve():
     """The helper: batches in, outputs out, until its input ends."""
+    from .analysed import batch_blocks
     from .tasks import run_batch
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)   # Ctrl-C is the client's to handle (as in the pool)
@@ -153,9 +184,12 @@ def serve():
             tasks = _receive(inp)
         except EOFError:
             return
-        try:   # each case's output as it finishes, then the end of the batch
-            run_batch(tasks, each=lambda output: _send(out, ("case", output)))
-            answer = ("end", None)
+        try:
+            if isinstance(tasks, tuple) and tasks[0] == "blocks":   # the batch's blocks in one message
+                answer = ("blocks", lines_made(batch_blocks(*tasks[1:])))   # (executors.computed's)
+            else:   # each case's output as it finishes, then the end of the batch
+                run_batch(tasks, each=lambda output: _send(out, ("case", output)))
+                answer = ("end", None)
         except BaseException:   # noqa: BLE001 - a bug: its traceback goes back to the worker
             answer = ("error", traceback.format_exc())
         _send(out, answer)

@@ -23,8 +23,8 @@ import pytest
 import optdesign
 from optdesign.study import Study, values
 from optdesign.study.blocks import as_outputs
-from optdesign.study.executors import _Pool
-from optdesign.study.worker import MAX_DEATHS, run_batch_in_helper
+from optdesign.study.executors import _Pool, computed
+from optdesign.study.worker import MAX_DEATHS, blocks_in_helper, run_batch_in_helper
 
 from .util import JIB, JIB_DESIGN, ROOT
 
@@ -171,6 +171,23 @@ def test_a_dask_helper_that_dies_is_replaced_and_its_batch_goes_on_from_the_case
     batch = [tasks[0], _poisoned(tasks[1]), tasks[2], tasks[3]]
     outs = run_batch_in_helper(batch)
     assert len(outs) == 4
+    assert outs[1]["row"] == {"status": f"error: the study's helper process computing this case on a Dask worker "
+                                        f"died {MAX_DEATHS} times (killed by SIGKILL); it is not tried again",
+                              "success": False}
+    assert [outs[i]["row"] for i in (0, 2, 3)] == _reference([tasks[0], tasks[2], tasks[3]])
+
+
+def test_a_dask_helper_gives_a_batch_of_analyse_cases_as_the_pool_does_and_each_case_alone_after_it_died():
+    """A batch of analyse cases comes back from the helper as its blocks in one message (the
+    journal's lines byte-identical to those a pool process makes); when the helper dies on it,
+    which case killed it is not known, so each case runs alone: the one that kills is failed after
+    MAX_DEATHS, the others keep their numbers."""
+    study, cases, tasks = _tasks(4)
+    index, ids = [c.index for c in cases], [c.id for c in cases]
+    made, pools = blocks_in_helper(tasks, index, ids), computed(tasks, index, ids)
+    assert [(b.index, b.ids, b.keys, b.values, b.texts()) for b in made] == \
+        [(b.index, b.ids, b.keys, b.values, b.texts()) for b in pools]   # (time_s: the run's own)
+    outs = as_outputs(cases, blocks_in_helper([tasks[0], _poisoned(tasks[1]), tasks[2], tasks[3]], index, ids))
     assert outs[1]["row"] == {"status": f"error: the study's helper process computing this case on a Dask worker "
                                         f"died {MAX_DEATHS} times (killed by SIGKILL); it is not tried again",
                               "success": False}

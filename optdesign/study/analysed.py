@@ -1,0 +1,176 @@
+"""The rows of a batch of analyse cases made column by column (:func:`analyse`): no row dict
+per case on the worker.
+
+A batch's cases that share a build are analysed together (one
+:meth:`~optdesign.model.analysis.Analysis.run_many` and one
+:meth:`~optdesign.model.analysis.Analysis.sweep_rms_many`); the cases whose figures have the same
+names (most of a batch: one shape) give their row's values a column at a time.  A row's keys, in
+their order, and its values are those the row dict of the case alone has (a key made twice keeps
+its first place and its last value, as a dict's update does), so that the journal's lines and
+cases.csv's cells do not depend on the batch: :func:`rows` gives the dicts, :func:`batch_blocks`
+the blocks of rows with equal keys that :func:`.blocks.blocks` makes from them."""
+from __future__ import annotations
+
+import time
+
+from .blocks import Block, blocks
+from .tasks import _failed, _leaf_values, _prepare, run_batch
+
+
+def analyse(prepared: list) -> list:
+    """Pieces ``(positions, keys, columns)`` covering the prepared analyse cases
+    (:func:`.tasks._prepare`): ``columns[k][j]`` is the value of ``keys[k]`` in the row of case
+    ``positions[j]``; the cases that share a built analysis analysed together."""
+    from ..errors import OptdesignError
+
+    failed, groups = [], {}
+    for i, (task, model, scene) in enumerate(prepared):
+        if isinstance(model, OptdesignError):
+            failed.append((i, model))
+            continue
+        if type(scene) is not dict:   # a case scene (or None): its values
+            try:
+                scene = _leaf_values(model.mech.parameter_names, scene, model.mech.parameter_values)
+            except OptdesignError as exc:
+                failed.append((i, exc))
+                continue
+        groups.setdefault(id(model), (model, [], []))
+        groups[id(model)][1].append(i)
+        groups[id(model)][2].append(scene)
+    pieces = [_failed_piece(failed)] if failed else []
+    for analysis, where, values in groups.values():
+        P = _parameters(analysis, values)
+        pieces += [([where[j] for j in at], keys, columns) for at, keys, columns in _columns(analysis, P)]
+    return pieces
+
+
+def _parameters(analysis, values):
+    """The leaf values of cases (cases x parameters): ``values[j]`` case j's, or a dict of the
+    numbers it sets (the others keep the build's: :func:`.tasks._leaf_values`), set a column at
+    a time for the cases that set the same names."""
+    import numpy as np
+
+    names = analysis.mech.parameter_names
+    P = np.tile(np.asarray(analysis.mech.parameter_values, float), (len(values), 1))
+    same = {}
+    for j, v in enumerate(values):
+        if type(v) is dict:
+            same.setdefault(tuple(v), []).append(j)
+        else:
+            P[j] = v
+    for keys, js in same.items():
+        for name in keys:
+            for k in (k for k, n in enumerate(names) if n == name):
+                P[js, k] = [values[j][name] for j in js]
+    return P
+
+
+def rows(pieces: list, n: int) -> list:
+    """The row dicts of cases 0 .. n-1 from :func:`analyse`'s pieces."""
+    out = [None] * n
+    for positions, keys, columns in pieces:
+        for j, values in zip(positions, zip(*columns)):
+            out[j] = dict(zip(keys, values))
+    return out
+
+
+def case_rows(analysis, P) -> list:
+    """The row dicts of the cases ``P`` (leaf values, cases x parameters) of one built analysis."""
+    return rows(_columns(analysis, P), len(P))
+
+
+def batch_blocks(tasks: list, index: list, ids: list) -> list:
+    """:func:`.tasks.run_batch` of the cases ``index``/``ids`` as :func:`.blocks.blocks` gives
+    its outputs (blocks of rows with the same keys, in the order of their first case, each case's
+    row, x and time_s), made column by column for a batch of analyse cases."""
+    if not (len(tasks) > 1 and all(t.mode == "analyse" for t in tasks)):
+        return blocks(index, ids, run_batch(tasks))
+    t0 = time.perf_counter()
+    pieces = analyse([_prepare(task) for task in tasks])
+    per_case = (time.perf_counter() - t0) / len(tasks)   # the batch's time, shared (run_batch's)
+    merged = {}
+    for positions, keys, columns in pieces:
+        if keys in merged:
+            merged[keys][0].extend(positions)
+            for column, more in zip(merged[keys][1], columns):
+                column.extend(more)
+        else:
+            merged[keys] = (list(positions), [list(c) for c in columns])
+    made = []
+    for keys, (positions, columns) in sorted(merged.items(), key=lambda item: min(item[1][0])):
+        order = sorted(range(len(positions)), key=positions.__getitem__)
+        if order != list(range(len(order))):
+            positions = [positions[j] for j in order]
+            columns = [[c[j] for j in order] for c in columns]
+        made.append(Block([index[j] for j in positions], [ids[j] for j in positions], keys, columns,
+                          [None] * len(positions), [per_case] * len(positions)))
+    return made
+
+
+def _failed_piece(failed) -> tuple:
+    """The pieces' form of failed cases [(position, OptdesignError)]: their _failed rows."""
+    made = [_failed(exc) for _, exc in failed]
+    keys = tuple(made[0])
+    return [i for i, _ in failed], keys, [[row[k] for row in made] for k in keys]
+
+
+def _columns(analysis, P) -> list:
+    """Pieces ``(case numbers in P, keys, columns)`` of the cases ``P`` (leaf values, cases x
+    parameters) of one built analysis, cases with the same names of figures together."""
+    import numpy as np
+
+    P = np.array(P, float).reshape(len(P), -1)
+    runs = analysis.run_many(P)
+    live = [i for i, r in enumerate(runs) if r.error is None]
+    rms = dict(zip(live, analysis.sweep_rms_many(P[live]) if live else []))
+    failed, shapes, extra = [], {}, {}
+    for i, res in enumerate(runs):
+        if res.error is not None:
+            failed.append((i, res.error))
+            continue
+        extra[i] = _cases_row(res.cases) if res.cases is not None else {}
+        shape = (tuple(res.peaks), tuple(res.peak_at), tuple(res.peaks_sampled), tuple(rms[i]),
+                 tuple(res.constraint_extremes), tuple(res.stroke), tuple(extra[i]))
+        shapes.setdefault(shape, []).append(i)
+    pieces = [_failed_piece(failed)] if failed else []
+    for (peaks, at, sampled, rms_names, extremes, stroke, more), where in shapes.items():
+        rs = [runs[i] for i in where]
+        # the row of the case alone, its keys in this order: a dict (a key made twice keeps its
+        # first place and takes its last value)
+        named = {"status": ["ok"] * len(rs), "success": [True] * len(rs)}
+        # peaks and constraint extremes over the continuous stroke (certified), with where they
+        # lie and the samples' own values beside them
+        named.update({f"peak:{k}": [r.peaks[k] for r in rs] for k in peaks})
+        named.update({f"peak_at:{k}": [r.peak_at[k]["s"] for r in rs] for k in at})
+        named.update({f"peak_sampled:{k}": [r.peaks_sampled[k] for r in rs] for k in sampled})
+        # rms over the continuous sweep (adaptive quadrature, model/analysis.Analysis.sweep_rms)
+        named.update({f"rms:{k}": [rms[i][k][0] for i in where] for k in rms_names})
+        for name in extremes:
+            named[f"constraint:{name}:min"] = [r.constraint_extremes[name]["min"] for r in rs]
+            named[f"constraint:{name}:max"] = [r.constraint_extremes[name]["max"] for r in rs]
+        named.update({f"constraint:{name}": [float(r.stroke[name]) for r in rs] for name in stroke})
+        named.update({k: [extra[i][k] for i in where] for k in more})
+        pieces.append((where, tuple(named), list(named.values())))
+    return pieces
+
+
+def _cases_row(cases) -> dict:
+    """A scene's load cases in an analyse study's row (the peaks above are the nominal state's, at
+    the [drive] speed and acceleration): each peak's governing case and value, the duty cycle's
+    RMS over time and energy, each motor's fit, the cylinder's sizes."""
+    row = {}
+    for key, g in cases.governing.items():
+        row[f"case_peak:{key}"], row[f"case_peak_case:{key}"] = g["value"], g["case"]
+    duty = cases.duty
+    row.update({f"cycle_rms:{k}": v for k, v in duty.get("rms_time", {}).items()})
+    if "energy" in duty:
+        row["cycle:time"], row["cycle:energy"] = duty["cycle_time"], duty["energy"]
+    train = cases.train
+    for name, m in train.get("motors", {}).items():
+        row[f"motor_fits:{name}"] = bool(m["fits"])
+    if "smallest_fitting" in train:
+        row["smallest_motor"] = train["smallest_fitting"] or "none"
+    for key in ("bore", "bore_needed", "rod", "rod_needed_buckling", "buckling_utilisation", "pump_flow"):
+        if key in train:
+            row[f"cylinder:{key}"] = train[key]
+    return row
