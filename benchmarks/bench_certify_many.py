@@ -2,7 +2,7 @@
 (issue 31: model/certified.CertifiedExtremes.many, kinematics/extrema.py, branch_bound.py).
 
     python benchmarks/bench_certify_many.py [--scene problems/truck_crane.toml] [--cases 1024]
-        [--batches 1,32,256,1024] [--repeats 3] [--base REV]
+        [--batches 1,32,256,1024] [--repeats 3] [--base REV] [--varied mB,mP,xD,yD,b]
 
 writes the section ``certify_many`` of results/scaling.md.  The cases: Sobol points over the
 truck crane's mB, mP, xD, yD and b (tests/test_certified_many.VARIED), each case's sampled
@@ -51,10 +51,10 @@ print(json.dumps({"cpu": statistics.median(times), "results": out}))
 """
 
 
-def cases(analysis, n):
-    from test_certified_many import crane_parameters, stacked
+def cases(analysis, n, varied):
+    from test_certified_many import VARIED, crane_parameters, stacked
 
-    P = crane_parameters(analysis, n, 5)
+    P = crane_parameters(analysis, n, 5, {k: VARIED[k] for k in varied})
     columns, constraints = stacked(analysis, P)
     return P, columns, constraints
 
@@ -119,10 +119,12 @@ def main(argv=None):
     ap.add_argument("--batches", default="1,32,256,1024")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--base", default=None, help="a commit whose one-at-a-time certification to compare")
+    ap.add_argument("--varied", default="mB,mP,xD,yD,b", help="the parameters the cases vary (of mB,mP,xD,yD,b)")
     args = ap.parse_args(argv)
     load = os.getloadavg()
     analysis = Analysis(optdesign.load(ROOT / args.scene))
-    P, columns, constraints = cases(analysis, args.cases)
+    varied = args.varied.split(",")
+    P, columns, constraints = cases(analysis, args.cases, varied)
     sizes = [int(x) for x in args.batches.split(",")]
     one_at_a_time(analysis, P[:8], *(dict((k, v[:8]) for k, v in d.items()) for d in (columns, constraints)))
     for size in sizes:   # warm-up: the mapped functions of each size built, the libraries loaded
@@ -144,9 +146,10 @@ def main(argv=None):
     n = args.cases
     lines = ["# Certified extremes of many cases (issue 31)", "",
              f"`python benchmarks/bench_certify_many.py --scene {args.scene} --cases {n} --batches {args.batches} "
-             f"--repeats {args.repeats}" + (f" --base {args.base}" if args.base else "") + f"` at {git_state()}, "
+             f"--repeats {args.repeats}" + (f" --base {args.base}" if args.base else "")
+             + (f" --varied {args.varied}" if args.varied != "mB,mP,xD,yD,b" else "") + f"` at {git_state()}, "
              f"{time.strftime('%Y-%m-%d %H:%M', time.gmtime())} UTC, {cpu_model()}, load average {load[0]:.1f} at the "
-             f"start and {os.getloadavg()[0]:.1f} at the end.  {n} cases (Sobol mB, mP, xD, yD, b), each case's "
+             f"start and {os.getloadavg()[0]:.1f} at the end.  {n} cases (Sobol {', '.join(varied)}), each case's "
              "sampled columns computed first (not timed); CPU time of the certification alone "
              "(`CertifiedExtremes`), compiled intervals and rows, median of the rounds.", "",
              "| run | CPU per case [ms] | one at a time's CPU / this | " + (f"base's CPU / this | " if base else "")

@@ -108,3 +108,59 @@ def test_the_catalogue_states_its_rule():
     assert cat.chosen == "small" and not fits_by_scan("tiny") and fits_by_scan("small")
     assert RULE in cat.results["tiny"].message
     assert [len(r.tried) for r in cat.results["tiny"].starts] == [1]
+
+
+def _catalogue_text(motors):
+    text = '\n[gearbox]\nratio = "i"\n'
+    for name, J_r, rated, peak, speed in motors:
+        text += (f'[[motors]]\nname = "{name}"\ninertia = {float(J_r)!r}\nrated_torque = {float(rated)!r}\n'
+                 f'peak_torque = {float(peak)!r}\nmax_speed = {float(speed)!r}\n')
+    return text
+
+
+def _utilisation(model, top_speed, J_r, rated, peak_limit, max_speed):
+    """(least utilisation over the ratios, the least RMS among the ratios that fit or inf) of a
+    motor: utilisation max(RMS / rated, peak / peak limit, speed / max speed), by a dense
+    geometric scan of i in [2, 200] refined around its best point (numpy model)."""
+    def u(i):
+        rms, peak = model(i, J_r)
+        return max(rms / rated, peak / peak_limit, i * top_speed / max_speed)
+
+    def fitting_rms(i):
+        rms, _ = model(i, J_r)
+        return rms if u(i) <= 1 else math.inf
+    return scan(u, 2.0, 200.0, geometric=True)[1], scan(fitting_rms, 2.0, 200.0, geometric=True)[1]
+
+
+@pytest.mark.slow   # about 30 s on the virtual machine; test_the_catalogue_states_its_rule is the fast sibling
+def test_generated_catalogues_choose_the_motor_the_numpy_model_chooses():
+    """Catalogues of three motors drawn from a Sobol sample (rotor inertia, rated and peak
+    torque, top speed; the speed limit binds for some, the inertia's torque J_r i theta'' for
+    others): the chosen motor is the smallest by rated torque whose least utilisation on the
+    numpy model's dense scan is <= 1, and its optimum is the least RMS among the ratios that
+    fit.  Motors within 3 % of fitting or not are left out (the scan's own resolution)."""
+    from scipy.stats import qmc
+
+    paths = motion()
+    model = motor_model(paths, gravity=9.81)
+    top_speed = max(np.max(np.abs(thd)) for _, thd, _, _ in paths.values())
+    draws = qmc.Sobol(4, scramble=True, seed=7).random(16)
+    motors = []
+    for J_u, rated_u, peak_u, speed_u in draws:
+        J_r, rated = 1e-4 * 50 ** J_u, 0.08 + 0.3 * rated_u
+        peak, speed = rated * (1.5 + 1.5 * peak_u), 80.0 + 420.0 * speed_u
+        u, best = _utilisation(model, top_speed, J_r, rated, peak, speed)
+        if abs(u - 1) >= 0.03 and (u > 1 or math.isfinite(best)):
+            motors.append((J_r, rated, peak, speed, u, best))
+    fit, unfit = [m for m in motors if m[4] <= 1], [m for m in motors if m[4] > 1]
+    # one catalogue whose smallest motors cannot fit, one whose smallest can, one with none that fits
+    catalogues = [(unfit[0], unfit[1], fit[0]), (fit[1], unfit[2], fit[2]), (unfit[3], unfit[1])]
+    for n, group in enumerate(catalogues):
+        named = [(f"m{n}{j}", *m[:4]) for j, m in enumerate(group)]
+        sc = _only_ratio(scene("rms_time(motor_torque)", extra=_catalogue_text(named)), 2.0, 200.0)
+        cat = optimise_catalogue(sc, starts=2)
+        order = sorted(zip(named, group), key=lambda nm: (nm[0][2], nm[0][0]))
+        expected = next(((nm[0], m) for nm, m in order if m[4] <= 1), None)
+        assert cat.chosen == (expected[0] if expected else None), (n, group, cat.chosen)
+        if expected is not None:
+            assert cat.best.objective == pytest.approx(expected[1][5], rel=2e-4)

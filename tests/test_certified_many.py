@@ -41,12 +41,12 @@ def crane():
     return Analysis(optdesign.load(PROBLEMS / "truck_crane.toml"))
 
 
-def crane_parameters(analysis, n, seed):
+def crane_parameters(analysis, n, seed, varied=VARIED):
     mech = analysis.mech
     names = list(mech.parameter_names)
-    unit = qmc.Sobol(len(VARIED), seed=seed).random(n)
+    unit = qmc.Sobol(len(varied), seed=seed).random(n)
     P = np.tile(mech.parameter_values, (n, 1))
-    for j, (name, (lo, hi)) in enumerate(VARIED.items()):
+    for j, (name, (lo, hi)) in enumerate(varied.items()):
         P[:, names.index(name)] = lo + (hi - lo) * unit[:, j]
     return P
 

@@ -90,6 +90,37 @@ def test_enclosures_hold_every_value_on_random_intervals(name):
         assert np.all(L[0, k] <= v) and np.all(v <= U[0, k]), (name, lo[k], hi[k], L[0, k], U[0, k], v.min(), v.max())
 
 
+@pytest.mark.parametrize("name", sorted(EXPRESSIONS))
+def test_enclosures_expanded_off_the_midpoint_hold_every_value(name):
+    """The forms expanded at a given point of each interval (a located maximum: at one end of
+    the interval, or anywhere inside it; outside it or NaN: the midpoint) instead of its
+    midpoint: L <= v <= U at 401 points of each interval, and the expansion point's own
+    enclosure holds v there (CasADi's values)."""
+    f = function(EXPRESSIONS[name])
+    p = [0.7, 0.4]
+    enc = Enclosure(interval_program(f)[0], p)
+    rng = np.random.default_rng(11)
+    n = 240
+    lo = rng.uniform(-3, 3, n)
+    hi = lo + 10 ** rng.uniform(-6, np.log10(2), n)
+    u = rng.uniform(0, 1, n)
+    at = np.select([np.arange(n) % 4 == 0, np.arange(n) % 4 == 1, np.arange(n) % 4 == 2],
+                   [lo, hi, lo + (hi - lo) * u], np.where(u < 0.5, np.nan, hi + 1.0))
+    L, U, m_lo, m_hi = enc.bounds(lo, hi, centre=at)
+    ev = evaluator(f, p)
+    inside = (lo <= at) & (at <= hi)
+    m = np.where(inside, at, 0.5 * (lo + hi))
+    vm = ev(m)[0][0]
+    ok = np.isfinite(vm)
+    assert np.all(m_lo[0, ok] <= vm[ok]) and np.all(vm[ok] <= m_hi[0, ok])
+    t = np.linspace(0, 1, 401)
+    for k in range(n):
+        x = np.clip(lo[k] + (hi[k] - lo[k]) * t, lo[k], hi[k])
+        v = ev(x)[0][0]
+        v = v[np.isfinite(v)]
+        assert np.all(L[0, k] <= v) and np.all(v <= U[0, k]), (name, lo[k], hi[k], at[k], L[0, k], U[0, k], v.min(), v.max())
+
+
 def test_an_operation_without_enclosure_is_said_so():
     s, p = ca.SX.sym("s"), ca.SX.sym("p", 1)
     f = ca.Function("f", [s, p], [ca.fmod(s, 1.0), s, s])

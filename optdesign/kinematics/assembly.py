@@ -198,6 +198,7 @@ class AssemblyCheck:
             failures = self._loops(one, closing, s_values, direction)
             more, sign, T, first_bad, rows = self._sampled_margins(R, s_values, P[c], direction)
             staged.append((failures + more, sign, T, first_bad, rows))
+        self._resolve_crossings(staged, s_values, P, direction)
         between = self._between(s_values, P, staged, direction)
         out = []
         for c, (failures, sign, T, first_bad, rows) in enumerate(staged):
@@ -312,13 +313,32 @@ class AssemblyCheck:
             return self._failure(i, s_values[k], direction, (
                 f"cannot assemble at {self._name} = {fmt_s(s_values[k], self.mech.scene)}: {self._meet(m)} "
                 f"(relative margin {v:.3g} < 0). Change its lengths or narrow the sweep."))
-        s0 = _crossing(lambda s: sign[i] * self._relative(s, p, i), s_values[k - 1], s_values[k])
-        if m.kind == "loop":
-            return self._singular(i, s0, direction)
-        return self._failure(i, s0, direction, (
-            f"cannot assemble past {self._name} = {fmt_s(s0, self.mech.scene)}: it reaches its limit position there "
-            f"and {self._meet(m)} beyond it (relative margin {v:.3g} < 0 at the sample "
-            f"{self._name} = {fmt_s(s_values[k], self.mech.scene)}). Change its lengths or narrow the sweep."))
+        return _Crossing(i, s_values[k - 1], s_values[k], sign[i], v, s_values[k])   # its s: :meth:`_resolve_crossings`
+
+    def _resolve_crossings(self, staged, s_values, P, direction):
+        """Each :class:`_Crossing` among the cases' failures (a margin that fails at a sample and
+        passed at the one before) made its failure: where the margin crosses zero, located by
+        bisection for all of them at once (:func:`_crossings`; each its own steps)."""
+        pending = [(c, j, x) for c, (failures, *_) in enumerate(staged)
+                   for j, x in enumerate(failures) if isinstance(x, _Crossing)]
+        if not pending:
+            return
+        cases = np.array([c for c, _, _ in pending])
+        rows = np.array([x.row for _, _, x in pending])
+        signs = np.array([x.sign for _, _, x in pending])
+
+        def relative(s, which):
+            r = self._derivative_points(s, P[cases[which]])[0]
+            return signs[which] * r[rows[which], np.arange(len(which))]
+
+        self._build_derivatives()
+        found = _crossings(relative, np.array([x.lo for _, _, x in pending]), np.array([x.hi for _, _, x in pending]))
+        for (c, j, x), s0 in zip(pending, found.tolist()):
+            i, m = x.row, self.rows[x.row][0]
+            staged[c][0][j] = self._singular(i, s0, direction) if m.kind == "loop" else self._failure(i, s0, direction, (
+                f"cannot assemble past {self._name} = {fmt_s(s0, self.mech.scene)}: it reaches its limit position "
+                f"there and {self._meet(m)} beyond it (relative margin {x.value:.3g} < 0 at the sample "
+                f"{self._name} = {fmt_s(x.sample, self.mech.scene)}). Change its lengths or narrow the sweep."))
 
     def _continuous_failure(self, i, e, s_values, p, sign, direction):
         m, _, limit = self.rows[i]
@@ -439,19 +459,42 @@ def _next_sample(s_values, s, direction):
     return after[0] if after.size else s_values[-1]
 
 
-def _crossing(f, a, b, iterations=200):
+@dataclass(frozen=True)
+class _Crossing:
+    """A failure still to be located: margin ``row`` (times ``sign``) passes at ``lo`` and
+    fails at the sample ``hi`` (= ``sample``, its value there ``value``)."""
+
+    row: int
+    lo: float
+    hi: float
+    sign: float
+    value: float
+    sample: float
+
+
+def _crossings(f, a, b, iterations=200):
+    """:func:`_crossing` of many brackets at once, each with its own steps (a bracket's number
+    is the same in any batch): ``f(s, which)`` the functions of the brackets ``which`` at ``s``."""
+    a, b = np.array(a, float), np.array(b, float)
+    started = f(a, np.arange(len(a))) > 0
+    going, out = started.copy(), a.copy()
+    for _ in range(iterations):
+        live = np.flatnonzero(going)
+        if not live.size:
+            break
+        mid = 0.5 * (a[live] + b[live])
+        done = (mid == a[live]) | (mid == b[live])
+        going[live[done]] = False
+        live, mid = live[~done], mid[~done]
+        if not live.size:
+            break
+        up = f(mid, live) > 0
+        a[live[up]], b[live[~up]] = mid[up], mid[~up]
+    return np.where(started, b, out)
+
+
+def _crossing(f, a, b):
     """Where f crosses zero between a (f > 0) and b (f <= 0 or NaN), by bisection down to
     neighbouring floats: the first point with f <= 0, within an ulp or so of the crossing
     (a point where the construction no longer assembles; ``a`` itself if f(a) is not > 0)."""
-    fa = f(a)
-    if not fa > 0:
-        return float(a)
-    for _ in range(iterations):
-        mid = 0.5 * (a + b)
-        if mid in (a, b):
-            break
-        if f(mid) > 0:
-            a = mid
-        else:
-            b = mid
-    return float(b)
+    return float(_crossings(lambda s, which: np.array([f(float(s[0]))]), [a], [b])[0])

@@ -227,18 +227,20 @@ def interval_program(func):
         return None, str(exc)
 
 
-def _upper_correction(d1_lo, d1_hi, d2_hi, r):
-    """sup over t in [-r, r] of d1 t + d2_hi t^2 / 2 for d1 in [d1_lo, d1_hi] (the Taylor form's
-    term beyond v(m)), rounded up generously (a few operations, 1e-12 of itself)."""
+def _upper_correction(d1_lo, d1_hi, d2_hi, r, r_below=None):
+    """sup over t in [-r_below, r] (r_below: r by default) of d1 t + d2_hi t^2 / 2 for d1 in
+    [d1_lo, d1_hi] (the Taylor form's term beyond v(m)), rounded up generously (a few
+    operations, 1e-12 of itself)."""
     b = 0.5 * d2_hi
+    r_below = r if r_below is None else r_below
 
-    def g(a):   # sup over u in [0, r] of a u + b u^2
+    def g(a, r):   # sup over u in [0, r] of a u + b u^2
         end = np.maximum(a * r + b * r * r, 0.0)
         with np.errstate(all="ignore"):
             inner = np.where((b < 0) & (a > 0) & (a < -2 * b * r), a * a / (-4 * b), end)
         return np.where(b >= 0, end, inner)
 
-    c = np.maximum(g(d1_hi), g(-d1_lo))
+    c = np.maximum(g(d1_hi, r), g(-d1_lo, r_below))
     return c + np.abs(c) * 1e-12
 
 
@@ -249,7 +251,9 @@ class Enclosure:
     ``bounds(lo, hi)`` returns (L, U), rows x intervals: L <= v(s) <= U for every s in [lo, hi]
     and every row, the tightest of the plain enclosure, the mean-value form v(m) + v'([lo, hi])
     (s - m) (where no jump of v may lie inside), the Taylor form v(m) + v'(m) (s - m) +
-    v''([lo, hi]) (s - m)^2 / 2 (where no jump of v or v' may lie inside), m the midpoint, and
+    v''([lo, hi]) (s - m)^2 / 2 (where no jump of v or v' may lie inside), m the midpoint or the
+    interval's given expansion point (a located maximum inside it: there v'(m) ~ 0, and where
+    v'' is proven negative the form bounds v by v(m) itself, whatever the interval's width), and
     the monotone form: where no jump of v may lie inside and v' is proven of one sign over
     [lo, hi] (its plain enclosure, or where v' is continuous too v'(m) + v''([lo, hi]) (s - m)),
     v lies between its enclosures at the interval's two ends (an interval far from any maximum
@@ -262,20 +266,26 @@ class Enclosure:
         p = np.asarray(p, float)
         self.program, self.p = program, p if p.ndim == 2 else p.ravel()
 
-    def bounds(self, lo, hi, rows=None, cases=None):
+    def bounds(self, lo, hi, rows=None, cases=None, centre=None):
         """(L, U, vm_lo, vm_hi), rows x intervals: the bounds of v over [lo, hi] and the
-        enclosure of v at the midpoint; ``rows``: those rows only (the others NaN); ``cases``:
-        each interval's row of the parameters (an Enclosure of many cases)."""
+        enclosure of v at the expansion point; ``rows``: those rows only (the others NaN);
+        ``cases``: each interval's row of the parameters (an Enclosure of many cases);
+        ``centre``: each interval's expansion point (NaN, or outside [lo, hi]: its midpoint;
+        None: every midpoint)."""
         lo, hi = np.asarray(lo, float), np.asarray(hi, float)
         n = len(lo)
         if self.p.ndim == 2 and cases is None:   # one parameter row per interval
             cases = np.arange(n)
         if n > CHUNK:   # in pieces whose arrays stay in the processor's cache (each interval on its own)
-            parts = [self.bounds(lo[i:i + CHUNK], hi[i:i + CHUNK], rows, None if cases is None else cases[i:i + CHUNK])
-                     for i in range(0, n, CHUNK)]
+            parts = [self.bounds(lo[i:i + CHUNK], hi[i:i + CHUNK], rows, None if cases is None else cases[i:i + CHUNK],
+                                 None if centre is None else centre[i:i + CHUNK]) for i in range(0, n, CHUNK)]
             return tuple(np.concatenate(a, axis=1) for a in zip(*parts))
         m = 0.5 * (lo + hi)
-        r = _up(np.maximum(hi - m, m - lo))
+        if centre is not None:
+            with np.errstate(invalid="ignore"):
+                m = np.where((lo <= centre) & (centre <= hi), centre, m)
+        r_above, r_below = _up(hi - m), _up(m - lo)
+        r = np.maximum(r_above, r_below)
         # the ends, each (case, value) once: neighbouring intervals share them
         if self.p.ndim == 1:
             ends, where_end = np.unique(np.concatenate((lo, hi)), return_inverse=True)
@@ -309,12 +319,14 @@ class Enclosure:
         smooth1 = smooth0 & ~d_jump
         with np.errstate(all="ignore"):
             # mean-value form
-            mv = r * np.maximum(d_hi, -d_lo)
+            mv = np.maximum(np.maximum(r_above * d_hi, -r_below * d_lo), 0.0)   # sup of v' (s - m)
             mv = mv + np.abs(mv) * 1e-12
-            U_mv, L_mv = _up(vm_hi + mv), _down(vm_lo - mv)
+            mv_low = np.maximum(np.maximum(-r_above * d_lo, r_below * d_hi), 0.0)   # sup of -v' (s - m)
+            mv_low = mv_low + np.abs(mv_low) * 1e-12
+            U_mv, L_mv = _up(vm_hi + mv), _down(vm_lo - mv_low)
             # Taylor form, for v and for -v
-            U_t = _up(vm_hi + _upper_correction(dm_lo, dm_hi, e_hi, r))
-            L_t = _down(vm_lo - _upper_correction(-dm_hi, -dm_lo, -e_lo, r))
+            U_t = _up(vm_hi + _upper_correction(dm_lo, dm_hi, e_hi, r_above, r_below))
+            L_t = _down(vm_lo - _upper_correction(-dm_hi, -dm_lo, -e_lo, r_above, r_below))
             # monotone form: v' of one sign over the interval (its mean-value form where v' is continuous)
             de = r * np.maximum(e_hi, -e_lo)
             de = de + np.abs(de) * 1e-12
@@ -371,9 +383,9 @@ class Selected:
         self.case_sign = None if case_sign is None else np.asarray(case_sign, float)
         self.reason = getattr(enclosure, "reason", None)
 
-    def bounds(self, lo, hi, rows=None, cases=None):
+    def bounds(self, lo, hi, rows=None, cases=None, centre=None):
         inner = None if rows is None else self.rows[np.asarray(rows, int)]
-        L, U, m_lo, m_hi = (a[self.rows] for a in self.enclosure.bounds(lo, hi, inner, cases))
+        L, U, m_lo, m_hi = (a[self.rows] for a in self.enclosure.bounds(lo, hi, inner, cases, centre))
         sign = self.sign if self.case_sign is None else self.sign * self.case_sign[np.asarray(cases, int)][None, :]
         up = sign > 0
         return (np.where(up, L, -U), np.where(up, U, -L), np.where(up, m_lo, -m_hi), np.where(up, m_hi, -m_lo))
