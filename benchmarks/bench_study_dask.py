@@ -128,10 +128,15 @@ def on_dask(kind, n, folder, code=ROOT):
 
 
 def measure(kind, n, tmp, k, base=None):
-    """(pool, Dask, Dask with the base's code or None), interleaved."""
+    """(pool, Dask, Dask with the base's code or None), interleaved: the two Dask runs in turn
+    first and last (round ``k``), so that a load that rises or falls during a round does not
+    always favour the same code."""
     pool = client(kind, n, "pool", tmp / f"{kind}-{n}-{k}-pool")
+    first = on_dask(kind, n, tmp / f"{kind}-{n}-{k}-base", base) if base and k % 2 else None
     dask = on_dask(kind, n, tmp / f"{kind}-{n}-{k}-dask")
-    return pool, dask, (on_dask(kind, n, tmp / f"{kind}-{n}-{k}-base", base) if base else None)
+    if base and not k % 2:
+        first = on_dask(kind, n, tmp / f"{kind}-{n}-{k}-base", base)
+    return pool, dask, first
 
 
 def main():
@@ -171,7 +176,7 @@ def report(args, got, load0, rounds):
              "a scheduler process on loopback (a fresh cluster per run, warmed by a small study: its helpers "
              "started, the model built; the pool's runs include their processes' start). Analyse: the truck crane, "
              "10 boom masses x payloads; optimise: the jib (seed1_jib_design), mC on a grid, 2 starts, chains of 4. "
-             f"Medians of {rounds} interleaved run(s) (pool, Dask{', Dask at the base' if args.base else ''}). "
+             f"Medians of {rounds} interleaved run(s) (pool, Dask{', Dask at the base; the two Dask runs in turn first' if args.base else ''}). "
              "Whole run: wall time from Study.run to its return, start-up included (the client's connection or the "
              "pool's start, the first case's wait); steady: the cases after the first durable one over the time from "
              "it to the last. Peak memory is VmHWM (the client's imports included; the scheduler's since it "
