@@ -24,10 +24,9 @@ commits = sorted(set(where.values()))
 lines = ["# The optimiser, old against new (issue 27)", "",
  "Old = e832500 (this session's start; its runs: `python benchmarks/bench_optimiser_table.py --old /tmp/old --old-only --no-warm`, "
  f"{runs[0]['old_when']}, nice 19 beside other work). New = main during the session's end, each row at the commit in its last column: "
- "`python benchmarks/bench_optimiser_table.py --old /tmp/old --new /tmp/NEW --old-runs OLD.json --no-warm [--parallel 2] --scenes ...` "
- "from a fresh clone of that commit (" + ", ".join(f"{d['new']} at {d['when']}" for d in runs) + "). "
- "The duty-cycle scenes (hatch_cover, press_servo_cycle, transfer_arm, ventilator_squeeze) were run again on the last commit because "
- "06fe34a (the cycle's cases built together) landed after the first run; crane_luffing_drive (a 4-motor catalogue) after its speed-up landed. "
+ "`python benchmarks/bench_optimiser_table.py --old /tmp/old --new /tmp/NEW --old-runs OLD.json [--no-warm] [--parallel N] --scenes ...` "
+ "from a fresh clone of that commit (" + ", ".join(f"{d['new']} at {d['when']}" for d in runs) + "; a later run replaces an "
+ "earlier one's rows for the scenes it ran: the commit message says which and why). "
  "Every optimisation scene in problems/ and issue 27's two scenes, `optimise(scene, 20, 0)` with the default settings, workers=1 "
  "(a motor catalogue motor by motor, as the command does), each version in its own process, the compile cache shared. "
  "The rows were put together from the runs' JSON files by `python benchmarks/combine_optimiser_tables.py`.", "",
