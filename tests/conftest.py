@@ -3,8 +3,16 @@
 would otherwise make which path a test takes depend on what earlier runs left in the cache,
 and start compilers in the background while the suite runs."""
 import os
+import signal
 
 os.environ.setdefault("OPTDESIGN_NO_COMPILE", "1")
+
+# A run started in the background of a non-interactive shell inherits SIGINT ignored, and Python
+# then never raises KeyboardInterrupt: every Ctrl-C test would fail for the way the suite was
+# started (the slow set run that way on 2026-11-28: 11 such failures).  The tests get Python's own
+# handler back, as in a terminal.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 # --- the default suite and the slow tests ----------------------------------------------------
