@@ -4,6 +4,7 @@ position in it (a study's rows must not depend on how its cases were batched).""
 from __future__ import annotations
 
 import os
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -156,6 +157,8 @@ def test_a_batch_of_truck_cranes_holds_a_denser_sampling():
             assert hi <= f["certificates"][f"{name} max"]["bound"] and lo >= f["certificates"][f"{name} min"]["bound"]
 
 
+@pytest.mark.skipif(shutil.which(os.environ.get("CC", "gcc")) is None,
+                    reason="no C compiler on this machine: nothing compiled to compare")
 @pytest.mark.slow
 def test_a_batch_gives_each_case_its_own_result_with_the_compiled_programs(tmp_path, monkeypatch):
     """The same with the interval program and the rows compiled to C (this file's other tests run
@@ -164,8 +167,6 @@ def test_a_batch_gives_each_case_its_own_result_with_the_compiled_programs(tmp_p
     from optdesign.model import compiled
     from optdesign.model.intervals_compiled import CompiledProgram
 
-    if compiled.shutil.which(os.environ.get("CC", "gcc")) is None:
-        pytest.skip("no C compiler on this machine")
     monkeypatch.delenv("OPTDESIGN_NO_COMPILE", raising=False)
     monkeypatch.delenv("OPTDESIGN_INTERVALS", raising=False)
     monkeypatch.setenv("OPTDESIGN_COMPILE", "wait")

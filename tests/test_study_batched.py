@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -170,6 +171,8 @@ def compiling(tmp_path, monkeypatch):
     compiled._compiler.clear()
 
 
+@pytest.mark.skipif(shutil.which(os.environ.get("CC", "gcc")) is None,
+                    reason="no C compiler on this machine: nothing compiled to compare")
 @pytest.mark.slow   # ~10 s compiling; fast siblings: the batch tests above (numpy) and tests/test_compiled.py
 def test_compiled_the_sweep_rms_and_a_batch_give_the_virtual_machines_and_each_case_its_own_numbers(
         compiling, monkeypatch):
@@ -180,8 +183,6 @@ def test_compiled_the_sweep_rms_and_a_batch_give_the_virtual_machines_and_each_c
     from optdesign.model import compiled as compiled_module
     from optdesign.model.analysis import Analysis
 
-    if compiled_module.shutil.which(os.environ.get("CC", "gcc")) is None:
-        pytest.skip("no C compiler on this machine: nothing compiled to compare")
     scene = optdesign.load(ROOT / "problems" / "truck_crane.toml")
     tasks = _tasks(Study(scene, [grid("mP", 0, 3000, 5)], mode="analyse"))
     alone = [run_task(t) for t in tasks]
