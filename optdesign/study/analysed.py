@@ -85,9 +85,10 @@ def batch_blocks(tasks: list, index: list, ids: list) -> list:
     row, x and time_s), made column by column for a batch of analyse cases."""
     if not (len(tasks) > 1 and all(t.mode == "analyse" for t in tasks)):
         return blocks(index, ids, run_batch(tasks))
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     pieces = analyse([_prepare(task) for task in tasks])
     per_case = (time.perf_counter() - t0) / len(tasks)   # the batch's time, shared (run_batch's)
+    cpu = (time.process_time() - c0) / len(tasks)
     merged = {}
     for positions, keys, columns in pieces:
         if keys in merged:
@@ -103,7 +104,7 @@ def batch_blocks(tasks: list, index: list, ids: list) -> list:
             positions = [positions[j] for j in order]
             columns = [[c[j] for j in order] for c in columns]
         made.append(Block([index[j] for j in positions], [ids[j] for j in positions], keys, columns,
-                          [None] * len(positions), [per_case] * len(positions)))
+                          [None] * len(positions), [per_case] * len(positions), cpu))
     return made
 
 
