@@ -26,7 +26,7 @@ import numpy as np
 
 from .intervals import INF, JUMPS, PERIODIC, _binary, _down, _op, _out, _unary, _up  # noqa: F401
 
-CHUNK = 2048   # intervals per evaluation of Enclosure.bounds at most
+CHUNK = 16384   # intervals per evaluation of Enclosure.bounds at most (many cases' share work: not fewer)
 
 _BINARY_OPS = {_op(n) for n in ("OP_ADD", "OP_SUB", "OP_MUL", "OP_DIV", "OP_POW", "OP_CONSTPOW", "OP_ATAN2",
                                 "OP_FMIN", "OP_FMAX", "OP_HYPOT", "OP_LT", "OP_LE", "OP_EQ", "OP_NE",
