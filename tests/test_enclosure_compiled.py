@@ -199,6 +199,26 @@ def test_work_shared_by_the_rows_gives_the_bits_of_one_call_per_row(cache, monke
     assert shared >= 16   # (the shared calls did run)
 
 
+def test_the_forms_in_c_give_the_bits_of_numpys(programs, monkeypatch):
+    """Enclosure.bounds's mean-value, Taylor and monotone forms, done in C where the program is
+    compiled (CompiledProgram.forms): the same bits as its numpy code on the same program
+    outputs, over random intervals (NaN and infinite enclosures among them), with expansion
+    points inside some intervals and the rows cut to a subset."""
+    _, _, c_program = programs
+    rng = np.random.default_rng(12)
+    lo, hi = random_intervals(9, 400)
+    P = rng.uniform(0.2, 1.5, (len(lo), 2))
+    centre = np.where(rng.random(len(lo)) < 0.3, lo + (hi - lo) * rng.random(len(lo)), np.nan)
+    for rows in (None, [0, 3, 8]):
+        mine = Enclosure(c_program, P).bounds(lo, hi, rows, np.arange(len(lo)), centre)
+        with monkeypatch.context() as m:
+            m.delattr(CompiledProgram, "forms")
+            theirs = Enclosure(c_program, P).bounds(lo, hi, rows, np.arange(len(lo)), centre)
+        assert all(np.array_equal(a, b, equal_nan=True) for a, b in zip(mine, theirs)), rows
+        if rows is None:   # (the cases the test means: NaN and infinite bounds, mostly finite ones)
+            assert np.any(np.isnan(mine[0])) and np.any(np.isinf(mine[1])) and np.mean(np.isfinite(mine[1])) > 0.5
+
+
 def test_a_compiled_program_pickles_and_finds_its_library_again(programs):
     _, _, c_program = programs
     again = pickle.loads(pickle.dumps(c_program))

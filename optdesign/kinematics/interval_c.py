@@ -264,6 +264,62 @@ static void __attribute__((noinline)) g_importj(const unsigned char *restrict x,
 #define IMPORTJ(o, e) g_importj(sh_jump + (e) * n_sh, src + i0, m, J[o])
 """
 
+# Enclosure.bounds's forms (kinematics/enclosure.py), element by element: the same IEEE
+# operations in the same order as its numpy (np.maximum: nmax, np.where: ?:), so the same bits
+_FORMS = r"""
+#pragma GCC push_options
+#pragma GCC optimize ("O3")
+static inline double corr_g(double a, double r, double b) {   /* enclosure._upper_correction's g */
+  double end = nmax(a * r + b * r * r, 0.0);
+  double inner = ((b < 0) & (a > 0) & (a < -2.0 * b * r)) ? a * a / (-4.0 * b) : end;
+  return b >= 0 ? end : inner;
+}
+static inline double correction(double d1_lo, double d1_hi, double d2_hi, double r, double r_below) {
+  double b = 0.5 * d2_hi;
+  double c = nmax(corr_g(d1_hi, r, b), corr_g(-d1_lo, r_below, b));
+  return c + fabs(c) * 1e-12;
+}
+void %(name)s_forms(long n_rows, const long *rows, long n, long n_ends, const double *v_lo, const double *v_hi,
+    const unsigned char *v_jump, const double *d_lo, const double *d_hi, const unsigned char *d_jump,
+    const double *e_lo, const double *e_hi, const double *vm_lo, const double *vm_hi, const double *dm_lo,
+    const double *dm_hi, const double *at_lo, const double *at_hi, const long *end_a, const long *end_b,
+    const double *r_above, const double *r_below, double *out_lo, double *out_hi) {
+  for (long k = 0; k < n_rows; k++) {
+    long o = rows[k] * n, oe = rows[k] * n_ends;
+    for (long i = 0; i < n; i++) {
+      long x = o + i;
+      int smooth0 = !v_jump[x], smooth1 = smooth0 & !d_jump[x];
+      double ra = r_above[i], rb = r_below[i];
+      double mv = nmax(nmax(ra * d_hi[x], -rb * d_lo[x]), 0.0);
+      mv = mv + fabs(mv) * 1e-12;
+      double mv_low = nmax(nmax(-ra * d_lo[x], rb * d_hi[x]), 0.0);
+      mv_low = mv_low + fabs(mv_low) * 1e-12;
+      double U_mv = up(vm_hi[x] + mv), L_mv = dn(vm_lo[x] - mv_low);
+      double U_t = up(vm_hi[x] + correction(dm_lo[x], dm_hi[x], e_hi[x], ra, rb));
+      double L_t = dn(vm_lo[x] - correction(-dm_hi[x], -dm_lo[x], -e_lo[x], ra, rb));
+      double de = nmax(ra, rb) * nmax(e_hi[x], -e_lo[x]);
+      de = de + fabs(de) * 1e-12;
+      double lo_d = dn(dm_lo[x] - de), hi_d = up(dm_hi[x] + de);
+      double dv_lo = (smooth1 & (lo_d > d_lo[x])) ? lo_d : d_lo[x];
+      double dv_hi = (smooth1 & (hi_d < d_hi[x])) ? hi_d : d_hi[x];
+      int rising = smooth0 & (dv_lo >= 0), falling = smooth0 & (dv_hi <= 0);
+      double a_lo = at_lo[oe + end_a[i]], a_hi = at_hi[oe + end_a[i]];
+      double b_lo = at_lo[oe + end_b[i]], b_hi = at_hi[oe + end_b[i]];
+      double U_m = rising ? b_hi : (falling ? a_hi : INFINITY);
+      double L_m = rising ? a_lo : (falling ? b_lo : -INFINITY);
+      double U = v_hi[x], L = v_lo[x];
+      U = (smooth0 & (U_mv < U)) ? U_mv : U;
+      L = (smooth0 & (L_mv > L)) ? L_mv : L;
+      U = (smooth1 & (U_t < U)) ? U_t : U;
+      L = (smooth1 & (L_t > L)) ? L_t : L;
+      out_hi[x] = U_m < U ? U_m : U;
+      out_lo[x] = L_m > L ? L_m : L;
+    }
+  }
+}
+#pragma GCC pop_options
+"""
+
 _BINARY = {"OP_ADD": "iv_add", "OP_SUB": "iv_sub", "OP_MUL": "iv_mul", "OP_DIV": "iv_div", "OP_FMIN": "iv_fmin",
            "OP_FMAX": "iv_fmax", "OP_HYPOT": "iv_hypot", "OP_LT": "iv_lt", "OP_LE": "iv_le", "OP_EQ": "iv_eq",
            "OP_NE": "iv_ne", "OP_AND": "iv_and", "OP_OR": "iv_or", "OP_IF_ELSE_ZERO": "iv_if_else_zero"}
@@ -417,7 +473,7 @@ def c_source(program, name: str):
                     + (f"EXPORTJ({o},col[{x}]);" if carry else "") + "}}")
         body.append(guard + "{" + code + "}")
     n_slots = max(n_slots, 1)
-    source = [_prelude(),
+    source = [_prelude(), _FORMS % {"name": name},
               "#pragma GCC optimize (\"O0\")   /* a list of calls: compiled in seconds, runs as fast */",
               f"int {name}(long n, const double *lo, const double *hi, const double *p, long p_stride,",
               "    const unsigned char *need, double *out_lo, double *out_hi, unsigned char *out_jump,",

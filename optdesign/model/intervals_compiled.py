@@ -67,7 +67,7 @@ class CompiledProgram:
     def __init__(self, program, wait: bool | None = None):
         self.program, self.wait = program, wait
         self.shapes, self.rows = program.shapes, program.rows
-        self._function, self._tried = None, -np.inf
+        self._function, self._forms, self._tried = None, None, -np.inf
         self._offsets, self._total = stacked_rows(program)
         self._need, self._phases = {}, {}
         self.n_p = program.func.nnz_in(1) if program.func.n_in() > 1 else 0
@@ -100,11 +100,17 @@ class CompiledProgram:
                     compiled.say_once(key, f"optdesign: the compiled library {key} did not load ({exc}); it will be "
                                            "rebuilt")
                     return None
+                forms = getattr(ctypes.CDLL(str(path)), f"{NAME}_forms", None)
+                if forms is None:   # (a library written before it had one)
+                    compiled.remove(key)
+                    return None
+                forms.restype = None
+                forms.argtypes = [ctypes.c_long, ctypes.c_void_p, ctypes.c_long, ctypes.c_long, *[ctypes.c_void_p] * 20]
                 function.restype = ctypes.c_int
                 function.argtypes = [ctypes.c_long, *[ctypes.c_void_p] * 3, ctypes.c_long, *[ctypes.c_void_p] * 9,
                                      ctypes.c_long]
-                _loaded[key] = function
-            self._function = _loaded[key]
+                _loaded[key] = function, forms
+            self._function, self._forms = _loaded[key]
         return self._function
 
     @property
@@ -114,7 +120,25 @@ class CompiledProgram:
         return self._function is not None or self._library() is not None
 
     def __getstate__(self):   # (pickled, e.g. to a figure process: the library is looked up again there)
-        return {**self.__dict__, "_function": None, "_tried": -np.inf}
+        return {**self.__dict__, "_function": None, "_forms": None, "_tried": -np.inf}
+
+    def forms(self, rows, whole, mid, ends, end_a, end_b, r_above, r_below):
+        """:meth:`~optdesign.kinematics.enclosure.Enclosure.bounds`'s forms in C (the same
+        operations in the same order as its numpy: the same bits), from the program's outputs
+        ``whole`` (v, v' and v'' over the intervals: v_lo, v_hi, v_jump, d_lo, d_hi, d_jump,
+        e_lo, e_hi), ``mid`` (v and v' at the expansion points) and ``ends`` (v at the distinct
+        ends, ``end_a`` and ``end_b`` each interval's two); only the rows ``rows`` (all: None),
+        the others NaN.  Returns (L, U)."""
+        m, n = whole[0].shape
+        rows = np.arange(m) if rows is None else np.asarray(rows)
+        arrays = [np.ascontiguousarray(a) for a in (*whole, *mid, *ends)]
+        index = [np.ascontiguousarray(a, np.int64) for a in (rows, end_a, end_b)]
+        radii = [np.ascontiguousarray(a, float) for a in (r_above, r_below)]
+        out_lo, out_hi = np.full((m, n), np.nan), np.full((m, n), np.nan)
+        self._forms(len(rows), index[0].ctypes.data, n, arrays[-1].shape[1], *(a.ctypes.data for a in arrays),
+                    index[1].ctypes.data, index[2].ctypes.data, *(a.ctypes.data for a in radii), out_lo.ctypes.data,
+                    out_hi.ctypes.data)
+        return out_lo, out_hi
 
     def need(self, rows, outputs=None):
         """The varying instructions that the outputs of ``rows`` (all: None) need, of the
