@@ -240,8 +240,7 @@ static void __attribute__((noinline)) g_in(C_ x, C_ y, long stride, long i0, lon
 static void __attribute__((noinline)) g_const(double v, R_ l, R_ h) { for (int i = 0; i < B; i++) { l[i] = v; h[i] = v; } }
 static void __attribute__((noinline)) g_out(C_ l, C_ h, R_ x, R_ y, long m)
   { for (long i = 0; i < m; i++) { x[i] = l[i]; y[i] = h[i]; } }
-static void __attribute__((noinline)) g_outj(const unsigned char *restrict j, unsigned char *restrict x, long m)
-  { for (long i = 0; i < m; i++) x[i] = j[i]; }
+static void __attribute__((noinline)) g_outj(const unsigned char *restrict j, unsigned char *restrict x, long m) { memcpy(x, j, m); }
 static void __attribute__((noinline)) g_import(C_ x, C_ y, const long *restrict src, long m, R_ l, R_ h)
   { for (int i = 0; i < B; i++) { long q = src[i < m ? i : m - 1]; l[i] = x[q]; h[i] = y[q]; } }
 static void __attribute__((noinline)) g_importj(const unsigned char *restrict x, const long *restrict src, long m,
@@ -290,28 +289,21 @@ void %(name)s_forms(long n_rows, const long *rows, long n, long n_ends, const do
       long x = o + i;
       int smooth0 = !v_jump[x], smooth1 = smooth0 & !d_jump[x];
       double ra = r_above[i], rb = r_below[i];
-      double mv = nmax(nmax(ra * d_hi[x], -rb * d_lo[x]), 0.0);
-      mv = mv + fabs(mv) * 1e-12;
-      double mv_low = nmax(nmax(-ra * d_lo[x], rb * d_hi[x]), 0.0);
-      mv_low = mv_low + fabs(mv_low) * 1e-12;
+      double mv = nmax(nmax(ra * d_hi[x], -rb * d_lo[x]), 0.0), mv_low = nmax(nmax(-ra * d_lo[x], rb * d_hi[x]), 0.0);
+      mv = mv + fabs(mv) * 1e-12; mv_low = mv_low + fabs(mv_low) * 1e-12;
       double U_mv = up(vm_hi[x] + mv), L_mv = dn(vm_lo[x] - mv_low);
       double U_t = up(vm_hi[x] + correction(dm_lo[x], dm_hi[x], e_hi[x], ra, rb));
       double L_t = dn(vm_lo[x] - correction(-dm_hi[x], -dm_lo[x], -e_lo[x], ra, rb));
-      double de = nmax(ra, rb) * nmax(e_hi[x], -e_lo[x]);
-      de = de + fabs(de) * 1e-12;
+      double de = nmax(ra, rb) * nmax(e_hi[x], -e_lo[x]); de = de + fabs(de) * 1e-12;
       double lo_d = dn(dm_lo[x] - de), hi_d = up(dm_hi[x] + de);
       double dv_lo = (smooth1 & (lo_d > d_lo[x])) ? lo_d : d_lo[x];
       double dv_hi = (smooth1 & (hi_d < d_hi[x])) ? hi_d : d_hi[x];
       int rising = smooth0 & (dv_lo >= 0), falling = smooth0 & (dv_hi <= 0);
-      double a_lo = at_lo[oe + end_a[i]], a_hi = at_hi[oe + end_a[i]];
-      double b_lo = at_lo[oe + end_b[i]], b_hi = at_hi[oe + end_b[i]];
-      double U_m = rising ? b_hi : (falling ? a_hi : INFINITY);
-      double L_m = rising ? a_lo : (falling ? b_lo : -INFINITY);
+      double U_m = rising ? at_hi[oe + end_b[i]] : (falling ? at_hi[oe + end_a[i]] : INFINITY);
+      double L_m = rising ? at_lo[oe + end_a[i]] : (falling ? at_lo[oe + end_b[i]] : -INFINITY);
       double U = v_hi[x], L = v_lo[x];
-      U = (smooth0 & (U_mv < U)) ? U_mv : U;
-      L = (smooth0 & (L_mv > L)) ? L_mv : L;
-      U = (smooth1 & (U_t < U)) ? U_t : U;
-      L = (smooth1 & (L_t > L)) ? L_t : L;
+      U = (smooth0 & (U_mv < U)) ? U_mv : U; L = (smooth0 & (L_mv > L)) ? L_mv : L;
+      U = (smooth1 & (U_t < U)) ? U_t : U; L = (smooth1 & (L_t > L)) ? L_t : L;
       out_hi[x] = U_m < U ? U_m : U;
       out_lo[x] = L_m > L ? L_m : L;
     }
