@@ -66,30 +66,6 @@ def parameters(analysis, axes, n, seed=1):
     return P
 
 
-def wrap_stages(spent):
-    """Wrap each stage's function to add its CPU time to ``spent`` (outermost call only)."""
-    import importlib
-
-    depth = {}
-    for module, cls, func, stage in STAGES:
-        owner = importlib.import_module(module)
-        owner = getattr(owner, cls) if cls else owner
-        if not hasattr(owner, func):
-            continue
-        original = getattr(owner, func)
-
-        def timed(*args, _original=original, _stage=stage, **kwargs):
-            depth[_stage] = depth.get(_stage, 0) + 1
-            t = time.process_time()
-            try:
-                return _original(*args, **kwargs)
-            finally:
-                depth[_stage] -= 1
-                if not depth[_stage]:
-                    spent[_stage] = spent.get(_stage, 0.0) + time.process_time() - t
-
-        setattr(owner, func, timed)
-
 
 def summary(run) -> dict:
     """What a case's figures are, for comparing two codes' cases: its error or its peaks,
@@ -106,6 +82,7 @@ def summary(run) -> dict:
 def child(study, n, batch, repeats):
     """One code's measurement (run with that code on PYTHONPATH): JSON on the last line."""
     import optdesign
+    from benchfile import wrap_stages
     from optdesign.model.analysis import Analysis
 
     scene, axes = STUDIES[study]
@@ -113,7 +90,7 @@ def child(study, n, batch, repeats):
     P = parameters(analysis, axes, n)
     analysis.run_many(P[:min(batch, 8)])   # warm-up: libraries loaded, functions built
     spent = {}
-    wrap_stages(spent)
+    wrap_stages(STAGES, spent)
     rounds, found = [], None
     for _ in range(repeats):
         spent.clear()

@@ -46,33 +46,6 @@ SHOWN = ("prepare the cases", "run_many without certification", "of which model 
          "unpickle (client)", "all without certification", "certification (apart)")
 
 
-def wrap_stages(spent):
-    """Wrap each stage's function to add its CPU time to ``spent`` (outermost call only)."""
-    import importlib
-
-    depth = {}
-    for module, cls, func, stage in STAGES:
-        try:
-            owner = importlib.import_module(module)
-        except ImportError:
-            continue
-        owner = getattr(owner, cls) if cls else owner
-        if not hasattr(owner, func):
-            continue
-        original = getattr(owner, func)
-
-        def timed(*args, _original=original, _stage=stage, **kwargs):
-            depth[_stage] = depth.get(_stage, 0) + 1
-            t = time.process_time()
-            try:
-                return _original(*args, **kwargs)
-            finally:
-                depth[_stage] -= 1
-                if not depth[_stage]:
-                    spent[_stage] = spent.get(_stage, 0.0) + time.process_time() - t
-
-        setattr(owner, func, timed)
-
 
 def child(n, repeats):
     """One code's rounds (run with that code on PYTHONPATH): JSON lines, a round per line read
@@ -81,6 +54,7 @@ def child(n, repeats):
     import re
 
     import optdesign
+    from benchfile import wrap_stages
     from optdesign.study import Study, executors, grid
     from optdesign.study.tasks import scene_digest
 
@@ -95,7 +69,7 @@ def child(n, repeats):
 
     batch()   # warm: the model built, compiled code loaded
     spent = {}
-    wrap_stages(spent)
+    wrap_stages(STAGES, spent)
     for _ in range(repeats):
         sys.stdin.readline()
         spent.clear()

@@ -67,6 +67,36 @@ def cpu_model() -> str:
     return platform.processor() or platform.machine()
 
 
+def wrap_stages(stages, spent):
+    """Wrap each stage's function to add its CPU time to ``spent`` (outermost call only):
+    ``stages`` holds (module, class or None, function, the stage's name); a module or function
+    the code measured does not have is left out (an older commit's code)."""
+    import importlib
+
+    depth = {}
+    for module, cls, func, stage in stages:
+        try:
+            owner = importlib.import_module(module)
+        except ImportError:
+            continue
+        owner = getattr(owner, cls) if cls else owner
+        if not hasattr(owner, func):
+            continue
+        original = getattr(owner, func)
+
+        def timed(*args, _original=original, _stage=stage, **kwargs):
+            depth[_stage] = depth.get(_stage, 0) + 1
+            t = time.process_time()
+            try:
+                return _original(*args, **kwargs)
+            finally:
+                depth[_stage] -= 1
+                if not depth[_stage]:
+                    spent[_stage] = spent.get(_stage, 0.0) + time.process_time() - t
+
+        setattr(owner, func, timed)
+
+
 def median_time(f, repeats):
     """Median wall time of ``repeats`` calls of f() and the last call's value."""
     times = []

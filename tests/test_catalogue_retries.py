@@ -10,6 +10,7 @@ dense scan of the ratio, and here once more for the two motors used."""
 from __future__ import annotations
 
 import math
+import types
 
 import numpy as np
 import pytest
@@ -164,3 +165,30 @@ def test_generated_catalogues_choose_the_motor_the_numpy_model_chooses():
         assert cat.chosen == (expected[0] if expected else None), (n, group, cat.chosen)
         if expected is not None:
             assert cat.best.objective == pytest.approx(expected[1][5], rel=2e-4)
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_the_progress_reaches_its_total_only_when_the_retries_are_done(monkeypatch, workers):
+    """With the rule, the starts that failed are retried after the first pass: the progress
+    (done, total) must not say all done before them.  Four starts, of which 1 and 3 fail phase
+    1 and start 2 fits (a stand-in for solve_start, which records each call): the total grows
+    by the two failed starts once one start has fitted, ``done`` counts up by one per finished
+    start or retried start, and done == total only at the last call, after every retry."""
+    from optdesign.design.results import StartReport
+    from optdesign.design.starts import StartPlan
+
+    def fake(solver, repair, index, x0, fixed=None, retry=None, first=None):
+        ok = index not in (1, 3) or retry is not None   # its own point fails; a retry succeeds
+        status = "Solve_Succeeded" if ok else "phase 1 failed: infeasible"
+        return StartReport(index, {}, status, ok, 1.0 if ok else None, False, 0, 0, 0.0,
+                           tried=({"violation": None, "repaired": False},) * (2 if retry is not None else 1)), None
+
+    monkeypatch.setattr(multistart, "solve_start", fake)
+    calls = []
+    solver = types.SimpleNamespace(pb=None)
+    runs = multistart.solve_then_retry(solver, None, StartPlan(np.zeros((4, 1))), workers,
+                                       progress=lambda done, total: calls.append((done, total)))
+    assert [r.success for r, _ in runs] == [True] * 4
+    assert [d for d, _ in calls] == list(range(1, 7))            # 4 first tries, then 2 retried starts
+    assert calls[-1] == (6, 6) and all(d < t for d, t in calls[:-1])
+    assert [t for _, t in calls] == sorted(t for _, t in calls)  # the total never shrinks

@@ -150,24 +150,30 @@ def solve_then_retry(solver: Solver, repair: Repair, plan, workers=1, progress=N
     point alone; then, if any start reached phase 1's feasibility (its objective phase ran),
     the starts that failed retried as :func:`solve_starts` would (phase 1 from their own point
     not repeated: its result is the first pass's), giving the same (report, solution) per start.
-    ``progress`` and ``finished`` see the first pass."""
-    firsts = solve_starts(solver, repair, plan, workers, progress, finished, retries=False)
-    if not any(_fits(report) for report, _ in firsts):
-        return firsts
+    ``finished`` sees the first pass; ``progress(done, total)`` every start and retried start,
+    the total grown by the failed ones once a start fits: done == total after the last retry."""
+    n, tally = len(plan.points), [0, 0, False]   # starts done, failed, whether one fitted
+
+    def first(report):
+        tally[:] = [tally[0] + 1, tally[1] + (not report.success), tally[2] or _fits(report)]
+        if finished is not None:
+            finished(report)
+        if progress is not None:
+            progress(tally[0], n + tally[1] * tally[2])
+    firsts = solve_starts(solver, repair, plan, workers, finished=first, retries=False)
     again = [i for i, (report, _) in enumerate(firsts) if not report.success]
-    if not again:
+    if not again or not tally[2]:   # all succeeded, or no start fitted: no retries
         return firsts
     earlier = {i: _first_try(solver.pb, firsts[i][0]) for i in again}
+    step = None if progress is None else (lambda done, total: progress(n + done, n + total))
     try:
-        retried = solve_starts(solver, repair, plan, workers, indices=again, earlier=earlier)
+        retried = solve_starts(solver, repair, plan, workers, step, indices=again, earlier=earlier)
     except KeyboardInterrupt as exc:   # keep the first pass's successes and the retried starts finished
         done = dict(zip(getattr(exc, "finished_at", []), getattr(exc, "finished", [])))
         exc.finished = [done.get(i, run) for i, run in enumerate(firsts) if i in done or run[0].success]
         raise
-    runs = list(firsts)
-    for i, run in zip(again, retried):
-        runs[i] = run
-    return runs
+    retried = dict(zip(again, retried))
+    return [retried.get(i, run) for i, run in enumerate(firsts)]
 
 
 def _fits(report) -> bool:

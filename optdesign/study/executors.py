@@ -26,6 +26,7 @@ import concurrent.futures as cf
 import dataclasses
 import multiprocessing
 import os
+import pickle
 import sys
 import time
 from concurrent.futures.process import BrokenProcessPool
@@ -35,7 +36,7 @@ from .results import ClusterLost
 from .analysed import batch_blocks
 from .blocks import as_blocks
 from .tasks import died_output, run_batch
-from .worker import MAX_DEATHS, lines_made, blocks_in_helper, prestart
+from .worker import MAX_DEATHS, lines_made, pickled_blocks_in_helper, prestart, profiler_paused
 
 
 def computed(tasks, index, ids) -> list:
@@ -45,9 +46,11 @@ def computed(tasks, index, ids) -> list:
     return lines_made(batch_blocks(tasks, index, ids))
 
 
-def computed_in_helper(tasks, index, ids) -> list:
-    """:func:`computed` on a Dask worker (the batch in its helper process: :mod:`.worker`)."""
-    return blocks_in_helper(tasks, index, ids)
+def computed_in_helper(tasks, index, ids):
+    """:func:`computed` on a Dask worker (the batch in its helper process: :mod:`.worker`; a
+    batch of analyse cases' blocks as the helper pickled them, unpickled by the client)."""
+    with profiler_paused():
+        return pickled_blocks_in_helper(tasks, index, ids)
 
 
 def _where(batch):
@@ -357,7 +360,8 @@ class _Dask(_Futures):
 
     def _outputs(self, f, batch):
         try:
-            return f.result()
+            made = f.result()
+            return pickle.loads(made) if isinstance(made, bytes) else made   # (computed_in_helper's)
         except self.distributed.KilledWorker as exc:   # Dask retried it on other workers: each died
             reason = f"every Dask worker that computed this case died ({exc})"
             return [died_output(reason)] * len(batch.cases)
