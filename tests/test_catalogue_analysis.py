@@ -90,3 +90,15 @@ def test_result_json_and_summary_are_those_of_the_analyses_made_apart():
     design_cases._LAST[:], drive_train._LAST[:] = [result, apart], [catalogue, whole]   # the two made apart
     assert design.to_json(design.result_json(result, catalogue)) == json_shared
     assert design.result_summary(result, catalogue) == summary_shared
+
+
+def test_the_start_without_its_cases_is_the_nominal_state_of_the_whole():
+    """The figures of an optimisation's start need its nominal state alone
+    (report/design_figures.write_figures: Analysis(scene, cases=False)): every number of it is
+    that of the whole analysis, whose load cases are left out."""
+    from optdesign.model.analysis import Analysis
+
+    scene = crank()
+    nominal, whole = Analysis(scene, cases=False).run(), Analysis(scene).run()
+    assert nominal.cases is None and whole.cases is not None
+    assert same(nominal, dataclasses.replace(whole, cases=None)) == []
