@@ -313,18 +313,21 @@ class _Dask(_Futures):
         self._logger = logging.getLogger("distributed.client")
         self._log_level = self._logger.level
         self._logger.setLevel(logging.CRITICAL)
+        nthreads = None
         try:   # helper processes started on every worker now, while the study is being prepared
-            threads = max(self.client.nthreads().values(), default=1)
-            self.client.run(prestart, threads)   # returns at once: they start aside
+            nthreads = self.client.nthreads()
+            # returns at once (they start aside); waited for, so that no batch comes before it
+            self.client.run(prestart, max(nthreads.values(), default=1))
         except Exception:   # noqa: BLE001 - only a head start: a batch starts its helper if need be
             pass
-        self._look()
+        self._look(nthreads)
 
-    def _look(self):
-        """The window from the cluster's worker threads now (workers come and go)."""
+    def _look(self, nthreads=None):
+        """The window from the cluster's worker threads (``nthreads``, or asked now: workers come and go)."""
         self.looked = time.monotonic()
         try:
-            self.window = max(self.WINDOW, self.WINDOW * sum(self.client.nthreads().values()))
+            nthreads = self.client.nthreads() if nthreads is None else nthreads
+            self.window = max(self.WINDOW, self.WINDOW * sum(nthreads.values()))
         except (OSError, TimeoutError, cf.CancelledError):   # the scheduler is gone: results() says so
             pass
 
