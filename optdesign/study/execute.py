@@ -195,14 +195,21 @@ BATCH_MAX = 4096    # cases per batch at most (1: each case's analysis alone, ta
 
 
 def _group_size(executor, work, remaining) -> int:
-    """Cases per batch of an analyse study: GROUP_S seconds of work at the time per case seen so
-    far (``work``: [seconds, cases]), or fewer (down to a quarter of that) so that every batch the
-    executor keeps in flight (its window) has some while few are left."""
+    """Cases per batch of an analyse study: the executor's ``group_s`` seconds of work (GROUP_S
+    unless it says otherwise) at the time per case seen so far (``work``: [seconds, cases]), or
+    fewer (down to a quarter of GROUP_S) so that every batch the executor keeps in flight (its
+    window) has some while few are left."""
     seconds, n = work
-    per = min(GROUP_FIRST, BATCH_MAX) if not n else max(1, min(BATCH_MAX, int(GROUP_S / max(seconds / n, 1e-6))))
-    # near the end, smaller batches keep every worker busy; not below a quarter of GROUP_S (a
-    # batch's round trip costs milliseconds, tens on Dask)
-    return max(1, min(per, max(per // 4, -(-remaining // getattr(executor, "window", 1)))))
+    if not n:
+        per = min(GROUP_FIRST, BATCH_MAX)
+        floor = per // 4
+    else:
+        each = max(seconds / n, 1e-6)
+        per = max(1, min(BATCH_MAX, int(getattr(executor, "group_s", GROUP_S) / each)))
+        # near the end, smaller batches keep every worker busy; not below a quarter of GROUP_S
+        # (a batch's round trip costs milliseconds, tens on Dask)
+        floor = max(1, min(BATCH_MAX, int(GROUP_S / each))) // 4
+    return max(1, min(per, max(floor, -(-remaining // getattr(executor, "window", 1)))))
 
 
 # --- the scheduling loop -------------------------------------------------------------------

@@ -276,7 +276,8 @@ class _Dask(_Futures):
 
     Cases go in batches of consecutive cases of a chain, about ``BATCH_S`` seconds of work each
     (from the cases finished so far): a task's round trip through the scheduler costs
-    milliseconds to tens of milliseconds, a case of an optimisation study a few tens.  Each
+    milliseconds to tens of milliseconds, a case of an optimisation study a few tens; an analyse
+    study's independent cases in batches of about ``group_s`` seconds.  Each
     batch is computed in a helper process of its worker (:mod:`.worker`: the worker's own threads
     slowed the cases down 1.3-1.9 times), which builds the scene's model once.  At most
     ``WINDOW`` batches per worker thread are in flight, consumed as they complete
@@ -284,6 +285,11 @@ class _Dask(_Futures):
     comes back."""
 
     BATCH_S = 0.5
+    # an analyse batch's seconds of work (execute._group_size; the pool's: execute.GROUP_S, 0.5 s):
+    # a Dask task costs the client, the scheduler and the worker's process milliseconds of CPU
+    # each, tens on a loaded machine, on the cores the helpers compute on, and a case's time is
+    # wall time: the busier the machine, the fewer cases in a batch of GROUP_S
+    group_s = 2.0
     FIRST_BATCH = 4      # cases per batch before any case has finished
     WINDOW = 2           # batches in flight per worker thread
     LOOK_S = 5.0         # how often the cluster's worker threads are counted again
