@@ -39,6 +39,16 @@ import json, sys, time, os
 import optdesign
 from optdesign.errors import OptdesignError
 scene = optdesign.load(sys.argv[1])
+libraries = []   # the compile cache's answers: True where a library was found (else the virtual machine)
+try:
+    from optdesign.model import compiled
+    def library(*args, _found=compiled.library, **kw):
+        path = _found(*args, **kw)
+        libraries.append(path is not None)
+        return path
+    compiled.library = library
+except (ImportError, AttributeError):
+    pass
 def go(starts=20):
     if len(scene.motors) > 1:
         from optdesign.design.catalogue import optimise_catalogue
@@ -58,7 +68,7 @@ except OptdesignError as exc:
     print(json.dumps({"refused": str(exc).splitlines()[0][:200]}))
     raise SystemExit
 out = {"wall_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0, "success": res.success,
-       "objective": res.objective, "starts": [[s.success, s.status, s.objective, s.time_s] for s in res.starts]}
+       "objective": res.objective, "libraries": [sum(libraries), len(libraries)], "starts": [[s.success, s.status, s.objective, s.time_s] for s in res.starts]}
 print(json.dumps(out))
 """
 

@@ -122,6 +122,30 @@ def test_masses_alone_share_the_geometry_checks_and_keep_each_cases_numbers():
     assert together == [_alone(analysis, p) for p in P]
 
 
+def test_a_geometry_checked_before_is_not_checked_again_and_keeps_each_cases_numbers():
+    """A study's later batches of the same geometry (masses varied): the dead-centre check
+    between the samples is not run again (its result kept per geometry), and every case's
+    figures are still those of its own run in a fresh analysis; a new geometry is checked."""
+    analysis, P = _crane_cases(6, seed=9)
+    names = analysis.mech.parameter_names
+    for name in ("b", "xD", "yD"):
+        P[:, names.index(name)] = P[0, names.index(name)]
+    moved = P[:2].copy()
+    moved[:, names.index("b")] += 0.05   # another geometry
+    calls = []
+    check = analysis.model._dead_centre_between
+    analysis.model._dead_centre_between = lambda s, K, *args: calls.append(len(K)) or check(s, K, *args)
+    try:
+        first, again, other = _batch(analysis, P[:3]), _batch(analysis, P[3:]), _batch(analysis, moved)
+    finally:
+        del analysis.model._dead_centre_between
+    assert calls == [1, 1]   # the first batch's geometry, then the moved one: not the second batch's
+    fresh = _crane_cases(6, seed=9)[0]
+    assert first + again == [_alone(fresh, p) for p in P]
+    fresh = _crane_cases(6, seed=9)[0]
+    assert other == [_alone(fresh, p) for p in moved]
+
+
 def _fourbar(params, extra=""):
     text = SCENE.format(side="left", m2=M2, m3=M3, g=G, omega=OMEGA, **{k: float(v) for k, v in params.items()})
     return optdesign.loads(text + extra, "four-bars")

@@ -42,6 +42,7 @@ from ..kinematics.batches import parameters_used, same_cases
 from .mapped import MappedFunction
 
 DEAD_CENTRE_TOL = 1e-9   # the enclosure's tolerance on min |dq/ds|, relative to max |dq/ds| sampled
+DEAD_CENTRES_KEPT = 256  # geometries whose dead-centre check a model keeps (ReducedModel.dead_centres)
 from ..scene.expressions import Expression
 
 
@@ -79,6 +80,7 @@ class ReducedModel:
         self.efficiency_smoothing = efficiency_smoothing
         self._k_function = None
         self._k_enclosures = None
+        self._dead_centres_seen = {}   # the geometries checked (dead_centres): their results
         self.dead_centre_note = ""   # of the last check: why k's minimum has no enclosure's proof
         self._bodies()
         self._generalised()
@@ -317,7 +319,9 @@ class ReducedModel:
         width) each, and ``note``, why the minimum has no enclosure's proof ("" when it has).
         ``K``: k at the samples, cases x samples, when the caller has it.  k depends on some
         parameters only (the geometry, not a mass): cases equal in those are checked once (the
-        same numbers: the check sees nothing else)."""
+        same numbers: the check sees nothing else), and a geometry checked before (a study's
+        batches of cases differing in masses) is not checked again: its result is kept
+        (:data:`DEAD_CENTRES_KEPT` geometries at most; an error is found again each time)."""
         m = self.mech
         if self._k_function is None:
             dk = m.ds(self.k)
@@ -331,8 +335,15 @@ class ReducedModel:
             K = self._k_derivatives(np.tile(s_values, len(P)), np.repeat(P, n, axis=0))[0].reshape(len(P), n)
         groups = same_cases(P, self._k_uses)
         found, between = {}, []   # per group's first case: its result; the groups checked between samples
+        seen, keys = self._dead_centres_seen, {}
         for first, _ in groups:
             k = np.asarray(K[first], float)
+            # what the check reads of the case: the samples, k there, the parameters k depends on
+            key = (s_values.tobytes(), k.tobytes(), P[first, self._k_uses].tobytes())
+            if key in seen:
+                found[first] = (list(seen[key][0]), seen[key][1])   # the caller's own list
+                continue
+            keys[first] = key
             scale = np.max(np.abs(k)) if k.size else 1.0
             zero = np.flatnonzero(np.abs(k) <= 1e-12 * max(scale, 1e-300))
             change = np.flatnonzero(np.sign(k[:-1]) * np.sign(k[1:]) < 0)
@@ -349,6 +360,11 @@ class ReducedModel:
             for first, (where, narrow, note) in zip(firsts, self._dead_centre_between(
                     s_values, np.asarray(K, float)[firsts], P[firsts], np.array([s for _, s in between]))):
                 found[first] = (narrow, note) if where is None else self._dead_centre_error(s_values, where, P[first])
+        for first, key in keys.items():
+            if not isinstance(found[first], DeadCentreError):
+                if len(seen) >= DEAD_CENTRES_KEPT:
+                    seen.pop(next(iter(seen)))   # the oldest
+                seen[key] = (tuple(found[first][0]), found[first][1])
         out = [None] * len(P)
         for first, members in groups:
             for i in members:

@@ -7,6 +7,7 @@ takes the warm start from the journal (JSON keeps floats exact), so a resumed st
 exactly what an uninterrupted one would have."""
 from __future__ import annotations
 
+import collections
 import dataclasses
 import json
 import math
@@ -191,25 +192,38 @@ def case_table(study, rows, shown=30) -> list:
 
 GROUP_FIRST = 32   # analyse cases in a batch before a case's time is known
 GROUP_S = 0.5      # then about this many seconds of work per batch (tasks.run_batch analyses them together)
+GROUP_SEEN = 8     # the batches whose time per case sets the next one's size (the median of the last ones)
 BATCH_MAX = 4096    # cases per batch at most (1: each case's analysis alone, tasks.run_task)
 
 
 def _group_size(executor, work, remaining) -> int:
     """Cases per batch of an analyse study: the executor's ``group_s`` seconds of work (GROUP_S
-    unless it says otherwise) at the time per case seen so far (``work``: [seconds, cases]), or
-    fewer (down to a quarter of GROUP_S) so that every batch the executor keeps in flight (its
-    window) has some while few are left."""
-    seconds, n = work
-    if not n:
+    unless it says otherwise) at the time per case of the last batches (``work``: their seconds
+    per case (:func:`_work`), the median taken: a worker's first batch, which builds the model,
+    does not keep the next ones small), or fewer (down to a quarter of GROUP_S) so that every
+    batch the executor keeps in flight (its window) has some while few are left."""
+    per_case = sorted(work)[len(work) // 2] if work else None
+    if per_case is None:
         per = min(GROUP_FIRST, BATCH_MAX)
         floor = per // 4
     else:
-        each = max(seconds / n, 1e-6)
+        each = max(per_case, 1e-6)
         per = max(1, min(BATCH_MAX, int(getattr(executor, "group_s", GROUP_S) / each)))
         # near the end, smaller batches keep every worker busy; not below a quarter of GROUP_S
         # (a batch's round trip costs milliseconds, tens on Dask)
         floor = max(1, min(BATCH_MAX, int(GROUP_S / each))) // 4
     return max(1, min(per, max(floor, -(-remaining // getattr(executor, "window", 1)))))
+
+
+def _work(made, n) -> float:
+    """Seconds per case of a batch that came back (its blocks ``made``, ``n`` cases): the
+    processor time of the process that computed it where that was measured (a batch's own cost,
+    not what other processes on a busy machine took meanwhile: on 2 shared cores at load ~8 a
+    truck-crane case took ~5 times its processor time, and batches of 0.5 s of wall time held
+    ~80 cases, each batch paying its fixed cost), else its wall time (time_s)."""
+    if made and all(b.cpu_s is not None for b in made):
+        return sum(b.cpu_s * len(b) for b in made) / max(n, 1)
+    return sum(sum(b.time_s) for b in made) / max(n, 1)
 
 
 # --- the scheduling loop -------------------------------------------------------------------
@@ -262,7 +276,7 @@ def _schedule(study, cases, todo, journal, executor, progress, done, ctrl_c, cam
     # [cases of its batch still to come, its chain, position of the batch's last case]
     open_ = {}
     computed = reported = 0
-    work = [0.0, 0]   # seconds and cases computed so far (batch sizes)
+    work = collections.deque(maxlen=GROUP_SEEN)   # seconds per case of the last batches (their sizes)
     if progress is not None:
         progress(done, total)
 
@@ -327,8 +341,7 @@ def _schedule(study, cases, todo, journal, executor, progress, done, ctrl_c, cam
         if ctrl_c.abandoned:   # computed while the second Ctrl-C was raised: maybe not a result
             raise KeyboardInterrupt
         made = as_blocks(batch, outs)
-        work[0] += sum(sum(b.time_s) for b in made)
-        work[1] += len(batch)
+        work.append(_work(made, len(batch)))
         journal.add_blocks(made)
         came_back(made)
         computed += len(batch)
