@@ -34,7 +34,9 @@ os.environ.setdefault("OPTDESIGN_COMPILE", "wait")
 # (module, class or None, function, the stage's name): wrapped where the code measured has them
 STAGES = (
     ("optdesign.study.tasks", None, "_prepare", "prepare the cases"),
+    ("optdesign.study.tasks", None, "prepare_all", "prepare the cases"),
     ("optdesign.study.analysed", None, "_prepare", "prepare the cases"),
+    ("optdesign.study.analysed", None, "prepare_all", "prepare the cases"),
     ("optdesign.model.analysis", None, "run_cases", "run_many"),
     ("optdesign.model.runs", None, "_model_values", "model columns (compiled)"),
     ("optdesign.model.runs", None, "_certified", "certification"),

@@ -160,6 +160,65 @@ def test_a_row_of_parameters_per_interval_equals_one_call_per_vector(programs):
                 assert np.array_equal(sj[:, which == j], aj)
 
 
+def test_work_shared_by_the_rows_gives_the_bits_of_one_call_per_row(cache, monkeypatch):
+    """Rows of parameters that differ only in some of them (a study varying masses): the work
+    that depends on s but not on those is done once per distinct interval, then the rest per
+    row (model/intervals_compiled.CompiledProgram._shared).  Every output, jump flag included,
+    is the same bits as the call without sharing, whichever parameters differ, for subsets of
+    rows and outputs; with an if_else of one shared and one per-row branch, a shared jump
+    (sign, atan2's cut) read by per-row work, and work on the parameters alone."""
+    import optdesign.model.intervals_compiled as module
+
+    s, p = ca.SX.sym("s"), ca.SX.sym("p", 3)
+    kin = ca.sqrt(2 + ca.sin(3 * s)) * ca.cos(s * p[2])
+    v = ca.vertcat(kin * p[0] + ca.atan2(ca.sin(s) - 0.3, ca.cos(s) - 0.5) * p[1],
+                   ca.if_else(s > 0.2, s * kin, p[0] * s) + ca.sign(s - 0.25) * p[1] * p[1],
+                   ca.if_else(s * p[1] > 0.1, ca.sin(s), kin / (1 + s * s)),
+                   kin + p[2] * p[2], ca.fabs(kin - 1.2) * ca.exp(p[0] * s))
+    dv = ca.jacobian(v, s)
+    f = ca.Function("f", [s, p], [v, dv, ca.jacobian(dv, s)], ["s", "p"], ["v", "dv", "d2v"], {"cse": True})
+    program = CompiledProgram(interval_program(f)[0], wait=True)
+    assert program._library() is not None
+    rng = np.random.default_rng(4)
+    lo, hi = random_intervals(6, 30)
+    pick = rng.integers(0, 30, 500)
+    lo, hi = lo[pick], hi[pick]
+    shared = 0
+    for varied in ([0], [1], [0, 1], [2], []):
+        P = np.tile([0.7, 0.4, 0.9], (len(lo), 1))
+        P[:, varied] = rng.uniform(-1.5, 1.5, (len(lo), len(varied)))
+        for rows, outputs in ((None, None), ([1, 2], None), ([0, 4], (0,)), (None, (0, 1))):
+            monkeypatch.setattr(module, "SHARED", 0.75)
+            mine = program(lo, hi, P, rows, outputs)
+            shared += program._shared(lo, hi, P, program.need(rows, outputs)) is not None
+            monkeypatch.setattr(module, "SHARED", -1.0)   # (never shared)
+            assert program._shared(lo, hi, P, program.need(rows, outputs)) is None
+            theirs = program(lo, hi, P, rows, outputs)
+            for a, b in zip(mine, theirs):
+                assert all(np.array_equal(x, y, equal_nan=True) for x, y in zip(a, b)), (varied, rows, outputs)
+    assert shared >= 16   # (the shared calls did run)
+
+
+def test_the_forms_in_c_give_the_bits_of_numpys(programs, monkeypatch):
+    """Enclosure.bounds's mean-value, Taylor and monotone forms, done in C where the program is
+    compiled (CompiledProgram.forms): the same bits as its numpy code on the same program
+    outputs, over random intervals (NaN and infinite enclosures among them), with expansion
+    points inside some intervals and the rows cut to a subset."""
+    _, _, c_program = programs
+    rng = np.random.default_rng(12)
+    lo, hi = random_intervals(9, 400)
+    P = rng.uniform(0.2, 1.5, (len(lo), 2))
+    centre = np.where(rng.random(len(lo)) < 0.3, lo + (hi - lo) * rng.random(len(lo)), np.nan)
+    for rows in (None, [0, 3, 8]):
+        mine = Enclosure(c_program, P).bounds(lo, hi, rows, np.arange(len(lo)), centre)
+        with monkeypatch.context() as m:
+            m.delattr(CompiledProgram, "forms")
+            theirs = Enclosure(c_program, P).bounds(lo, hi, rows, np.arange(len(lo)), centre)
+        assert all(np.array_equal(a, b, equal_nan=True) for a, b in zip(mine, theirs)), rows
+        if rows is None:   # (the cases the test means: NaN and infinite bounds, mostly finite ones)
+            assert np.any(np.isnan(mine[0])) and np.any(np.isinf(mine[1])) and np.mean(np.isfinite(mine[1])) > 0.5
+
+
 def test_a_compiled_program_pickles_and_finds_its_library_again(programs):
     _, _, c_program = programs
     again = pickle.loads(pickle.dumps(c_program))

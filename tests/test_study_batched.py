@@ -100,6 +100,37 @@ def test_a_models_cache_key_is_the_json_of_what_it_depends_on_also_when_found_ag
             assert len(set(keys)) == len(cases)
 
 
+def test_a_batchs_cases_prepared_together_are_each_prepared_as_alone():
+    """tasks.prepare_all (a case that sets the same leaf numbers as the one before it takes its
+    model without a lookup) gives each case the model and values of its own tasks._prepare: leaf
+    cases, other names set, a structural parameter (the sweep's start: another build), a value
+    that is not a float and cases not checked together (their case scenes), a model that fails."""
+    import dataclasses
+
+    from optdesign.study.tasks import _prepare, prepare_all
+
+    text = (ROOT / "problems" / "truck_crane.toml").read_text()
+    text = text.replace('from = "-10 deg"', 'from = "th0"').replace("[parameters]\n", "[parameters]\nth0 = -0.17\n")
+    scene = optdesign.loads(text, "truck_crane_th0.toml")
+    study = Study(scene, [grid("mB", 500, 800, 2), grid("mP", 500, 3000, 3)], mode="analyse")
+    tasks = _tasks(study)
+    assert all(t.checked for t in tasks)
+    mixed = tasks[:3] + [dataclasses.replace(t, overrides=t.overrides[1:]) for t in tasks[3:5]] + [
+        dataclasses.replace(tasks[0], overrides=tasks[0].overrides + (("th0", -0.2),)),
+        dataclasses.replace(tasks[1], overrides=tasks[1].overrides + (("th0", -0.2),)),
+        dataclasses.replace(tasks[2], overrides=(("mP", 1000),)), tasks[3],
+        dataclasses.replace(tasks[4], checked=False), tasks[5],
+        dataclasses.replace(tasks[0], overrides=(("mP", 700.0), ("th0", 2.0))),   # the sweep's ends swapped
+        dataclasses.replace(tasks[1], overrides=(("mP", 800.0), ("th0", 2.0))), tasks[0]]
+    together, alone = prepare_all(mixed), [_prepare(t) for t in mixed]
+    assert len(together) == len(alone) == len(mixed)
+    for (t1, m1, v1), (t2, m2, v2) in zip(together, alone):
+        assert t1 is t2
+        assert m1 is m2 if not isinstance(m2, Exception) else str(m1) == str(m2)
+        assert type(v1) is type(v2) and (v1 == v2 if type(v2) in (dict, type(None)) else v1.parameters == v2.parameters)
+    assert len({id(m) for _, m, _ in alone}) >= 3   # builds: the leaf cases', the th0 cases', the failed one
+
+
 @pytest.fixture(scope="module")
 def crane_study():
     scene = optdesign.load(ROOT / "problems" / "truck_crane.toml")

@@ -6,14 +6,16 @@ turned inside out (as :mod:`optdesign.model.vectorised` does over the stroke): e
 is one numpy operation over all designs, so the NLP's rows at 4096 designs cost about as much
 as a few hundred evaluations in the virtual machine.  Same graph, same operations, so the
 same numbers to round-off.  A Function that is not SX (or has an operation without a numpy
-counterpart) is expanded to SX first, else evaluated by CasADi's map.
+counterpart) is expanded to SX first, else evaluated by CasADi's map; its instructions are kept in
+the cache folder (:mod:`optdesign.model.programs`).
 """
 from __future__ import annotations
 
 import casadi as ca
 import numpy as np
 
-from ..model.vectorised import instruction_program, run_program
+from ..model.programs import cached_program
+from ..model.vectorised import run_program
 
 
 class ManyDesigns:
@@ -24,10 +26,8 @@ class ManyDesigns:
     def __init__(self, func: ca.Function):
         self.func = func
         self.program = None
-        try:
-            sx = func if func.is_a("SXFunction") else func.expand()
-            self.program = instruction_program(sx)
-            self.func = sx
+        try:   # (from the cache folder when a run made it before: model/programs.py)
+            self.n_work, self.program = cached_program(func)
         except (NotImplementedError, RuntimeError):
             self.program = None
         self._maps = {}
@@ -49,5 +49,5 @@ class ManyDesigns:
         def store(j, k, value):
             outs[j][where[j][k]] = value
 
-        run_program(self.program, f.sz_w(), lambda i, k: columns[i][k], store)
+        run_program(self.program, self.n_work, lambda i, k: columns[i][k], store)
         return outs

@@ -3,8 +3,10 @@ the stroke with the enclosure of the rows (:mod:`.enclosure`), for every task (a
 case) of a batch of cases at once.
 
 Each case's stroke is first cut into coarse intervals (blocks of BLOCK sample intervals) and,
-around each located maximum near its task's best, at s* +- h 2^-k (k < PRESPLIT, h the sample
-spacing): pieces shrinking towards the maximum, as the Taylor form needs them to.  An interval
+around each located maximum near its task's best, at s* and about it at +- h 2^-k (k < PRESPLIT,
+h the sample spacing; from the point of a fine lattice nearest s*, so that cases whose maxima
+lie close share these intervals): pieces shrinking towards the maximum, as the Taylor form
+needs them to.  An interval
 holding (or ending at) its tasks' best located maximum is expanded there instead of at its
 midpoint: v' ~ 0 there, and where v'' is proven negative the form bounds v by v(s*) itself, so
 the pieces next to the maximum close in the first pass (with it, PRESPLIT 4 instead of 8 leaves
@@ -29,6 +31,7 @@ MAX_PASSES = 60      # subdivision passes of the branch and bound before a case 
 MAX_INTERVALS = 16384  # intervals of one case open at once, idem
 PRESPLIT = 4         # cuts each side of a located maximum in the first pass (first_intervals)
 BLOCK = 8            # sample intervals per interval of the first pass away from the maxima
+LATTICE = 3         # the first pass's cuts about a maximum on the lattice of h 2^-LATTICE (first_intervals)
 
 
 def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None):
@@ -131,9 +134,12 @@ def split(task, lo, hi, left_ub, cuts):
 def first_intervals(tasks, s_grid, found, best):
     """The first pass's intervals: per case, its stroke cut every BLOCK samples and, around each
     located maximum strictly inside the stroke within 1e-3 of its task's best (where the bound
-    must come within the tolerance of the located value), at s* and s* +- h 2^-k, k = 0 ..
-    PRESPLIT - 1 (h the largest sample spacing); every task of the case gets all its case's
-    intervals.  Returns (task, lo, hi) arrays, the index of each entry's interval among the
+    must come within the tolerance of the located value), at s* and c +- h 2^-k, k = 0 ..
+    PRESPLIT - 1 (h the largest sample spacing, c the point of the lattice s_0 + j h 2^-LATTICE
+    nearest s*: cases whose maxima lie near one another get the same cuts, to the bit, and share
+    the work of these intervals that does not depend on their parameters:
+    :class:`~optdesign.model.intervals_compiled.CompiledProgram`); every task of the case gets
+    all its case's intervals.  Returns (task, lo, hi) arrays, the index of each entry's interval among the
     distinct ones and, per distinct interval, the index of its first entry."""
     grid = np.unique(s_grid)
     n_cases, k = tasks.n_cases, len(tasks.requests)
@@ -152,7 +158,11 @@ def first_intervals(tasks, s_grid, found, best):
         t = found.task
         near = (target(found.v, tasks.code[t]) >= best[t] - 1e-3 * np.abs(best[t])) & (found.s > a) & (found.s < b)
         centres, owner = found.s[near], tasks.case[t[near]]
-        around = centres[:, None] + np.r_[-steps, 0.0, steps[::-1]][None, :]
+        # the cuts about the lattice point nearest each maximum (a + j g: the same bits for every
+        # case whose maximum is near it, so that cases share these intervals), and at the maximum
+        g = h * 2.0 ** -LATTICE
+        units = np.r_[-steps, steps[::-1]] / g
+        around = np.c_[a + (np.round((centres - a) / g)[:, None] + units[None, :]) * g, centres]
         inside = (around > a) & (around < b)
         cut_case.append(np.broadcast_to(owner[:, None], around.shape)[inside])
         cut_s.append(around[inside])

@@ -26,7 +26,7 @@ import numpy as np
 
 from .intervals import INF, JUMPS, PERIODIC, _binary, _down, _op, _out, _unary, _up  # noqa: F401
 
-CHUNK = 2048   # intervals per evaluation of Enclosure.bounds at most
+CHUNK = 16384   # intervals per evaluation of Enclosure.bounds at most (many cases' share work: not fewer)
 
 _BINARY_OPS = {_op(n) for n in ("OP_ADD", "OP_SUB", "OP_MUL", "OP_DIV", "OP_POW", "OP_CONSTPOW", "OP_ATAN2",
                                 "OP_FMIN", "OP_FMAX", "OP_HYPOT", "OP_LT", "OP_LE", "OP_EQ", "OP_NE",
@@ -315,6 +315,10 @@ class Enclosure:
                                                 v_lo[:, 2 * n:], v_hi[:, 2 * n:])
             dm_lo, dm_hi = d_lo[:, n:2 * n], d_hi[:, n:2 * n]
             v_jump, d_lo, d_hi, d_jump, e_lo, e_hi = (a[:, :n] for a in (v_jump, d_lo, d_hi, d_jump, e_lo, e_hi))
+        if getattr(self.program, "subsets_pay", False) and hasattr(self.program, "forms"):   # (compiled: the same bits)
+            L, U = self.program.forms(rows, (L, U, v_jump, d_lo, d_hi, d_jump, e_lo, e_hi), (vm_lo, vm_hi, dm_lo, dm_hi),
+                                      (at_lo, at_hi), where_end[:n], where_end[n:], r_above, r_below)
+            return L, U, vm_lo, vm_hi
         smooth0 = ~v_jump
         smooth1 = smooth0 & ~d_jump
         with np.errstate(all="ignore"):

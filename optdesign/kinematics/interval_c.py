@@ -17,13 +17,23 @@ compiler vectorises the loops without library calls), the parameters' own work r
 (so that each interval may carry its own parameter vector).  The C function::
 
     int NAME(long n, const double *lo, const double *hi, const double *p, long p_stride,
-             const unsigned char *need, double *out_lo, double *out_hi, unsigned char *out_jump)
+             const unsigned char *need, double *out_lo, double *out_hi, unsigned char *out_jump,
+             const long *col, double *sh_lo, double *sh_hi, unsigned char *sh_jump, const long *src,
+             long n_sh)
 
 evaluates the intervals [lo[i], hi[i]], i < n, with parameters p + i * p_stride (p_stride 0:
 one vector for all), running only the varying instructions j with need[j] (the program cut to
 the rows asked for); it writes each output's rows, stacked (row r of output j at
 ``offsets[j] + r``), as out_*[row * n + i].  Returns 0, or 1 when it could not allocate its
 work arrays.  :func:`c_source` gives the source and the stacked row of each output.
+
+The same function runs a program in two phases, so that work which does not depend on the
+parameters that differ between cases is done once per distinct interval
+(:meth:`~optdesign.model.intervals_compiled.CompiledProgram.__call__`): need[j] = 2 also
+exports instruction j's value (and its jump flags) to column col[j] of ``sh_*`` (column-major
+over the n intervals of this call: sh_*[col[j] * n + i]); need[j] = 3 imports it instead of
+computing it, for interval i from sh_*[col[j] * n_sh + src[i]].  Each instruction does the
+same operations on the same operands in either phase: the values are the same bits.
 """
 from __future__ import annotations
 
@@ -224,17 +234,82 @@ static void __attribute__((noinline)) b_select(C_ a, C_ b, C_ c, C_ d, C_ xl, C_
 }
 static void __attribute__((noinline)) b_jor(unsigned char *restrict j, const unsigned char *restrict x)
   { for (int i = 0; i < B; i++) j[i] |= x[i]; }
+/* the copies in and out of a block (the last block's missing intervals repeat its last one) */
+static void __attribute__((noinline)) g_in(C_ x, C_ y, long stride, long i0, long m, R_ l, R_ h)
+  { for (int i = 0; i < B; i++) { long q = (i0 + (i < m ? i : m - 1)) * stride; l[i] = x[q]; h[i] = y[q]; } }
+static void __attribute__((noinline)) g_const(double v, R_ l, R_ h) { for (int i = 0; i < B; i++) { l[i] = v; h[i] = v; } }
+static void __attribute__((noinline)) g_out(C_ l, C_ h, R_ x, R_ y, long m)
+  { for (long i = 0; i < m; i++) { x[i] = l[i]; y[i] = h[i]; } }
+static void __attribute__((noinline)) g_outj(const unsigned char *restrict j, unsigned char *restrict x, long m) { memcpy(x, j, m); }
+static void __attribute__((noinline)) g_import(C_ x, C_ y, const long *restrict src, long m, R_ l, R_ h)
+  { for (int i = 0; i < B; i++) { long q = src[i < m ? i : m - 1]; l[i] = x[q]; h[i] = y[q]; } }
+static void __attribute__((noinline)) g_importj(const unsigned char *restrict x, const long *restrict src, long m,
+                                                unsigned char *restrict j)
+  { for (int i = 0; i < B; i++) j[i] = x[src[i < m ? i : m - 1]]; }
 #pragma GCC pop_options
 #define L(s) w[s][0]
 #define H(s) w[s][1]
 #define A(s) w[s][0], w[s][1]
-#define IN_S(o) for (i = 0; i < B; i++) { long q = i0 + (i < m ? i : m - 1); L(o)[i] = lo[q]; H(o)[i] = hi[q]; }
-#define IN_P(o, k) for (i = 0; i < B; i++) { long q = i0 + (i < m ? i : m - 1); L(o)[i] = H(o)[i] = p[q * p_stride + k]; }
-#define CONST(o, v) for (i = 0; i < B; i++) { L(o)[i] = H(o)[i] = v; }
+#define IN_S(o) g_in(lo, hi, 1, i0, m, L(o), H(o))
+#define IN_P(o, k) g_in(p + (k), p + (k), p_stride, i0, m, L(o), H(o))
+#define CONST(o, v) g_const(v, L(o), H(o))
 #define COPY(o, x) memcpy(w[o], w[x], sizeof(slot))
 #define COPYJ(o, x) memcpy(J[o], J[x], B)
-#define OUT(r, x) for (i = 0; i < m; i++) { out_lo[(r) * n + i0 + i] = L(x)[i]; out_hi[(r) * n + i0 + i] = H(x)[i]; }
-#define OUTJ(r, x) for (i = 0; i < m; i++) out_jump[(r) * n + i0 + i] = J[x][i]
+#define OUT(r, x) g_out(L(x), H(x), out_lo + (r) * n + i0, out_hi + (r) * n + i0, m)
+#define OUTJ(r, x) g_outj(J[x], out_jump + (r) * n + i0, m)
+#define EXPORT(x, e) g_out(L(x), H(x), sh_lo + (e) * n + i0, sh_hi + (e) * n + i0, m)
+#define EXPORTJ(x, e) g_outj(J[x], sh_jump + (e) * n + i0, m)
+#define IMPORT(o, e) g_import(sh_lo + (e) * n_sh, sh_hi + (e) * n_sh, src + i0, m, L(o), H(o))
+#define IMPORTJ(o, e) g_importj(sh_jump + (e) * n_sh, src + i0, m, J[o])
+"""
+
+# Enclosure.bounds's forms (kinematics/enclosure.py), element by element: the same IEEE
+# operations in the same order as its numpy (np.maximum: nmax, np.where: ?:), so the same bits
+_FORMS = r"""
+#pragma GCC push_options
+#pragma GCC optimize ("O3")
+static inline double corr_g(double a, double r, double b) {   /* enclosure._upper_correction's g */
+  double end = nmax(a * r + b * r * r, 0.0);
+  double inner = ((b < 0) & (a > 0) & (a < -2.0 * b * r)) ? a * a / (-4.0 * b) : end;
+  return b >= 0 ? end : inner;
+}
+static inline double correction(double d1_lo, double d1_hi, double d2_hi, double r, double r_below) {
+  double b = 0.5 * d2_hi;
+  double c = nmax(corr_g(d1_hi, r, b), corr_g(-d1_lo, r_below, b));
+  return c + fabs(c) * 1e-12;
+}
+void %(name)s_forms(long n_rows, const long *rows, long n, long n_ends, const double *v_lo, const double *v_hi,
+    const unsigned char *v_jump, const double *d_lo, const double *d_hi, const unsigned char *d_jump,
+    const double *e_lo, const double *e_hi, const double *vm_lo, const double *vm_hi, const double *dm_lo,
+    const double *dm_hi, const double *at_lo, const double *at_hi, const long *end_a, const long *end_b,
+    const double *r_above, const double *r_below, double *out_lo, double *out_hi) {
+  for (long k = 0; k < n_rows; k++) {
+    long o = rows[k] * n, oe = rows[k] * n_ends;
+    for (long i = 0; i < n; i++) {
+      long x = o + i;
+      int smooth0 = !v_jump[x], smooth1 = smooth0 & !d_jump[x];
+      double ra = r_above[i], rb = r_below[i];
+      double mv = nmax(nmax(ra * d_hi[x], -rb * d_lo[x]), 0.0), mv_low = nmax(nmax(-ra * d_lo[x], rb * d_hi[x]), 0.0);
+      mv = mv + fabs(mv) * 1e-12; mv_low = mv_low + fabs(mv_low) * 1e-12;
+      double U_mv = up(vm_hi[x] + mv), L_mv = dn(vm_lo[x] - mv_low);
+      double U_t = up(vm_hi[x] + correction(dm_lo[x], dm_hi[x], e_hi[x], ra, rb));
+      double L_t = dn(vm_lo[x] - correction(-dm_hi[x], -dm_lo[x], -e_lo[x], ra, rb));
+      double de = nmax(ra, rb) * nmax(e_hi[x], -e_lo[x]); de = de + fabs(de) * 1e-12;
+      double lo_d = dn(dm_lo[x] - de), hi_d = up(dm_hi[x] + de);
+      double dv_lo = (smooth1 & (lo_d > d_lo[x])) ? lo_d : d_lo[x];
+      double dv_hi = (smooth1 & (hi_d < d_hi[x])) ? hi_d : d_hi[x];
+      int rising = smooth0 & (dv_lo >= 0), falling = smooth0 & (dv_hi <= 0);
+      double U_m = rising ? at_hi[oe + end_b[i]] : (falling ? at_hi[oe + end_a[i]] : INFINITY);
+      double L_m = rising ? at_lo[oe + end_a[i]] : (falling ? at_lo[oe + end_b[i]] : -INFINITY);
+      double U = v_hi[x], L = v_lo[x];
+      U = (smooth0 & (U_mv < U)) ? U_mv : U; L = (smooth0 & (L_mv > L)) ? L_mv : L;
+      U = (smooth1 & (U_t < U)) ? U_t : U; L = (smooth1 & (L_t > L)) ? L_t : L;
+      out_hi[x] = U_m < U ? U_m : U;
+      out_lo[x] = L_m > L ? L_m : L;
+    }
+  }
+}
+#pragma GCC pop_options
 """
 
 _BINARY = {"OP_ADD": "iv_add", "OP_SUB": "iv_sub", "OP_MUL": "iv_mul", "OP_DIV": "iv_div", "OP_FMIN": "iv_fmin",
@@ -282,32 +357,61 @@ def stacked_rows(program):
     return offsets, total
 
 
-def c_source(program, name: str):
-    """(C source, stacked row offset of each output, number of stacked rows) of ``program`` (an
-    IntervalProgram) as the function ``name`` described in the module's docstring."""
-    offsets, total = stacked_rows(program)
+def values(program):
+    """The values of ``program``'s entries (its fixed, then its varying instructions): (entries,
+    the number of fixed ones, per entry the values it reads and the values it writes).  Every
+    value written gets a number; an if_else_zero whose branch an if_else's sum reads writes two
+    (its result, and its branch kept in a slot of its own)."""
     entries = list(program.fixed) + list(program.varying)
     n_fixed = len(program.fixed)
     varying_k = {extra[1] for *_, extra in program.varying}
     # the if_else_zero instructions whose branch an if_else's sum reads (kept in slots of their own)
     selected = {k for op, i, out, ins, bit, const, _ in program.varying
                 if op == ca.OP_ADD and const is not None and all(c in varying_k for c in const) for k in const}
-    # every value written gets a number (the program's store index -> its current value); then
-    # C slots by a linear scan over the values' lives, a result never in an operand's slot
-    current, reads, writes, branch, values = {}, [], [], {}, 0
+    # every value written gets a number (the program's store index -> its current value)
+    current, reads, writes, branch, count = {}, [], [], {}, 0
     for j, (op, i, out, ins, bit, const, (periodic, k)) in enumerate(entries):
         r = [current[x] for x in ins] if op not in (ca.OP_INPUT, ca.OP_CONST) else []
         if op == ca.OP_ADD and j >= n_fixed and const is not None and all(c in varying_k for c in const):
             r += [branch[const[0]], branch[const[1]]]
         w = []
         if op != ca.OP_OUTPUT:
-            w, values = [values], values + 1
+            w, count = [count], count + 1
             current[out] = w[0]
             if j >= n_fixed and op == ca.OP_IF_ELSE_ZERO and k in selected:
-                w, values = [w[0], values], values + 1
+                w, count = [w[0], count], count + 1
                 branch[k] = w[1]
         reads.append(r)
         writes.append(w)
+    return entries, n_fixed, reads, writes
+
+
+def dependencies(program):
+    """Per varying entry of ``program``: the varying entries whose values it reads, and the
+    parameters it depends on (a bit mask, bit k: parameter k), directly or through what it
+    reads; and the varying entries that are an if_else (which read the branches their two
+    if_else_zero keep)."""
+    entries, n_fixed, reads, writes = values(program)
+    producer, params = {}, []
+    for j, (op, i, *_) in enumerate(entries):
+        mask = (1 << int(i[1])) if op == ca.OP_INPUT and i[0] == 1 else 0
+        for v in reads[j]:
+            mask |= params[producer[v]]
+        params.append(mask)
+        for v in writes[j]:
+            producer[v] = j
+    read = [sorted({producer[v] - n_fixed for v in reads[j] if producer[v] >= n_fixed})
+            for j in range(n_fixed, len(entries))]
+    selects = [j - n_fixed for j in range(n_fixed, len(entries)) if len(reads[j]) == 4]
+    return read, params[n_fixed:], selects
+
+
+def c_source(program, name: str):
+    """(C source, stacked row offset of each output, number of stacked rows) of ``program`` (an
+    IntervalProgram) as the function ``name`` described in the module's docstring."""
+    offsets, total = stacked_rows(program)
+    entries, n_fixed, reads, writes = values(program)
+    # C slots by a linear scan over the values' lives, a result never in an operand's slot
     last = {}
     for j, r in enumerate(reads):
         for v in r:
@@ -354,18 +458,23 @@ def c_source(program, name: str):
                 f"COPYJ({o},{flags[0]});" + "".join(f"b_jor(J[{o}],J[{x}]);" for x in flags[1:])
         if jump or flags:
             live.add(writes[j][0])
+        if varying:   # (the two phases: exported with need 2, imported with need 3)
+            x, carry = j - n_fixed, writes[j][0] in live
+            code = (f"if(need[{x}]==3){{IMPORT({o},col[{x}]);" + (f"IMPORTJ({o},col[{x}]);" if carry else "")
+                    + f"}}else{{{code}if(need[{x}]==2){{EXPORT({o},col[{x}]);"
+                    + (f"EXPORTJ({o},col[{x}]);" if carry else "") + "}}")
         body.append(guard + "{" + code + "}")
     n_slots = max(n_slots, 1)
-    source = [_prelude(),
+    source = [_prelude(), _FORMS % {"name": name},
               "#pragma GCC optimize (\"O0\")   /* a list of calls: compiled in seconds, runs as fast */",
               f"int {name}(long n, const double *lo, const double *hi, const double *p, long p_stride,",
-              "    const unsigned char *need, double *out_lo, double *out_hi, unsigned char *out_jump) {",
+              "    const unsigned char *need, double *out_lo, double *out_hi, unsigned char *out_jump,",
+              "    const long *col, double *sh_lo, double *sh_hi, unsigned char *sh_jump, const long *src, long n_sh) {",
               f"  slot *w = malloc(sizeof(slot) * {n_slots});",
               f"  unsigned char (*J)[B] = calloc({n_slots}, B);",
               "  if (!w || !J) { free(w); free(J); return 1; }",
               "  for (long i0 = 0; i0 < n; i0 += B) {",
               "    long m = n - i0 < B ? n - i0 : B;",
-              "    int i;",
               *("    " + line for line in body),
               "  }",
               "  free(w); free(J);",

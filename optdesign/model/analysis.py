@@ -106,7 +106,9 @@ class Analysis:
     """The compiled stroke evaluation of one scene (a class under :func:`analyse`)."""
 
     def __init__(self, scene: Scene | ResolvedScene, samples: int | None = None, efficiency_smoothing: float = 0.0,
-                 certify: bool = True, joints: bool = False):
+                 certify: bool = True, joints: bool = False, cases: bool = True):
+        """``cases`` False: the nominal state alone, the scene's [[cases]] left out of the run
+        (its ``cases`` None; the start's figures of an optimisation need no more)."""
         t0 = time.perf_counter()
         self.mech = Mechanism(scene_argument("analyse", scene, ResolvedScene))
         self.mech.interval_compile = compile_program
@@ -153,7 +155,7 @@ class Analysis:
         self.assembly = AssemblyCheck(self.mech)
         self.certified = CertifiedExtremes(self) if certify else None
         # the load cases' columns compiled from the disk cache (the same numbers: CasADi's C)
-        self.case_analysis = CaseAnalysis(self.mech, self.s_values, joints, certify, compile=True) if scene.cases else None
+        self.case_analysis = CaseAnalysis(self.mech, self.s_values, joints, certify, compile=True) if scene.cases and cases else None
         self.build_time = time.perf_counter() - t0
 
     def sweep_rms(self, p_values) -> dict:

@@ -10,6 +10,9 @@ decision is taken per vector, so a vector's result is the same bit for bit in an
 that fails carries its error and the others are unaffected."""
 from __future__ import annotations
 
+import copy
+import dataclasses
+
 import numpy as np
 
 from ..errors import OptdesignError
@@ -286,6 +289,19 @@ def add_motor_torque(results, duty, motor, name):
         duty["rms_time"]["motor_torque"] = motor["rms"]
         if "rms_error" in motor and "errors" in duty:
             duty["errors"]["rms_time"]["motor_torque"] = motor["rms_error"]
+
+def one_motor(cases: CasesResult, name) -> CasesResult:
+    """``cases`` of a scene with several [[motors]] (each motor's numbers made apart: the
+    catalogue at its chosen design) as the scene with motor ``name`` alone gives them: the other
+    motors left out, ``name``'s torque as the cases' motor_torque, the governing cases again."""
+    results = {k: dataclasses.replace(r, motors={name: r.motors[name]}, columns=dict(r.columns), peaks=dict(r.peaks),
+                                      peak_at=dict(r.peak_at), peaks_sampled=dict(r.peaks_sampled),
+                                      certificates=dict(r.certificates)) for k, r in cases.cases.items()}
+    duty, motor = copy.deepcopy(cases.duty), cases.train["motors"][name]
+    train = dict(cases.train, motors={name: motor}, smallest_fitting=name if motor["fits"] else None, shown=name)
+    add_motor_torque(results, duty, motor, name)
+    return CasesResult(results, governing_cases(results), duty, train)
+
 
 def governing_cases(results: dict) -> dict:
     """For each peak, the case with the largest one: {case, value, s} (brute force over cases)."""

@@ -9,7 +9,11 @@ program: it is compiled in the background as the models are, ``OPTDESIGN_COMPILE
 C compiler, or with ``OPTDESIGN_INTERVALS=numpy``, the numpy program runs.
 
 Parameters may be one vector for every interval or one row per interval (an array of shape
-intervals x parameters): a study's cases stacked into one call.
+intervals x parameters): a study's cases stacked into one call.  Then the work that depends on
+s but on none of the parameters that differ between the rows (a study that varies masses and
+loads: the kinematics) is done once per distinct interval, and only the rest per row, in two
+calls of the same C (:mod:`~optdesign.kinematics.interval_c`): the same operations on the same
+operands, so the same bits as one call per row.
 """
 from __future__ import annotations
 
@@ -20,11 +24,12 @@ import time
 import numpy as np
 
 from ..kinematics import enclosure, interval_c, intervals
-from ..kinematics.interval_c import c_source, stacked_rows
+from ..kinematics.interval_c import c_source, dependencies, stacked_rows
 from . import compiled
 
 NAME = "optdesign_intervals"
 RETRY_S = 2.0   # while the library is being compiled, looked for again at most this often
+SHARED = 0.75   # the two phases where the distinct intervals are at most this fraction of them
 _loaded = {}     # cache key -> the C function (one dlopen per library and process)
 _generator = []  # the hash of the code that writes the C (part of every entry's key)
 
@@ -62,10 +67,12 @@ class CompiledProgram:
     def __init__(self, program, wait: bool | None = None):
         self.program, self.wait = program, wait
         self.shapes, self.rows = program.shapes, program.rows
-        self._function, self._tried = None, -np.inf
+        self._function, self._forms, self._tried = None, None, -np.inf
         self._offsets, self._total = stacked_rows(program)
-        self._need = {}
+        self._need, self._phases = {}, {}
         self.n_p = program.func.nnz_in(1) if program.func.n_in() > 1 else 0
+        self._reads, self._params, self._selects = dependencies(program)
+        self._outputs = np.array([entry[0] == interval_c.ca.OP_OUTPUT for entry in program.varying], bool)
 
     def _library(self):
         if self._function is None and time.monotonic() - self._tried > RETRY_S:
@@ -93,10 +100,17 @@ class CompiledProgram:
                     compiled.say_once(key, f"optdesign: the compiled library {key} did not load ({exc}); it will be "
                                            "rebuilt")
                     return None
+                forms = getattr(ctypes.CDLL(str(path)), f"{NAME}_forms", None)
+                if forms is None:   # (a library written before it had one)
+                    compiled.remove(key)
+                    return None
+                forms.restype = None
+                forms.argtypes = [ctypes.c_long, ctypes.c_void_p, ctypes.c_long, ctypes.c_long, *[ctypes.c_void_p] * 20]
                 function.restype = ctypes.c_int
-                function.argtypes = [ctypes.c_long, *[ctypes.c_void_p] * 3, ctypes.c_long, *[ctypes.c_void_p] * 4]
-                _loaded[key] = function
-            self._function = _loaded[key]
+                function.argtypes = [ctypes.c_long, *[ctypes.c_void_p] * 3, ctypes.c_long, *[ctypes.c_void_p] * 9,
+                                     ctypes.c_long]
+                _loaded[key] = function, forms
+            self._function, self._forms = _loaded[key]
         return self._function
 
     @property
@@ -106,7 +120,25 @@ class CompiledProgram:
         return self._function is not None or self._library() is not None
 
     def __getstate__(self):   # (pickled, e.g. to a figure process: the library is looked up again there)
-        return {**self.__dict__, "_function": None, "_tried": -np.inf}
+        return {**self.__dict__, "_function": None, "_forms": None, "_tried": -np.inf}
+
+    def forms(self, rows, whole, mid, ends, end_a, end_b, r_above, r_below):
+        """:meth:`~optdesign.kinematics.enclosure.Enclosure.bounds`'s forms in C (the same
+        operations in the same order as its numpy: the same bits), from the program's outputs
+        ``whole`` (v, v' and v'' over the intervals: v_lo, v_hi, v_jump, d_lo, d_hi, d_jump,
+        e_lo, e_hi), ``mid`` (v and v' at the expansion points) and ``ends`` (v at the distinct
+        ends, ``end_a`` and ``end_b`` each interval's two); only the rows ``rows`` (all: None),
+        the others NaN.  Returns (L, U)."""
+        m, n = whole[0].shape
+        rows = np.arange(m) if rows is None else np.asarray(rows)
+        arrays = [np.ascontiguousarray(a) for a in (*whole, *mid, *ends)]
+        index = [np.ascontiguousarray(a, np.int64) for a in (rows, end_a, end_b)]
+        radii = [np.ascontiguousarray(a, float) for a in (r_above, r_below)]
+        out_lo, out_hi = np.full((m, n), np.nan), np.full((m, n), np.nan)
+        self._forms(len(rows), index[0].ctypes.data, n, arrays[-1].shape[1], *(a.ctypes.data for a in arrays),
+                    index[1].ctypes.data, index[2].ctypes.data, *(a.ctypes.data for a in radii), out_lo.ctypes.data,
+                    out_hi.ctypes.data)
+        return out_lo, out_hi
 
     def need(self, rows, outputs=None):
         """The varying instructions that the outputs of ``rows`` (all: None) need, of the
@@ -127,6 +159,31 @@ class CompiledProgram:
         self._need[fast] = self._need[key]
         return self._need[key]
 
+    def phases(self, need, varied: int):
+        """The two phases of a call of the instructions ``need`` (a mask) when the parameters
+        ``varied`` (bit k: parameter k) differ between the rows: (need of the shared call, need
+        of the per-row call, each instruction's column among the values the second imports from
+        the first), or None where the shared call would run under a quarter of the work."""
+        key = (need.tobytes(), varied)
+        if key not in self._phases:
+            mixed = np.array([(mask & varied) != 0 for mask in self._params], bool) | self._outputs
+            for j in self._selects:   # (an if_else reads its two if_else_zero's branches: kept with it)
+                if mixed[j]:
+                    mixed[self._reads[j]] = True
+            needed = need.astype(bool)
+            shared, own = needed & ~mixed, needed & mixed
+            boundary = np.zeros(len(need), bool)
+            for j in np.flatnonzero(own):
+                boundary[self._reads[j]] = True
+            boundary &= shared
+            col = np.full(len(need), -1, np.int64)
+            col[boundary] = np.arange(np.count_nonzero(boundary))
+            found = None
+            if 4 * np.count_nonzero(shared) >= np.count_nonzero(needed):
+                found = (shared.astype(np.uint8) + boundary, own.astype(np.uint8) + 3 * boundary.astype(np.uint8), col)
+            self._phases[key] = found
+        return self._phases[key]
+
     def __call__(self, lo, hi, p, rows=None, outputs=None):
         """As :meth:`IntervalProgram.__call__`: per output (lo, hi, jump), output rows x intervals."""
         function = self._library()
@@ -145,10 +202,47 @@ class CompiledProgram:
         if p.size == 0:
             p = np.zeros(1)
         offsets, total = self._offsets, self._total
+        if outputs is not None:   # (the stacked rows up to the last output asked for: C writes no others)
+            total = max((offsets[j] + self.shapes[j] for j in outputs), default=0)
         out_lo, out_hi = np.full((total, n), np.nan), np.full((total, n), np.nan)
         out_jump = np.zeros((total, n), np.bool_)
         need = self.need(rows, outputs)
-        if n and function(n, lo.ctypes.data, hi.ctypes.data, p.ctypes.data, stride, need.ctypes.data,
-                          out_lo.ctypes.data, out_hi.ctypes.data, out_jump.ctypes.data) != 0:
+        out = (out_lo.ctypes.data, out_hi.ctypes.data, out_jump.ctypes.data)
+        two = self._shared(lo, hi, p, need) if p.ndim == 2 and n > 1 else None
+        if two is not None:   # the work shared by the rows once per distinct interval, then each row's
+            (first, second, col), (lo_1, hi_1, src) = two
+            k, m = int(np.count_nonzero(first == 2)), len(lo_1)
+            sh_lo, sh_hi, sh_jump = np.empty((k, m)), np.empty((k, m)), np.zeros((k, m), np.bool_)
+            shared = (col.ctypes.data, sh_lo.ctypes.data, sh_hi.ctypes.data, sh_jump.ctypes.data)
+            if function(m, lo_1.ctypes.data, hi_1.ctypes.data, p.ctypes.data, 0, first.ctypes.data, *out, *shared,
+                        src.ctypes.data, 0) != 0 or \
+                    function(n, lo.ctypes.data, hi.ctypes.data, p.ctypes.data, stride, second.ctypes.data, *out,
+                             *shared, src.ctypes.data, m) != 0:
+                raise MemoryError("the compiled interval program could not allocate its work arrays")
+        elif n and function(n, lo.ctypes.data, hi.ctypes.data, p.ctypes.data, stride, need.ctypes.data, *out,
+                            None, None, None, None, None, 0) != 0:
             raise MemoryError("the compiled interval program could not allocate its work arrays")
-        return [(out_lo[o:o + m], out_hi[o:o + m], out_jump[o:o + m]) for o, m in zip(offsets, self.shapes)]
+        return [(out_lo[o:o + m], out_hi[o:o + m], out_jump[o:o + m]) if o + m <= total else
+                (np.broadcast_to(np.nan, (m, n)), np.broadcast_to(np.nan, (m, n)), np.broadcast_to(False, (m, n)))
+                for o, m in zip(offsets, self.shapes)]   # (outputs not asked for: NaN, read-only)
+
+    def _shared(self, lo, hi, p, need):
+        """The two phases (:meth:`phases`) and the distinct intervals (lo, hi, and each
+        interval's index among them) of a call with a row of parameters ``p`` per interval, or
+        None where they would not pay."""
+        varied = 0
+        for k in np.flatnonzero(np.any(p != p[0], axis=0)):
+            varied |= 1 << int(k)
+        phases = self.phases(need, varied)
+        if phases is None:
+            return None
+        bits_lo, bits_hi = lo.view(np.int64), hi.view(np.int64)   # (by their bits: -0.0 is not 0.0)
+        order = np.lexsort((bits_hi, bits_lo))
+        first = np.ones(len(lo), bool)
+        first[1:] = (np.diff(bits_lo[order]) != 0) | (np.diff(bits_hi[order]) != 0)
+        if np.count_nonzero(first) > SHARED * len(lo):
+            return None
+        src = np.empty(len(lo), np.int64)
+        src[order] = np.cumsum(first) - 1
+        pick = order[first]
+        return phases, (np.ascontiguousarray(lo[pick]), np.ascontiguousarray(hi[pick]), src)

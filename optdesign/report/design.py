@@ -182,10 +182,11 @@ def _write_results(result, folder, workers, animate=True, catalogue=None, figure
     from .design_cases import optimum_analysis
 
     written = [folder / "result.json", folder / "summary.txt"]
-    # the optimum's analysis made once here, for the JSON, the summary and (sent with the result)
-    # the figure process, which draws while this process writes the JSON and the summary
-    sent = figures is not None and result.success and figures.send(result, folder, workers, animate,
-                                                                     optimum_analysis(result))
+    # the optimum's analysis made once here (with a catalogue, from the catalogue's at the design),
+    # for the JSON, the summary and (sent with the result) the figure process, which draws while
+    # this process writes the JSON and the summary
+    optimum = optimum_analysis(result, catalogue)
+    sent = figures is not None and result.success and figures.send(result, folder, workers, animate, optimum)
     try:
         write_file(written[0], to_json(result_json(result, catalogue)) + "\n")
         write_file(written[1], result_summary(result, catalogue) + "\n")

@@ -10,7 +10,7 @@ import re
 import numpy as np
 
 from .cases import UNITS, inertia_ratio_text, unresolved_lines
-from .drive_train import catalogue_at_optimum, train_summary
+from .drive_train import catalogue_analysis, catalogue_at_optimum, train_summary
 from .units import sweep_scale
 
 _IN_CASE = re.compile(r"^(?P<what>.*?) in cases? '(?P<case>[^']*)'(?P<more>(, '[^']*')*)$")
@@ -20,17 +20,31 @@ _COLUMN = {"motor peak torque": "motor_torque", "motor speed": "motor_speed", "r
 _LAST = [None, None]   # (result, its analysis): its JSON, summary and figures share one analysis
 
 
-def optimum_analysis(result):
+def optimum_analysis(result, catalogue=None):
     """The scene analysed at the optimal design (an AnalysisResult of :func:`~optdesign.model.
     analysis.analyse`), or None without one; the last result's kept (results do not change),
-    so that its JSON, its summary and its figures analyse it once."""
+    so that its JSON, its summary and its figures analyse it once.  With the motor ``catalogue``
+    whose chosen motor's result it is, taken from the catalogue's analysis at that design
+    (:func:`.drive_train.catalogue_analysis`: the same numbers, one analysis for both tables)."""
     if not result.success:
         return None
     if _LAST[0] is not result:
-        from ..model.analysis import analyse
-
-        _LAST[:] = [result, analyse(result.scene.with_parameters(**result.design))]
+        _LAST[:] = [result, _chosen_motor_analysis(result, catalogue)]
     return _LAST[1]
+
+
+def _chosen_motor_analysis(result, catalogue):
+    import dataclasses
+
+    from ..model.analysis import analyse
+    from ..model.case_runs import one_motor
+
+    whole = catalogue_analysis(catalogue) if catalogue is not None and catalogue.best is result else None
+    motors = result.scene.motors
+    if whole is None or whole.cases is None or len(motors) != 1 or motors[0].name not in whole.cases.train.get("motors", {}):
+        return analyse(result.scene.with_parameters(**result.design))
+    return dataclasses.replace(whole, scene=dataclasses.replace(whole.scene, motors=motors),
+                               cases=one_motor(whole.cases, motors[0].name))
 
 
 def keep_optimum_analysis(result, analysis):

@@ -105,7 +105,7 @@ def write_figures(result, folder, workers=1, animate=True, before_html=None) -> 
     optimum = optimum_analysis(result)   # the one the JSON and the summary use (report/design_cases.py)
     if animate:
         job(animation, result, folder, optimum)
-    runs = [("start", Analysis(scene).run()), ("optimum", optimum)]
+    runs = [("start", Analysis(scene, cases=False).run()), ("optimum", optimum)]   # (the cases: at the optimum)
     job(mechanism_figure, result, folder, runs)
     written = [load_figure(result, folder, runs)] + sized_figures(result, folder)
     for k, (target, args) in enumerate(jobs):

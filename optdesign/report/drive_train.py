@@ -19,16 +19,24 @@ INERTIA_RATIO_LIMIT = 10.0  # the usual upper limit of J_load/(i^2 J_r) for a se
 def catalogue_at_optimum(catalogue) -> dict:
     """Every motor of the catalogue at the chosen design and gear ratio (model/train numbers:
     name -> peak, rms, peak_speed, inertia_ratio, fits, ...), or {} without a decided design."""
+    analysis = catalogue_analysis(catalogue)
+    return {} if analysis is None else dict(analysis.cases.train.get("motors", {}))
+
+
+def catalogue_analysis(catalogue):
+    """The scene with every motor of the catalogue analysed at the chosen design (an
+    AnalysisResult), or None without a decided design; the last catalogue's kept: its JSON, its
+    summary and the chosen motor's own analysis (report/design_cases.optimum_analysis) share it."""
     import dataclasses
 
     best = catalogue.best
     if best is None or not best.success or not getattr(catalogue, "motors", ()):
-        return {}
-    if _LAST[0] is not catalogue:   # the JSON and the summary of one catalogue share one analysis
+        return None
+    if _LAST[0] is not catalogue:
         from ..model.analysis import analyse
 
         scene = dataclasses.replace(best.scene, motors=tuple(catalogue.motors)).with_parameters(**best.design)
-        _LAST[:] = [catalogue, dict(analyse(scene).cases.train.get("motors", {}))]
+        _LAST[:] = [catalogue, analyse(scene)]
     return _LAST[1]
 
 

@@ -14,12 +14,12 @@ from __future__ import annotations
 import time
 
 from .blocks import Block, blocks
-from .tasks import _failed, _leaf_values, _prepare, run_batch
+from .tasks import _failed, _leaf_values, prepare_all, run_batch
 
 
 def analyse(prepared: list) -> list:
     """Pieces ``(positions, keys, columns)`` covering the prepared analyse cases
-    (:func:`.tasks._prepare`): ``columns[k][j]`` is the value of ``keys[k]`` in the row of case
+    (:func:`.tasks.prepare_all`): ``columns[k][j]`` is the value of ``keys[k]`` in the row of case
     ``positions[j]``; the cases that share a built analysis analysed together."""
     from ..errors import OptdesignError
 
@@ -83,11 +83,13 @@ def batch_blocks(tasks: list, index: list, ids: list) -> list:
     """:func:`.tasks.run_batch` of the cases ``index``/``ids`` as :func:`.blocks.blocks` gives
     its outputs (blocks of rows with the same keys, in the order of their first case, each case's
     row, x and time_s), made column by column for a batch of analyse cases."""
+    tasks = list(tasks)   # each task made once (a study's TaskList makes them when asked)
     if not (len(tasks) > 1 and all(t.mode == "analyse" for t in tasks)):
         return blocks(index, ids, run_batch(tasks))
-    t0 = time.perf_counter()
-    pieces = analyse([_prepare(task) for task in tasks])
+    t0, c0 = time.perf_counter(), time.process_time()
+    pieces = analyse(prepare_all(tasks))
     per_case = (time.perf_counter() - t0) / len(tasks)   # the batch's time, shared (run_batch's)
+    cpu = (time.process_time() - c0) / len(tasks)
     merged = {}
     for positions, keys, columns in pieces:
         if keys in merged:
@@ -103,7 +105,7 @@ def batch_blocks(tasks: list, index: list, ids: list) -> list:
             positions = [positions[j] for j in order]
             columns = [[c[j] for j in order] for c in columns]
         made.append(Block([index[j] for j in positions], [ids[j] for j in positions], keys, columns,
-                          [None] * len(positions), [per_case] * len(positions)))
+                          [None] * len(positions), [per_case] * len(positions), cpu))
     return made
 
 

@@ -24,13 +24,15 @@ _ENCODE = json.JSONEncoder(separators=(",", ":")).encode
 
 class Block:
     """Finished cases (``index``, ``ids``) whose rows have the keys ``keys``: ``values[k]`` the
-    k-th key's values, one per case; ``x`` and ``time_s`` per case (the journal's)."""
+    k-th key's values, one per case; ``x`` and ``time_s`` per case (the journal's); ``cpu_s``
+    the processor time per case of the batch that computed them where it was measured (not
+    journalled: it sizes the next batches, whatever else runs on the machine), else None."""
 
-    __slots__ = ("index", "ids", "keys", "values", "x", "time_s", "_text", "_lines")
+    __slots__ = ("index", "ids", "keys", "values", "x", "time_s", "cpu_s", "_text", "_lines")
 
-    def __init__(self, index, ids, keys, values, x, time_s):
+    def __init__(self, index, ids, keys, values, x, time_s, cpu_s=None):
         self.index, self.ids, self.keys, self.values = list(index), list(ids), tuple(keys), list(values)
-        self.x, self.time_s = list(x), list(time_s)
+        self.x, self.time_s, self.cpu_s = list(x), list(time_s), cpu_s
         self._text = self._lines = None
 
     def __len__(self):

@@ -198,16 +198,27 @@ BATCH_MAX = 4096    # cases per batch at most (1: each case's analysis alone, ta
 
 def _group_size(executor, work, remaining) -> int:
     """Cases per batch of an analyse study: GROUP_S seconds of work at the time per case of the
-    last batches (``work``: their seconds per case, the median taken: a worker's first batch,
-    which builds the model, does not keep the next ones small), or fewer (down to a quarter of
-    that) so that every batch the executor keeps in flight (its window) has some while few are
-    left."""
+    last batches (``work``: their seconds per case (:func:`_work`), the median taken: a
+    worker's first batch, which builds the model, does not keep the next ones small), or fewer
+    (down to a quarter of that) so that every batch the executor keeps in flight (its window)
+    has some while few are left."""
     per_case = sorted(work)[len(work) // 2] if work else None
     per = (min(GROUP_FIRST, BATCH_MAX) if per_case is None
            else max(1, min(BATCH_MAX, int(GROUP_S / max(per_case, 1e-6)))))
     # near the end, smaller batches keep every worker busy; not below a quarter of GROUP_S (a
     # batch's round trip costs milliseconds, tens on Dask)
     return max(1, min(per, max(per // 4, -(-remaining // getattr(executor, "window", 1)))))
+
+
+def _work(made, n) -> float:
+    """Seconds per case of a batch that came back (its blocks ``made``, ``n`` cases): the
+    processor time of the process that computed it where that was measured (a batch's own cost,
+    not what other processes on a busy machine took meanwhile: on 2 shared cores at load ~8 a
+    truck-crane case took ~5 times its processor time, and batches of 0.5 s of wall time held
+    ~80 cases, each batch paying its fixed cost), else its wall time (time_s)."""
+    if made and all(b.cpu_s is not None for b in made):
+        return sum(b.cpu_s * len(b) for b in made) / max(n, 1)
+    return sum(sum(b.time_s) for b in made) / max(n, 1)
 
 
 # --- the scheduling loop -------------------------------------------------------------------
@@ -325,7 +336,7 @@ def _schedule(study, cases, todo, journal, executor, progress, done, ctrl_c, cam
         if ctrl_c.abandoned:   # computed while the second Ctrl-C was raised: maybe not a result
             raise KeyboardInterrupt
         made = as_blocks(batch, outs)
-        work.append(sum(sum(b.time_s) for b in made) / max(len(batch), 1))
+        work.append(_work(made, len(batch)))
         journal.add_blocks(made)
         came_back(made)
         computed += len(batch)

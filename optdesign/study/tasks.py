@@ -259,6 +259,26 @@ def _prepare(task: Task):
     return task, model, scene
 
 
+def prepare_all(tasks) -> list:
+    """:func:`_prepare` of each of a batch's tasks (each made once), a case that sets the same
+    leaf parameters as the case before it to numbers (none of them structural; the same scene,
+    mode and settings, no bounds) given that case's model without looking it up again: the
+    same (task, model, its values) as its own :func:`_prepare`."""
+    out, last = [], None
+    for task in tasks:
+        if (last is not None and task.checked and task.mode == "analyse" and task.scene_digest == last.scene_digest
+                and not task.bounds and task.settings is last.settings
+                and [k for k, _ in task.overrides] == [k for k, _ in last.overrides]
+                and all(type(v) is float for _, v in task.overrides)):
+            out.append((task, out[-1][1], dict(task.overrides) or None))
+            continue
+        out.append(_prepare(task))
+        shared = (task.checked and task.mode == "analyse" and not task.bounds and not isinstance(out[-1][1], Exception)
+                  and type(out[-1][2]) is dict and not _structural(task, _scene(task)) & {k for k, _ in task.overrides})
+        last = task if shared else None
+    return out
+
+
 def _finish(prepared):
     """(row, x) of a prepared case (:func:`_prepare`)."""
     from ..errors import OptdesignError
@@ -288,7 +308,7 @@ def run_batch(tasks: list, each=None) -> list:
     order; ``each(output)`` is called as each case finishes (an analyse batch: all at its end)."""
     if len(tasks) > 1 and all(t.mode == "analyse" for t in tasks):
         t0 = time.perf_counter()
-        rows = _analyse_rows([_prepare(task) for task in tasks])
+        rows = _analyse_rows(prepare_all(tasks))
         per_case = (time.perf_counter() - t0) / len(tasks)   # the batch's time, shared
         outs = []
         for row in rows:

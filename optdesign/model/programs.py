@@ -1,0 +1,110 @@
+"""Instruction programs (:func:`.vectorised.instruction_program`) kept in the cache folder of
+compiled code, so that a warm run reads a large graph's instructions from a file instead of
+from CasADi one call at a time.
+
+Reading crane_luffing_drive's screening rows (its NLP's objective and rows expanded to SX:
+143,000 instructions) takes about 1.1 s of CPU per motor (the expansion 0.1 s, the instructions
+1 s); the file, about 0.25 s.  The file holds the same program (the same operations on the same
+work entries in the same order, the constants bit for bit), so the numbers are those of the
+program made here.  An entry is ``program-<key>.npz`` (its arrays) and ``program-<key>.json``
+(its key and the arrays' SHA-256, written last): the key is a hash of the graph (its serialized
+MX or SX), CasADi's version and this module's and vectorised.py's code; a file that does not
+match is made again and replaced.  Without a writable cache folder, or with the cache off
+(``OPTDESIGN_NO_COMPILE``), the program is made each time.  The files count in the cache's
+size and are pruned as its libraries are (:func:`.compiled.prune`)."""
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+
+from . import vectorised
+from .vectorised import BINARY, UNARY, instruction_program
+
+FORMAT = 1
+_OPS = {**{f: op for op, f in BINARY.items()}, **{f: op for op, f in UNARY.items()}}
+
+
+def cached_program(func: ca.Function) -> tuple:
+    """(work size, program) of ``func`` expanded to SX (as it is when SX): from the cache folder
+    when an earlier run made it, else made (:func:`.vectorised.instruction_program`, whose
+    ``NotImplementedError`` is raised) and kept there."""
+    from . import compiled
+
+    folder = name = None
+    if compiled.mode() != "off":
+        h = hashlib.sha256()
+        for part in (str(FORMAT).encode(), ca.__version__.encode(), Path(__file__).read_bytes(),
+                     Path(vectorised.__file__).read_bytes(), func.serialize().encode()):
+            h.update(part)
+            h.update(b"\0")
+        folder, name = compiled.cache_dir(), f"program-{h.hexdigest()[:32]}"
+        found = _load(folder, name)
+        if found is not None:
+            compiled._touch(folder / f"{name}.npz")
+            return found
+    sx = func if func.is_a("SXFunction") else func.expand()
+    program = instruction_program(sx)
+    if folder is not None:
+        _store(folder, name, sx.sz_w(), program)
+    return sx.sz_w(), program
+
+
+def _load(folder: Path, name: str):
+    """(work size, program) of the entry ``name`` if its files are whole, else None."""
+    try:
+        data = (folder / f"{name}.npz").read_bytes()
+        meta = json.loads((folder / f"{name}.json").read_text())
+        if meta.get("sha256") != hashlib.sha256(data).hexdigest() or meta.get("format") != FORMAT:
+            return None
+        with np.load(io.BytesIO(data), allow_pickle=False) as arrays:
+            rows, constants = arrays["rows"].tolist(), arrays["constants"].tolist()
+        work = int(meta["work"])
+    except (OSError, ValueError, KeyError, TypeError, AttributeError, EOFError):
+        return None
+    program, k = [], 0
+    try:
+        for kind, a, b0, b1, c in rows:
+            if kind in (0, 1):
+                program.append((kind, a, b0, c))
+            elif kind == 2:
+                program.append((2, constants[k], None, c))
+                k += 1
+            elif kind == 3:
+                program.append((3, BINARY[a], (b0, b1), c))
+            else:
+                program.append((4, UNARY[a], b0, c))
+    except (KeyError, IndexError):
+        return None
+    return work, program
+
+
+def _store(folder: Path, name: str, work: int, program: list):
+    """Write the program's arrays and then their key file (a torn write is not trusted)."""
+    from .cachefiles import write_atomic
+
+    rows = np.zeros((len(program), 5), np.int64)
+    constants = []
+    for i, (kind, a, b, c) in enumerate(program):
+        if kind == 2:
+            constants.append(a)
+            a, b = 0, (0, 0)
+        elif kind in (3, 4):
+            a = _OPS[a]
+        b = b if isinstance(b, tuple) else (b, 0)
+        rows[i] = (kind, a, b[0], b[1], c)
+    buf = io.BytesIO()
+    np.savez(buf, rows=rows.astype(np.int32) if rows.size and np.abs(rows).max() < 2**31 else rows,
+             constants=np.asarray(constants, np.float64))
+    data = buf.getvalue()
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        write_atomic(folder / f"{name}.npz", data)
+        write_atomic(folder / f"{name}.json", json.dumps({"format": FORMAT, "work": int(work),
+                                                          "sha256": hashlib.sha256(data).hexdigest()}).encode())
+    except OSError:
+        pass   # a read-only or full cache folder: made again next time
