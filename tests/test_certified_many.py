@@ -186,5 +186,18 @@ def test_a_batch_gives_each_case_its_own_result_with_the_compiled_programs(tmp_p
         order = np.random.default_rng(2).permutation(len(P))[:13]
         assert analysis.certified.many(s, P[order], {k: v[order] for k, v in columns.items()},
                                        {k: v[order] for k, v in constraints.items()}) == [alone[i] for i in order]
+        # cases differing in their masses alone: the kinematics' interval work shared by the
+        # cases (CompiledProgram._shared) and the aggregates' rows evaluated once; the same bits
+        shared = []
+        keep = CompiledProgram._shared
+        monkeypatch.setattr(CompiledProgram, "_shared", lambda self, *a: shared.append(keep(self, *a)) or shared[-1])
+        P = crane_parameters(analysis, 40, 8, {k: VARIED[k] for k in ("mB", "mP")})
+        columns, constraints = stacked(analysis, P)
+        together = analysis.certified.many(s, P, columns, constraints)
+        assert sum(x is not None for x in shared) >= 3
+        monkeypatch.setattr(CompiledProgram, "_shared", keep)
+        for i in (0, 17, 39):
+            assert together[i] == analysis.certified(s, P[i], {k: v[i] for k, v in columns.items()},
+                                                     {k: v[i] for k, v in constraints.items()})
     finally:
         compiled._compiler.clear()

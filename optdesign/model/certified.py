@@ -55,6 +55,12 @@ class CertifiedExtremes:
         self.derivatives = MappedFunction(derivatives, compile=True)
         self.enclosures = Enclosures(derivatives, compile_program)   # the same program, in intervals
         self.values = MappedFunction(mech.function("certified_v", {"v": v}), compile=True)
+        # the aggregates' rows at the samples (not among the sampled columns), once per distinct
+        # value of the parameters they depend on (a batch varying masses: once)
+        inner = ca.vertcat(*[rows[i] for _, _, i in self.aggregate_rows]) if self.aggregate_rows else None
+        func = None if inner is None else mech.function("certified_aggregates", {"v": inner})
+        self.aggregate_values = None if func is None else MappedFunction(func, compile=True)
+        self.aggregate_parameters = None if func is None else parameters_used(func)
         self.q = MappedFunction(mech.function("q", {"q": mech.q}), compile=True)
 
     def many(self, s_values, P, columns, constraints, narrow=None) -> list:
@@ -112,8 +118,7 @@ class CertifiedExtremes:
         for name, i in self.constraint_rows.items():
             V[:, i] = constraints[name]
         if self.aggregate_rows:
-            rows = [i for _, _, i in self.aggregate_rows]
-            V[:, rows] = self._values(s_values, P)[:, rows]
+            V[:, [i for _, _, i in self.aggregate_rows]] = self._aggregates(s_values, P)
         q_sampled = np.asarray(columns["q"], float)
         if extra:
             s_all = np.r_[s_values, extra]
@@ -159,6 +164,20 @@ class CertifiedExtremes:
         n, m = P.shape[0], len(s)
         flat = self.values(np.tile(s, n), np.repeat(P, m, axis=0))[0]   # rows x (cases * len(s))
         return flat.reshape(self.n_rows, n, m).transpose(1, 0, 2)
+
+    def _aggregates(self, s, P):
+        """The aggregates' rows at the sweep values ``s`` for each case (cases x rows x len(s)),
+        evaluated once per distinct value (by its bits) of the parameters they depend on: a
+        case's rows are computed with another case's parameters only where they differ in
+        parameters the rows' graph does not read (the same bits)."""
+        used = self.aggregate_parameters
+        key = np.ascontiguousarray(P if used is None else P[:, used]).view(np.int64)
+        first, inverse = np.zeros(1, int), np.zeros(len(P), int)   # (rows that read no parameter)
+        if key.shape[1]:
+            _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+        Q, m = P[first], len(s)
+        flat = self.aggregate_values(np.tile(s, len(Q)), np.repeat(Q, m, axis=0))[0]   # rows x (distinct * len(s))
+        return flat.reshape(-1, len(Q), m).transpose(1, 0, 2)[inverse.reshape(-1)]
 
     def _q(self, s, s_values, q_sampled, P):
         """The drive coordinate at each case's sweep values ``s`` (cases x k), on the branch of
@@ -283,6 +302,27 @@ class InTime:
         head, tail = note.split(" s = ", 1)
         number, rest = tail.split(" ", 1)
         return f"{head} s = {self.sweep(float(number)):.9g} {rest}"
+
+
+def parameters_used(func: ca.Function):
+    """The parameters (indices into the Function's second input) that some output of ``func``
+    reads, followed through its instructions (``ca.depends_on`` misses those read through an
+    operation of zero derivative, floor or a comparison); None where not known (not SX)."""
+    if not func.is_a("SXFunction"):
+        return None
+    slots, used = [0] * func.sz_w(), 0
+    for k in range(func.n_instructions()):
+        op, i, o = func.instruction_id(k), func.instruction_input(k), func.instruction_output(k)
+        if op == ca.OP_OUTPUT:
+            used |= slots[i[0]]
+        elif op == ca.OP_INPUT:
+            slots[o[0]] = (1 << int(i[1])) if i[0] == 1 else 0
+        else:
+            mask = 0
+            for x in i:
+                mask |= slots[x]
+            slots[o[0]] = mask
+    return np.array([k for k in range(func.nnz_in(1)) if used >> k & 1], int)
 
 
 def _certificate(bound, note, sign=1.0) -> dict:

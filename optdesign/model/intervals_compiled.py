@@ -202,6 +202,8 @@ class CompiledProgram:
         if p.size == 0:
             p = np.zeros(1)
         offsets, total = self._offsets, self._total
+        if outputs is not None:   # (the stacked rows up to the last output asked for: C writes no others)
+            total = max((offsets[j] + self.shapes[j] for j in outputs), default=0)
         out_lo, out_hi = np.full((total, n), np.nan), np.full((total, n), np.nan)
         out_jump = np.zeros((total, n), np.bool_)
         need = self.need(rows, outputs)
@@ -220,7 +222,9 @@ class CompiledProgram:
         elif n and function(n, lo.ctypes.data, hi.ctypes.data, p.ctypes.data, stride, need.ctypes.data, *out,
                             None, None, None, None, None, 0) != 0:
             raise MemoryError("the compiled interval program could not allocate its work arrays")
-        return [(out_lo[o:o + m], out_hi[o:o + m], out_jump[o:o + m]) for o, m in zip(offsets, self.shapes)]
+        return [(out_lo[o:o + m], out_hi[o:o + m], out_jump[o:o + m]) if o + m <= total else
+                (np.broadcast_to(np.nan, (m, n)), np.broadcast_to(np.nan, (m, n)), np.broadcast_to(False, (m, n)))
+                for o, m in zip(offsets, self.shapes)]   # (outputs not asked for: NaN, read-only)
 
     def _shared(self, lo, hi, p, need):
         """The two phases (:meth:`phases`) and the distinct intervals (lo, hi, and each
