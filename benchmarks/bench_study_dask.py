@@ -44,7 +44,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from benchfile import ROOT, SCALING_MD, cpu_model, git_state, write_section  # noqa: E402
 
 CLIENT = """
-import json, sys, time
+import json, resource, sys, time
 import optdesign
 from optdesign.study import Study, grid
 kind, n, out, where = sys.argv[1], int(sys.argv[2]), sys.argv[3], sys.argv[4]
@@ -66,7 +66,8 @@ steady = (d2 - d1) / (t2 - t1) if t2 > t1 and d2 > d1 else float("nan")
 with open("/proc/self/status") as fh:
     hwm = next(int(l.split()[1]) for l in fh if l.startswith("VmHWM:"))
 assert r.complete and r.computed == n, r
-print(json.dumps({"wall": wall, "cpu": cpu, "hwm_kB": hwm, "ok": int(r.column("success").sum()), "start_s": start, "first_s": t1 - t0,
+kids = resource.getrusage(resource.RUSAGE_CHILDREN)   # the pool's processes, waited for when it ended
+print(json.dumps({"wall": wall, "cpu": cpu, "children_cpu": kids.ru_utime + kids.ru_stime, "hwm_kB": hwm, "ok": int(r.column("success").sum()), "start_s": start, "first_s": t1 - t0,
                   "steady": steady}))
 """
 
@@ -78,6 +79,39 @@ def client(kind, n, where, folder, code=ROOT):
     if done.returncode:
         raise SystemExit(f"{kind} study of {n} cases on {where} failed:\n{done.stderr[-3000:]}")
     return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def cpu_s(pid) -> float:
+    """A process's CPU time so far (user + system), seconds."""
+    with open(f"/proc/{pid}/stat") as fh:
+        fields = fh.read().rpartition(")")[2].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def roles(scheduler, nannies) -> dict:
+    """The cluster's processes by role: pid -> 'scheduler', 'nanny', 'worker' (the nanny's worker
+    process) or 'helper' (the study's helper processes of a worker)."""
+    children = {}
+    for d in os.listdir("/proc"):
+        if d.isdigit():
+            try:
+                with open(f"/proc/{d}/stat") as fh:
+                    children.setdefault(int(fh.read().rpartition(")")[2].split()[1]), []).append(int(d))
+            except OSError:
+                pass
+
+    def cmd(pid):
+        with open(f"/proc/{pid}/cmdline") as fh:
+            return fh.read()
+
+    out = {scheduler: "scheduler"}
+    for nanny in nannies:
+        out[nanny] = "nanny"
+        for w in children.get(nanny, []):
+            if "multiprocessing-fork" in cmd(w):
+                out[w] = "worker"
+                out.update({h: "helper" for h in children.get(w, []) if "optdesign.study.worker" in cmd(h)})
+    return out
 
 
 def status_kB(pid, key):
@@ -110,7 +144,7 @@ def cluster(workers=2, code=ROOT):
                 if time.monotonic() - t0 > 120:
                     raise SystemExit("the Dask workers did not come up in 120 s")
                 time.sleep(0.2)
-        yield address, procs[0].pid
+        yield address, [p.pid for p in procs]   # the scheduler's, then the workers' (nannies)
     finally:
         for p in reversed(procs):
             p.terminate()
@@ -119,19 +153,36 @@ def cluster(workers=2, code=ROOT):
 
 
 def on_dask(kind, n, folder, code=ROOT):
-    with cluster(code=code) as (address, scheduler):
+    with cluster(code=code) as (address, (scheduler, *nannies)):
         client(kind, 40 if kind == "analyse" else 4, address, folder.with_name(folder.name + "-warm"), code)
         before = status_kB(scheduler, "VmRSS")
+        who = roles(scheduler, nannies)   # the helpers the warm-up started (a batch may start more)
+        cpu0 = {pid: cpu_s(pid) for pid in who}
         dask = client(kind, n, address, folder, code)
+        who.update(roles(scheduler, nannies))
         dask["scheduler_kB"], dask["scheduler_before_kB"] = status_kB(scheduler, "VmHWM"), before
+        dask["cpu_by_role"] = {}
+        for pid, role in who.items():
+            try:
+                used = cpu_s(pid) - cpu0.get(pid, 0.0)
+            except OSError:   # a helper that ended (not the case here: they live as long as their worker)
+                continue
+            dask["cpu_by_role"][role] = dask["cpu_by_role"].get(role, 0.0) + used
     return dask
+
+
+def on_pool(kind, n, folder):
+    """The pool's run, with its processes' CPU (the client's children, waited for when the pool ends)."""
+    pool = client(kind, n, "pool", folder)
+    pool["cpu_by_role"] = {"pool processes": pool["children_cpu"]}
+    return pool
 
 
 def measure(kind, n, tmp, k, base=None):
     """(pool, Dask, Dask with the base's code or None), interleaved: the two Dask runs in turn
     first and last (round ``k``), so that a load that rises or falls during a round does not
     always favour the same code."""
-    pool = client(kind, n, "pool", tmp / f"{kind}-{n}-{k}-pool")
+    pool = on_pool(kind, n, tmp / f"{kind}-{n}-{k}-pool")
     first = on_dask(kind, n, tmp / f"{kind}-{n}-{k}-base", base) if base and k % 2 else None
     dask = on_dask(kind, n, tmp / f"{kind}-{n}-{k}-dask")
     if base and not k % 2:
@@ -203,6 +254,22 @@ def report(args, got, load0, rounds):
                      f"{statistics.median(1e6 * r[1]['cpu'] / n for r in rs):,.0f} | "
                      f"{p['hwm_kB'] / 1024:.0f} / {d['hwm_kB'] / 1024:.0f} | "
                      f"{d['scheduler_kB'] / 1024:.0f} ({d['scheduler_before_kB'] / 1024:.0f}) |")
+    lines += ["", "Where the CPU went, per case (medians over the rounds, microseconds; each process's user + system time "
+              "from the study's start to its end: the client's from Study.run, the pool's processes (forked by it, "
+              "building the model in the run), and the Dask cluster's processes read from /proc before and after "
+              "the measured run): the cluster's own processes take their CPU from the cores the helpers compute on.", "",
+              "| study | cases | run | client | pool processes / helpers | Dask worker processes | nannies | scheduler | all | "
+              "cores busy (all CPU / wall) |", "|---|---|---|---|---|---|---|---|---|---|"]
+    for (kind, n), rs in got.items():
+        for j, name in [(0, "pool"), *((j, f"Dask ({name})") for name, j in cols)]:
+            def per(role):
+                return statistics.median(1e6 * (r[j]["cpu"] if role == "client" else r[j]["cpu_by_role"].get(role, 0.0)) / n
+                                         for r in rs)
+            compute = per("pool processes") if j == 0 else per("helper")
+            parts = [per("client"), compute] + ([per("worker"), per("nanny"), per("scheduler")] if j else [0.0, 0.0, 0.0])
+            busy = statistics.median((r[j]["cpu"] + sum(r[j]["cpu_by_role"].values())) / r[j]["wall"] for r in rs)
+            cells = " | ".join(f"{v:,.0f}" if (v or not j == 0) else "-" for v in parts)
+            lines.append(f"| {kind} | {n:,} | {name} | {cells} | {sum(parts):,.0f} | {busy:.2f} |")
     lines.append("")
     lines.append("Every run's cases all finished; successful cases (pool / Dask" + (" / base" if args.base else "") + "): "
                  + ", ".join(f"{kind} {n:,}: " + " / ".join(f"{r['ok']:,}" for r in rs[-1] if r) for (kind, n), rs in got.items())

@@ -197,17 +197,22 @@ BATCH_MAX = 4096    # cases per batch at most (1: each case's analysis alone, ta
 
 
 def _group_size(executor, work, remaining) -> int:
-    """Cases per batch of an analyse study: GROUP_S seconds of work at the time per case of the
-    last batches (``work``: their seconds per case (:func:`_work`), the median taken: a
-    worker's first batch, which builds the model, does not keep the next ones small), or fewer
-    (down to a quarter of that) so that every batch the executor keeps in flight (its window)
-    has some while few are left."""
+    """Cases per batch of an analyse study: the executor's ``group_s`` seconds of work (GROUP_S
+    unless it says otherwise) at the time per case of the last batches (``work``: their seconds
+    per case (:func:`_work`), the median taken: a worker's first batch, which builds the model,
+    does not keep the next ones small), or fewer (down to a quarter of GROUP_S) so that every
+    batch the executor keeps in flight (its window) has some while few are left."""
     per_case = sorted(work)[len(work) // 2] if work else None
-    per = (min(GROUP_FIRST, BATCH_MAX) if per_case is None
-           else max(1, min(BATCH_MAX, int(GROUP_S / max(per_case, 1e-6)))))
-    # near the end, smaller batches keep every worker busy; not below a quarter of GROUP_S (a
-    # batch's round trip costs milliseconds, tens on Dask)
-    return max(1, min(per, max(per // 4, -(-remaining // getattr(executor, "window", 1)))))
+    if per_case is None:
+        per = min(GROUP_FIRST, BATCH_MAX)
+        floor = per // 4
+    else:
+        each = max(per_case, 1e-6)
+        per = max(1, min(BATCH_MAX, int(getattr(executor, "group_s", GROUP_S) / each)))
+        # near the end, smaller batches keep every worker busy; not below a quarter of GROUP_S
+        # (a batch's round trip costs milliseconds, tens on Dask)
+        floor = max(1, min(BATCH_MAX, int(GROUP_S / each))) // 4
+    return max(1, min(per, max(floor, -(-remaining // getattr(executor, "window", 1)))))
 
 
 def _work(made, n) -> float:

@@ -276,7 +276,8 @@ class _Dask(_Futures):
 
     Cases go in batches of consecutive cases of a chain, about ``BATCH_S`` seconds of work each
     (from the cases finished so far): a task's round trip through the scheduler costs
-    milliseconds to tens of milliseconds, a case of an optimisation study a few tens.  Each
+    milliseconds to tens of milliseconds, a case of an optimisation study a few tens; an analyse
+    study's independent cases in batches of about ``group_s`` seconds.  Each
     batch is computed in a helper process of its worker (:mod:`.worker`: the worker's own threads
     slowed the cases down 1.3-1.9 times), which builds the scene's model once.  At most
     ``WINDOW`` batches per worker thread are in flight, consumed as they complete
@@ -284,6 +285,11 @@ class _Dask(_Futures):
     comes back."""
 
     BATCH_S = 0.5
+    # an analyse batch's seconds of work (execute._group_size; the pool's: execute.GROUP_S, 0.5 s):
+    # a Dask task costs the client, the scheduler and the worker's process milliseconds of CPU
+    # each, tens on a loaded machine, on the cores the helpers compute on, and a case's time is
+    # wall time: the busier the machine, the fewer cases in a batch of GROUP_S
+    group_s = 2.0
     FIRST_BATCH = 4      # cases per batch before any case has finished
     WINDOW = 2           # batches in flight per worker thread
     LOOK_S = 5.0         # how often the cluster's worker threads are counted again
@@ -313,18 +319,21 @@ class _Dask(_Futures):
         self._logger = logging.getLogger("distributed.client")
         self._log_level = self._logger.level
         self._logger.setLevel(logging.CRITICAL)
+        nthreads = None
         try:   # helper processes started on every worker now, while the study is being prepared
-            threads = max(self.client.nthreads().values(), default=1)
-            self.client.run(prestart, threads)   # returns at once: they start aside
+            nthreads = self.client.nthreads()
+            # returns at once (they start aside); waited for, so that no batch comes before it
+            self.client.run(prestart, max(nthreads.values(), default=1))
         except Exception:   # noqa: BLE001 - only a head start: a batch starts its helper if need be
             pass
-        self._look()
+        self._look(nthreads)
 
-    def _look(self):
-        """The window from the cluster's worker threads now (workers come and go)."""
+    def _look(self, nthreads=None):
+        """The window from the cluster's worker threads (``nthreads``, or asked now: workers come and go)."""
         self.looked = time.monotonic()
         try:
-            self.window = max(self.WINDOW, self.WINDOW * sum(self.client.nthreads().values()))
+            nthreads = self.client.nthreads() if nthreads is None else nthreads
+            self.window = max(self.WINDOW, self.WINDOW * sum(nthreads.values()))
         except (OSError, TimeoutError, cf.CancelledError):   # the scheduler is gone: results() says so
             pass
 
