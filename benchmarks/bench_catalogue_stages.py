@@ -29,7 +29,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from benchfile import ROOT, SCALING_MD, cpu_model, git_state, write_section  # noqa: E402
+from benchfile import ROOT, SCALING_MD, against, cpu_model, write_section  # noqa: E402
 
 SCENE = "problems/crane_luffing_drive.toml"
 CHILD = r"""
@@ -92,11 +92,7 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--result", default=None, help="a pickled CatalogueResult of the scene (made when missing)")
     args = ap.parse_args(argv)
-    old, new = Path(args.old).resolve(), ROOT
-    git, load0 = git_state(), os.getloadavg()
-    old_commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=old, capture_output=True,
-                                text=True).stdout.strip()
-    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "OPTDESIGN_COMPILE")}
+    (old, old_commit, git, env), new, load0 = against(args.old), ROOT, os.getloadavg()
     runs = {"old": [], "new": []}
     with tempfile.TemporaryDirectory() as tmp:
         result = Path(args.result or Path(tmp) / "catalogue.pkl")
