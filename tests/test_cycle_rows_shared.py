@@ -16,7 +16,7 @@ import pytest
 from optdesign.design.cases import _time_plan, case_models, cycle_integrals
 from optdesign.design.catalogue import with_motor
 from optdesign.design.problem import DesignProblem
-from optdesign.model.cases import case_nodes
+from optdesign.model.case_results import case_nodes
 from optdesign.model.duty import time_weights
 from optdesign.scene import load
 

@@ -55,13 +55,13 @@ def test_a_family_of_four_bars_in_a_batch_gives_each_its_own_row():
 
 
 def test_a_batch_made_column_by_column_gives_the_blocks_of_its_cases_run_alone():
-    """analysed.batch_blocks (a batch's rows made a column at a time on the worker) gives the
+    """tasks.batch_blocks (a batch's rows made a column at a time on the worker) gives the
     blocks that .blocks.blocks makes from the rows of each case run alone: the same cases in the
     same blocks in the same order, the same keys and values, the same journal lines (but for the
     batch's shared time_s); a case that does not assemble mid-batch makes a block of its own."""
     import re
 
-    from optdesign.study.analysed import batch_blocks
+    from optdesign.study.tasks import batch_blocks
     from optdesign.study.blocks import blocks
 
     cases = [{k: float(v) for k, v in d.items()} for d in designs(8, seed=5)]

@@ -9,7 +9,7 @@ import numpy as np
 from optdesign.design.cycle_certify import _light
 from optdesign.design.problem import DesignProblem
 from optdesign.model import duty
-from optdesign.model.cases import case_nodes
+from optdesign.model.case_results import case_nodes
 
 from test_cases_optimise import MOTOR, _only_ratio, scene
 

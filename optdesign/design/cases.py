@@ -12,9 +12,8 @@ non-negative coefficients, each
   (its weights are numbers for a profile, which is the same motion for every design; at a
   constant drive speed they follow the design's drive coordinate).
 
-e.g. ``"peak(drive)"``, ``"rms_time(motor_torque)"``, ``"peak(motor_torque) + 2*rms_time(motor_torque)"``.
-NAME is a column of a case: drive, power, static_load, motor_torque (with one motor),
-motor_load_torque, motor_speed, rod_buckling, or a [quantities] name.
+NAME is a case's column (drive, power, static_load, motor_torque with one motor, motor_load_torque,
+motor_speed, rod_buckling, a [quantities] name); e.g. ``"peak(motor_torque) + 2*rms_time(motor_torque)"``.
 
 Constraints added by the drive train, for every case at every sample (certified over the
 continuous stroke like the scene's own): with one motor, ``motor peak torque`` |T_m| <=
@@ -36,7 +35,8 @@ import casadi as ca
 import numpy as np
 
 from ..errors import SceneError
-from ..model.cases import CaseModel, case_nodes
+from ..model.case_results import case_nodes
+from ..model.cases import CaseModel
 from ..model.duty import time_weights
 from ..model.profiles import case_profile
 from ..model.train import cylinder_outputs, gear_factor_at_rest, motor_numbers

@@ -21,7 +21,8 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ..model.cases import CaseAnalysis, case_nodes
+from ..model.case_results import case_nodes
+from ..model.cases import CaseAnalysis
 from ..model.duty import case_integrals
 from ..model.train import motor_numbers
 

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import OptdesignError
 from ..scene.expressions import evaluate
-from .cases import LOAD, CaseResult, CasesResult, _motor_key, case_nodes
+from .case_results import LOAD, CaseResult, CasesResult, _motor_key, case_nodes
 from .duty import PEAK_KEYS, CaseTimes, case_integrals, motor_report
 from .finite import check_cases
 from .joints import PEAKED
@@ -27,7 +27,7 @@ from .train import cylinder_sizing
 
 
 def run_many(ca_, P) -> list:
-    """Per row of ``P`` the :class:`~.cases.CasesResult` of the :class:`~.cases.CaseAnalysis`
+    """Per row of ``P`` the :class:`~.case_results.CasesResult` of the :class:`~.cases.CaseAnalysis`
     ``ca_``, or the OptdesignError that stopped it."""
     P = np.atleast_2d(np.asarray(P, float))
     n = len(P)
@@ -172,7 +172,7 @@ def _batch_or_each(compute, live, errors) -> dict:
 
 
 def _case_result(ca_, cm, nodes, on_sample, values, times, sampled, pins, integrals):
-    """One vector's :class:`~.cases.CaseResult` of the load case ``cm`` and what the duty cycle
+    """One vector's :class:`~.case_results.CaseResult` of the load case ``cm`` and what the duty cycle
     reads of it, from its columns, its certified peaks ``pins`` (None without) and its
     ``integrals`` (:func:`_integrals`)."""
     hold = values.pop("hold_load")

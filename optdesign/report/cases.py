@@ -1,7 +1,7 @@
 """Reports of a scene's load cases (analyse): the JSON keys ``cases``, ``governing``, ``duty`` and
 ``drive_train``, the table's section after the nominal one, and the figures ``cases.png`` (each
 case's drive load, and motor torque, over the stroke) and ``duty.png`` (the duty cycle in time).
-Everything here reads :class:`optdesign.model.cases.CasesResult`; a scene without cases adds
+Everything here reads :class:`optdesign.model.case_results.CasesResult`; a scene without cases adds
 nothing."""
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """Figures of what was sized (issue 29), from a scene's load cases (a
-:class:`optdesign.model.cases.CasesResult`):
+:class:`optdesign.model.case_results.CasesResult`):
 
 - ``torque_speed.png``: the motor's torque-speed plane (speed in rpm, torque in N m): its peak
   envelope (|T| <= peak torque up to the maximum speed), its rated (continuous) one, the speed

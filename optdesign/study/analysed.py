@@ -7,14 +7,10 @@ A batch's cases that share a build are analysed together (one
 names (most of a batch: one shape) give their row's values a column at a time.  A row's keys, in
 their order, and its values are those the row dict of the case alone has (a key made twice keeps
 its first place and its last value, as a dict's update does), so that the journal's lines and
-cases.csv's cells do not depend on the batch: :func:`rows` gives the dicts, :func:`batch_blocks`
+cases.csv's cells do not depend on the batch: :func:`rows` gives the dicts, :func:`.tasks.batch_blocks`
 the blocks of rows with equal keys that :func:`.blocks.blocks` makes from them."""
 from __future__ import annotations
 
-import time
-
-from .blocks import Block, blocks
-from .tasks import _failed, _leaf_values, prepare_all, run_batch
 
 
 def analyse(prepared: list) -> list:
@@ -30,7 +26,7 @@ def analyse(prepared: list) -> list:
             continue
         if type(scene) is not dict:   # a case scene (or None): its values
             try:
-                scene = _leaf_values(model.mech.parameter_names, scene, model.mech.parameter_values)
+                scene = leaf_values(model.mech.parameter_names, scene, model.mech.parameter_values)
             except OptdesignError as exc:
                 failed.append((i, exc))
                 continue
@@ -46,7 +42,7 @@ def analyse(prepared: list) -> list:
 
 def _parameters(analysis, values):
     """The leaf values of cases (cases x parameters): ``values[j]`` case j's, or a dict of the
-    numbers it sets (the others keep the build's: :func:`.tasks._leaf_values`), set a column at
+    numbers it sets (the others keep the build's: :func:`leaf_values`), set a column at
     a time for the cases that set the same names."""
     import numpy as np
 
@@ -79,39 +75,9 @@ def case_rows(analysis, P) -> list:
     return rows(_columns(analysis, P), len(P))
 
 
-def batch_blocks(tasks: list, index: list, ids: list) -> list:
-    """:func:`.tasks.run_batch` of the cases ``index``/``ids`` as :func:`.blocks.blocks` gives
-    its outputs (blocks of rows with the same keys, in the order of their first case, each case's
-    row, x and time_s), made column by column for a batch of analyse cases."""
-    tasks = list(tasks)   # each task made once (a study's TaskList makes them when asked)
-    if not (len(tasks) > 1 and all(t.mode == "analyse" for t in tasks)):
-        return blocks(index, ids, run_batch(tasks))
-    t0, c0 = time.perf_counter(), time.process_time()
-    pieces = analyse(prepare_all(tasks))
-    per_case = (time.perf_counter() - t0) / len(tasks)   # the batch's time, shared (run_batch's)
-    cpu = (time.process_time() - c0) / len(tasks)
-    merged = {}
-    for positions, keys, columns in pieces:
-        if keys in merged:
-            merged[keys][0].extend(positions)
-            for column, more in zip(merged[keys][1], columns):
-                column.extend(more)
-        else:
-            merged[keys] = (list(positions), [list(c) for c in columns])
-    made = []
-    for keys, (positions, columns) in sorted(merged.items(), key=lambda item: min(item[1][0])):
-        order = sorted(range(len(positions)), key=positions.__getitem__)
-        if order != list(range(len(order))):
-            positions = [positions[j] for j in order]
-            columns = [[c[j] for j in order] for c in columns]
-        made.append(Block([index[j] for j in positions], [ids[j] for j in positions], keys, columns,
-                          [None] * len(positions), [per_case] * len(positions), cpu))
-    return made
-
-
 def _failed_piece(failed) -> tuple:
     """The pieces' form of failed cases [(position, OptdesignError)]: their _failed rows."""
-    made = [_failed(exc) for _, exc in failed]
+    made = [failed_row(exc) for _, exc in failed]
     keys = tuple(made[0])
     return [i for i, _ in failed], keys, [[row[k] for row in made] for k in keys]
 
@@ -176,3 +142,22 @@ def _cases_row(cases) -> dict:
         if key in train:
             row[f"cylinder:{key}"] = train[key]
     return row
+
+
+def failed_row(exc) -> dict:
+    """The row of a case that failed on purpose (an OptdesignError): its reason."""
+    return {"status": f"error: {exc}", "success": False}
+
+
+def leaf_values(names, scene, default):
+    """Values of the leaf parameters ``names`` in ``scene`` (``default`` when there is no case
+    scene; ``default`` with the numbers of the overrides when ``scene`` is a dict of them: a leaf
+    set to a number has that value in the case's scene, and the others keep the build's)."""
+    if scene is None:
+        return default
+    import numpy as np
+
+    if isinstance(scene, dict):
+        return np.array([scene.get(n, v) for n, v in zip(names, np.asarray(default, float))], dtype=float)
+    values = scene.parameter_values()
+    return np.array([values[n] for n in names], dtype=float)

@@ -31,6 +31,10 @@ import pickle
 import threading
 import time
 
+from . import analysed
+from .analysed import failed_row, leaf_values
+from .blocks import Block, blocks
+
 _LOCAL = threading.local()   # per thread: a Dask worker may run tasks in several threads
 _CACHE_SIZE = 8              # models kept per thread (one per structural variant; bounds need none)
 
@@ -290,12 +294,8 @@ def _finish(prepared):
         if task.mode == "optimise":
             return _optimise(task, model, scene)
     except OptdesignError as exc:
-        return _failed(exc), None
+        return failed_row(exc), None
     return _analyse_rows([prepared])[0], None
-
-
-def _failed(exc) -> dict:
-    return {"status": f"error: {exc}", "success": False}
 
 
 def run_batch(tasks: list, each=None) -> list:
@@ -336,20 +336,6 @@ def died_output(reason: str) -> dict:
     return {"row": {"status": f"error: {reason}", "success": False}, "x": None, "time_s": 0.0}
 
 
-def _leaf_values(names, scene, default):
-    """Values of the leaf parameters ``names`` in ``scene`` (``default`` when there is no case
-    scene; ``default`` with the numbers of the overrides when ``scene`` is a dict of them: a leaf
-    set to a number has that value in the case's scene, and the others keep the build's)."""
-    if scene is None:
-        return default
-    import numpy as np
-
-    if isinstance(scene, dict):
-        return np.array([scene.get(n, v) for n, v in zip(names, np.asarray(default, float))], dtype=float)
-    values = scene.parameter_values()
-    return np.array([values[n] for n in names], dtype=float)
-
-
 def _optimise(task: Task, model, scene):
     import numpy as np
 
@@ -361,7 +347,7 @@ def _optimise(task: Task, model, scene):
     # a fresh Solver per case (a Solver passes nothing from one start to the next, so this
     # only keeps its buffers to one case)
     solver = Solver(problem)
-    fixed = _leaf_values(problem.fixed_names, scene, solver.fixed_values())
+    fixed = leaf_values(problem.fixed_names, scene, solver.fixed_values())
     t0 = time.perf_counter()
 
     def run(plan):
@@ -404,9 +390,37 @@ def _optimise(task: Task, model, scene):
     return row, [result.design[n] for n in problem.design_names]
 
 
+def batch_blocks(tasks: list, index: list, ids: list) -> list:
+    """:func:`.tasks.run_batch` of the cases ``index``/``ids`` as :func:`.blocks.blocks` gives
+    its outputs (blocks of rows with the same keys, in the order of their first case, each case's
+    row, x and time_s), made column by column for a batch of analyse cases."""
+    tasks = list(tasks)   # each task made once (a study's TaskList makes them when asked)
+    if not (len(tasks) > 1 and all(t.mode == "analyse" for t in tasks)):
+        return blocks(index, ids, run_batch(tasks))
+    t0, c0 = time.perf_counter(), time.process_time()
+    pieces = analysed.analyse(prepare_all(tasks))
+    per_case = (time.perf_counter() - t0) / len(tasks)   # the batch's time, shared (run_batch's)
+    cpu = (time.process_time() - c0) / len(tasks)
+    merged = {}
+    for positions, keys, columns in pieces:
+        if keys in merged:
+            merged[keys][0].extend(positions)
+            for column, more in zip(merged[keys][1], columns):
+                column.extend(more)
+        else:
+            merged[keys] = (list(positions), [list(c) for c in columns])
+    made = []
+    for keys, (positions, columns) in sorted(merged.items(), key=lambda item: min(item[1][0])):
+        order = sorted(range(len(positions)), key=positions.__getitem__)
+        if order != list(range(len(order))):
+            positions = [positions[j] for j in order]
+            columns = [[c[j] for j in order] for c in columns]
+        made.append(Block([index[j] for j in positions], [ids[j] for j in positions], keys, columns,
+                          [None] * len(positions), [per_case] * len(positions), cpu))
+    return made
+
+
 def _analyse_rows(prepared: list) -> list:
     """The rows of prepared analyse cases (:func:`_prepare`), those that share a built analysis
     together (:func:`.analysed.analyse`)."""
-    from . import analysed
-
     return analysed.rows(analysed.analyse(prepared), len(prepared))

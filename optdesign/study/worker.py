@@ -228,8 +228,7 @@ def _receive(stream):
 
 def serve():
     """The helper: batches in, outputs out, until its input ends."""
-    from .analysed import batch_blocks
-    from .tasks import run_batch
+    from .tasks import batch_blocks, run_batch
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)   # Ctrl-C is the client's to handle (as in the pool)
     from ..design import multistart, problem, repair   # noqa: F401  (what the first case needs,
