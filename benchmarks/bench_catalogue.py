@@ -21,7 +21,6 @@ import argparse
 import json
 import os
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -29,7 +28,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_commands import run as run_command  # noqa: E402
-from benchfile import ROOT, SCALING_MD, cpu_model, git_state, write_section  # noqa: E402
+from benchfile import ROOT, SCALING_MD, against, cpu_model, write_section  # noqa: E402
 
 
 NOT_WARMED = ("the compile cache not warmed by this run (--no-warm: what earlier runs left in it; a library "
@@ -58,11 +57,7 @@ def main(argv=None):
     ap.add_argument("--section", default="catalogue",
                     help="the section of results/scaling.md written (and results/<section>_bench.json)")
     args = ap.parse_args(argv)
-    old, new = Path(args.old).resolve(), ROOT
-    git, load0 = git_state(), os.getloadavg()
-    old_commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=old, capture_output=True,
-                                text=True).stdout.strip()
-    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "OPTDESIGN_COMPILE")}
+    (old, old_commit, git, env), new, load0 = against(args.old), ROOT, os.getloadavg()
     times = {"old": [], "new": []}
     answers = {"old": [], "new": []}
     with tempfile.TemporaryDirectory() as tmp:

@@ -4,6 +4,7 @@ section (between ``<!-- begin NAME -->`` and ``<!-- end NAME -->``) and leaves t
 they were, atomically (the file is never half-written)."""
 from __future__ import annotations
 
+import os
 import platform
 import re
 import statistics
@@ -54,6 +55,17 @@ def git_state(paths=("optdesign",)) -> str:
     if not dirty:
         return f"commit {head}"
     return f"commit {head} with uncommitted changes in " + ", ".join(line[3:] for line in dirty.splitlines())
+
+
+def against(old) -> tuple:
+    """(the older checkout ``old`` resolved, its short commit, this tree's :func:`git_state`, the
+    environment for the children: without PYTHONPATH and OPTDESIGN_COMPILE) of a benchmark that
+    runs an older commit beside this code."""
+    old = Path(old).resolve()
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=old, capture_output=True,
+                            text=True).stdout.strip()
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "OPTDESIGN_COMPILE")}
+    return old, commit, git_state(), env
 
 
 def cpu_model() -> str:

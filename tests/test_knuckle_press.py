@@ -103,3 +103,46 @@ def test_recheck_refuses_a_certified_peak_below_the_sampled_one():
     reason = solver.checker.recheck(WRONG, fixed, w, s_pts, {key: 15004.8}, sampled)
     assert reason is not None and "15065.1" in reason
     assert solver.checker.recheck(WRONG, fixed, w, s_pts, {key: kr.peak(WRONG)}, sampled) is None
+
+
+def test_a_large_nlp_maps_its_points_and_compiles_optimised(monkeypatch, tmp_path):
+    """Issue 31: the press's NLP (673 instructions per point x 19 points) is built in MX with the
+    per-point Function mapped over the points, not inlined into SX (inlined, its exact Hessian
+    was 247,000 instructions and its solver's C 10.4 MB, compiled only without optimisation).
+    Mapped, the solver's C is below the size compiled optimised, and the NLP is the inlined one:
+    f, g and the Lagrangian's Hessian equal at random points (the inlined build, the old one,
+    as the reference).  A small scene stays inlined."""
+    import casadi as ca
+
+    from optdesign.design import nlp
+    from optdesign.model import compiled
+
+    monkeypatch.setenv("OPTDESIGN_NO_COMPILE", "1")
+    mapped = DesignProblem(optdesign.load(SCENE))
+    assert mapped._nlp_function.is_a("MXFunction")
+    assert DesignProblem(optdesign.load(Path(__file__).parents[1] / "problems" / "seed1_jib.toml"))._nlp_function.is_a(
+        "SXFunction")
+    monkeypatch.setattr(nlp, "INLINED_POINTS", float("inf"))
+    inlined = DesignProblem(optdesign.load(SCENE))
+    assert inlined._nlp_function.is_a("SXFunction")
+
+    rng = np.random.default_rng(31)
+    fixed = Solver(mapped).fixed_values()
+    hessians = [pb.solver.get_function("nlp_hess_l") for pb in (mapped, inlined)]
+    for base in (mapped.start, mapped.start, np.array([0.60510, -0.49608, 0.041125]), WRONG):   # designs that assemble
+        x = base + rng.uniform(-0.01, 0.01, 3) * (mapped.upper - mapped.lower)
+        s_pts = np.sort(rng.uniform(mapped.s_grid[0], mapped.s_grid[-1], mapped.n_points))
+        p = mapped.nlp_parameters(fixed, s_pts, x, rng.uniform(-0.5, 0.5, (mapped.n_points, 3)))
+        w = np.r_[mapped.to_z(x + rng.uniform(-0.01, 0.01, 3)), rng.uniform(0.5, 2.0, mapped.nw - 3)]
+        lam_g = rng.uniform(-1.0, 1.0, len(mapped.lbg))
+        for got, want in zip([*mapped._nlp_function(w, p), hessians[0](w, p, 1.0, lam_g)],
+                             [*inlined._nlp_function(w, p), hessians[1](w, p, 1.0, lam_g)]):
+            got, want = np.asarray(ca.DM(got)), np.asarray(ca.DM(want))
+            assert got.shape == want.shape and np.all(np.isfinite(want))
+            assert np.max(np.abs(got - want)) <= 1e-12 * max(np.max(np.abs(want)), 1.0)
+
+    serial = tmp_path / "nlp.casadi"
+    serial.write_text(mapped._nlp_function.serialize())
+    c_file = tmp_path / "nlp.c"
+    compiled._nlpsol_source({"function": str(serial), "plugin": "ipopt", "options": {}}, c_file)
+    assert c_file.stat().st_size < compiled.NLP_OPTIMISED_SOURCE

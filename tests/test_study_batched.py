@@ -131,6 +131,30 @@ def test_a_batchs_cases_prepared_together_are_each_prepared_as_alone():
     assert len({id(m) for _, m, _ in alone}) >= 3   # builds: the leaf cases', the th0 cases', the failed one
 
 
+def test_batch_sizes_follow_the_processor_time_per_case_of_the_last_batches():
+    """execute._work: a batch's seconds per case are the processor time of the process that
+    computed it where the blocks carry it (on a busy machine its wall time is several times
+    more), else its wall time; execute._group_size: the median of the last batches, so that a
+    worker's first batch (the model's build) does not keep the next ones small."""
+    import collections
+
+    from optdesign.study.blocks import Block
+
+    ids = [f"{i:016x}" for i in range(4)]
+    timed = Block(range(4), ids, ("status",), [["ok"] * 4], [None] * 4, [0.005] * 4, 0.001)
+    untimed = Block(range(4), ids, ("status",), [["ok"] * 4], [None] * 4, [0.005] * 4)
+    assert study_execute._work([timed], 4) == 0.001
+    assert study_execute._work([untimed], 4) == 0.005
+    assert study_execute._work([timed, untimed], 8) == 0.005   # not measured everywhere: the wall time
+
+    class Pool:
+        window = 4
+
+    work = collections.deque([0.1, 0.1, 0.001, 0.001, 0.001], maxlen=study_execute.GROUP_SEEN)
+    assert study_execute._group_size(Pool(), work, 10**6) == int(study_execute.GROUP_S / 0.001)
+    assert study_execute._group_size(Pool(), collections.deque(), 10**6) == study_execute.GROUP_FIRST
+
+
 @pytest.fixture(scope="module")
 def crane_study():
     scene = optdesign.load(ROOT / "problems" / "truck_crane.toml")

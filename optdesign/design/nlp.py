@@ -47,6 +47,14 @@ from .bounds import numeric_bounds
 from .cases import at_points, case_nlp, needs_mx
 
 TIE = 1e-3  # points within this (times the aggregate's scale) of a located extreme tie it
+# the quantities at the sample points are inlined into an SX NLP up to this many instructions
+# (the per-point quantities' instructions times the points); beyond, the NLP is MX with the
+# per-point Function mapped over the points (:func:`~.cases.at_points`): inlined, issue 27's
+# knuckle press (673 instructions x 19 points) has an exact Hessian of 247,000 instructions, 10.4
+# MB of C, compiled only without optimisation (model/compiled.py: NLP_OPTIMISED_SOURCE) into 6
+# MB of machine code per call; mapped, its NLP compiles optimised (0.4 MB) and a start's CPU
+# halves (results/optimiser_knuckle.md)
+INLINED_POINTS = 10_000
 
 
 def build_nlp(pb):
@@ -61,7 +69,7 @@ def build_nlp(pb):
         pb.rms_panels = rms_panels(pb)
     # an rms objective needs the whole stroke: MX with mapped calls keeps its graph small
     # (inlining hundreds of quadrature nodes into SX takes seconds to build)
-    sym = ca.MX if pb.objective_kind == "rms" or needs_mx(pb) else pb.mech.sym
+    sym = ca.MX if pb.objective_kind == "rms" or needs_mx(pb) or mapped_points(pb) else pb.mech.sym
     nd = len(pb.design_names)
     z = sym.sym("z", nd)
     fixed = sym.sym("fixed", len(pb.fixed_names))
@@ -190,6 +198,12 @@ def build_nlp(pb):
     mids = 0.5 * (base[:-1] + base[1:])
     pb.base_points = base
     pb.initial_slots = mids[np.linspace(0, len(mids) - 1, st.slots).round().astype(int)] if st.slots else np.zeros(0)
+
+
+def mapped_points(pb) -> bool:
+    """Whether the NLP maps its per-point Function over the sample points instead of inlining
+    it (see INLINED_POINTS)."""
+    return pb.quantity.n_instructions() * (pb.settings.grid + pb.settings.slots) > INLINED_POINTS
 
 
 def _objective_uses_design(pb, f, z, t, a_hat, g):

@@ -22,7 +22,7 @@ from .cases import CaseAnalysis
 from .intervals_compiled import compile_program
 from .blocked import stroke_evaluator
 from .per_stroke import StrokeConstraints
-from .quadrature import integrate_many
+from .quadrature import integrate_arrays
 from .runs import run_cases
 from .reduction import ReducedModel
 from .time_integrals import TOLERANCE, rms_error
@@ -190,11 +190,20 @@ class Analysis:
                 rows = [got[k] for k in names]
             return np.vstack([np.reshape(row, (1, -1)) ** 2 for row in rows])
 
-        found = integrate_many(f, [(float(s[0]), float(s[-1]), 1.0)], [rms_starts(s)], TOLERANCE,
-                               cases=len(P))
+        values, errors = integrate_arrays(f, [(float(s[0]), float(s[-1]), 1.0)], [rms_starts(s)], TOLERANCE,
+                                          cases=len(P))[:2]
         span = float(s[-1] - s[0])
-        return [{k: (math.sqrt(max(v, 0.0) / span), rms_error(max(v, 0.0), e, span, 0.0))
-                 for k, v, e in zip(names, r.values, r.errors)} for r in found]
+        if not span > 0:   # (one sample)
+            return [{k: (math.sqrt(max(v, 0.0) / span), rms_error(max(v, 0.0), e, span, 0.0))
+                     for k, v, e in zip(names, values[:, c], errors[:, c])} for c in range(len(P))]
+        # rms_error's figures over every case at once, its operations in its order (the same numbers)
+        squared = np.where(0.0 > values, 0.0, values)   # max(v, 0.0), as Python's max picks
+        with np.errstate(all="ignore"):
+            rms = np.sqrt(squared / span)
+            error = np.where(squared > 0, 0.5 * rms * (errors / squared + 0.0 / span),
+                             np.sqrt(np.where(0.0 > errors, 0.0, errors) / span))
+        rms, error = rms.T.tolist(), error.T.tolist()
+        return [dict(zip(names, zip(r, e))) for r, e in zip(rms, error)]
 
     def run(self, p_values=None) -> AnalysisResult:
         """The analysis at the parameters ``p_values`` (the scene's own by default): the one case

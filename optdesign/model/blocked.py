@@ -253,17 +253,21 @@ class BlockedFunction:
         whatever the other cases."""
         s = np.asarray(s_row, float).ravel()
         P = np.atleast_2d(np.asarray(P, float))
-        return {k: v.reshape(len(P), len(s)) for k, v in self._rows(np.broadcast_to(s, (len(P), len(s))), P).items()}
+        return self._rows(np.broadcast_to(s, (len(P), len(s))), P, flat=False)
 
-    def _rows(self, S, P) -> dict:
+    def _rows(self, S, P, flat=True) -> dict:
         """{output name: values over ``S.ravel()``}: row i of ``S`` (cases x values) with the
-        parameters ``P[i]``, each row in blocks of its own padded with its last value."""
+        parameters ``P[i]``, each row in blocks of its own padded with its last value.  ``flat``
+        False: each output cases x values, a view of the padded blocks (not copied: a batch's
+        outputs are megabytes, each copy in fresh memory)."""
         cases, n = S.shape
         per = max(-(-n // self.block), 1)
         rows = np.empty((cases, per * self.block))   # a case's blocks: its row padded with its last value
         rows[:, :n] = S
         rows[:, n:] = S[:, -1:] if n else 0.0
         outs = self._run(rows.reshape(-1), np.repeat(P, per, axis=0))
+        if not flat:
+            return {k: v.reshape(cases, per * self.block)[:, :n] for k, v in outs.items()}
         return {k: v.reshape(cases, per * self.block)[:, :n].reshape(-1) for k, v in outs.items()}
 
     def ragged(self, s, counts, P) -> dict:

@@ -76,6 +76,14 @@ def integrate_many(f, pieces, starts=None, tol=1e-10, max_rounds=48, cases=1) ->
     piece, case)`` gets each node's case too.  Every decision (an interval halved or kept, a
     case done) is the case's own, and its sums run over its own intervals in a fixed order, so
     a case's :class:`Integrals` are the same in any batch (bit for bit).  Returns one per case."""
+    values, errors, scale, converged, count = integrate_arrays(f, pieces, starts, tol, max_rounds, cases)
+    return [Integrals(values[:, c].copy(), errors[:, c].copy(), scale[:, c].copy(), converged[:, c].copy(),
+                      int(count[c])) for c in range(cases)]
+
+
+def integrate_arrays(f, pieces, starts=None, tol=1e-10, max_rounds=48, cases=1) -> tuple:
+    """:func:`integrate_many`'s figures as arrays (integrands x cases): values, errors, scale,
+    converged, and the intervals evaluated per case."""
     anchors = np.array([p[0] for p in pieces], float)
     lengths = np.array([p[1] - p[0] for p in pieces], float)
     powers = np.array([p[2] for p in pieces], float)
@@ -120,8 +128,7 @@ def integrate_many(f, pieces, starts=None, tol=1e-10, max_rounds=48, cases=1) ->
         lo, hi = np.r_[lo, mid][order], np.r_[mid, hi][order]
         rounds += 1
     converged = done_err <= tol * np.maximum(done_abs, 1e-300) * 1.0000001
-    return [Integrals(done_k[:, c].copy(), done_err[:, c].copy(), done_abs[:, c].copy(), converged[:, c].copy(),
-                      int(count[c])) for c in range(cases)]
+    return done_k, done_err, done_abs, converged, count
 
 
 def _by_case(x, case, cases):

@@ -166,6 +166,8 @@ def _certified(a, s, P, columns, constraints, narrow, live) -> list:
         return []
 
     def rows(which):
+        if len(which) == len(P):   # every case (live is in order): the arrays as they are
+            return columns, constraints
         return ({k: v[which] for k, v in columns.items()}, {k: v[which] for k, v in constraints.items()})
 
     try:
@@ -191,7 +193,10 @@ def _model_values(a, P):
     else:
         out = a.mapped(np.tile(s, len(P)), np.repeat(P, n, axis=0))
         raw = {k: v.reshape(len(P), n) for k, v in zip(a.names, out)}
-    values = {k: np.ascontiguousarray(np.broadcast_to(np.asarray(v, float), (len(P), n))) for k, v in raw.items()}
+    values = {}
+    for k, v in raw.items():   # (the compiled blocks' outputs are cases x samples already: kept as they are)
+        v = np.asarray(v, float)
+        values[k] = v if v.shape == (len(P), n) else np.ascontiguousarray(np.broadcast_to(v, (len(P), n)))
     if a.scene.drive.kind == "rotary":
         values["q"] = np.unwrap(values["q"], axis=1)
     return values
