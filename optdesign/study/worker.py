@@ -94,14 +94,22 @@ def profiler_paused():
     with _GUARD:
         _PAUSED["tasks"] += 1
         if _PAUSED["tasks"] == 1:
-            worker.loop.add_callback(_pause, profile)   # periodic callbacks belong to the event loop's thread
+            _on_loop(worker, _pause, profile)
     try:
         yield
     finally:
         with _GUARD:
             _PAUSED["tasks"] -= 1
             if not _PAUSED["tasks"]:
-                worker.loop.add_callback(_resume, profile)
+                _on_loop(worker, _resume, profile)
+
+
+def _on_loop(worker, step, profile):
+    """``step(profile)`` on the worker's event loop (periodic callbacks belong to its thread)."""
+    try:
+        worker.loop.add_callback(step, profile)
+    except RuntimeError:   # the loop is closed: the worker is going, and its profiler with it
+        pass
 
 
 def _pause(profile):
