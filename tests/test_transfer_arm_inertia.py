@@ -160,10 +160,10 @@ CASES = {"shipped optimum at 40 rad/s": ("shipped optimum", 40.0),   # its peak 
 def test_the_certified_peak_of_the_jumping_inertia_is_the_numpy_models(which):
     """analyse's certified peak |I_zS| at the [drive] state (enclosed across the power reversals,
     where I_zS jumps) against the numpy model's largest c M_q (numpy_peak): the value within
-    1e-9, the certified bound within [ref, ref (1 + 1e-8)].  At 40 rad/s the peak lies at a
-    reversal (1/eta M_q there, M_q still rising: the inertia term's power changes sign near
-    M_q's own maximum), the maximum of a discontinuous function; at the scene's 10 rad/s it is
-    a smooth maximum (the slow cases)."""
+    1e-9, the certified bound within [ref (1 - 3e-11), ref (1 + 1e-8)] (the reference's own
+    accuracy).  At 40 rad/s the peak lies at a reversal (1/eta M_q there, M_q still rising: the
+    inertia term's power changes sign near M_q's own maximum), the maximum of a discontinuous
+    function; at the scene's 10 rad/s it is a smooth maximum (the slow cases)."""
     name, speed = CASES[which]
     design = DESIGNS[name]
     scene = optdesign.load(ref.SCENE).with_parameters(**design)
@@ -174,6 +174,11 @@ def test_the_certified_peak_of_the_jumping_inertia_is_the_numpy_models(which):
     certificate = res.certificates["peak |reduced_inertia|"]
     assert certificate["note"] == ""
     assert res.peaks["reduced_inertia"] == pytest.approx(expected, rel=1e-9)
-    assert expected * (1 - 1e-12) <= certificate["bound"] <= expected * (1 + 1e-8)
+    # (the numpy model's own accuracy: M_q by central differences of positions carries rounding
+    # of ~eps/h; at the scene start's smooth peak its value with h = 1e-4 ... 1e-3 spans
+    # 0.9029434836150 ... 0.9029434836286, 1.5e-11 relative, so the bound cannot be held
+    # to it more tightly than that: it was 1e-12, and the certified bound 0.9029434836169447,
+    # above the located value 0.9029434836163861, lay 1.3e-12 below this reference)
+    assert expected * (1 - 3e-11) <= certificate["bound"] <= expected * (1 + 1e-8)
     at = res.peak_at["reduced_inertia"]["s"]
     assert (min(abs(at - x) for x in roots) < 1e-6) == (speed == 40.0)
