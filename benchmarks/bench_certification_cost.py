@@ -84,11 +84,10 @@ def main(argv=None):
         if args.baseline == "numpy":
             trees = {"before": (ROOT, {"OPTDESIGN_INTERVALS": "numpy"}), "after": (ROOT, {})}
         else:
-            base = Path(tmp) / "baseline"
-            base.mkdir()
-            archive = subprocess.run(["git", "archive", args.baseline, "optdesign"], cwd=ROOT, check=True,
-                                     capture_output=True)
-            subprocess.run(["tar", "-x", "-C", str(base)], input=archive.stdout, check=True)
+            sys.path.insert(0, str(ROOT / "benchmarks"))
+            from benchfile import export
+
+            base = export(args.baseline, Path(tmp) / "baseline", ("optdesign",))
             trees = {"before": (base, {}), "after": (ROOT, {})}
         rows_a, rows_i, rows_o = [], [], []
         for scene in ANALYSE:

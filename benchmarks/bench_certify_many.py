@@ -86,8 +86,10 @@ def cpu(f, repeats):
 def base_run(rev, scene, data, repeats):
     """The one-at-a-time certification at ``rev`` in a child process run from its own folder."""
     with tempfile.TemporaryDirectory() as tmp:
-        archive = subprocess.run(["git", "archive", rev, "optdesign"], cwd=ROOT, check=True, capture_output=True)
-        subprocess.run(["tar", "-x", "-C", tmp], input=archive.stdout, check=True)
+        sys.path.insert(0, str(ROOT / "benchmarks"))
+        from benchfile import export
+
+        export(rev, tmp, ("optdesign",))
         env = {**os.environ, "PYTHONPATH": tmp}
         out = subprocess.run([sys.executable, "-c", CHILD, str(ROOT / scene), data, str(repeats)], cwd=tmp, env=env,
                              check=True, capture_output=True, text=True)

@@ -129,7 +129,7 @@ def stage_table(name, n, runs) -> list:
 def main(argv=None):
     sys.path.insert(0, str(ROOT))
     sys.path.insert(0, str(ROOT / "benchmarks"))
-    from benchfile import SCALING_MD, cpu_model, git_state, write_section
+    from benchfile import SCALING_MD, cpu_model, export, git_state, write_section
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--cases", type=int, default=256)
@@ -143,10 +143,7 @@ def main(argv=None):
     with tempfile.TemporaryDirectory() as tmp:
         codes = {}
         if args.base:
-            archive = subprocess.run(["git", "archive", args.base, "optdesign", "problems"], cwd=ROOT, check=True,
-                                     capture_output=True)
-            subprocess.run(["tar", "-x", "-C", tmp], input=archive.stdout, check=True)
-            codes[f"base {args.base}"] = Path(tmp)
+            codes[f"base {args.base}"] = export(args.base, tmp)
         codes["this"] = ROOT
         results = {study: {name: measure(code, study, n, args.batch, args.repeats) for name, code in codes.items()}
                    for study, n in sizes.items()}

@@ -41,7 +41,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from benchfile import ROOT, SCALING_MD, cpu_model, git_state, write_section  # noqa: E402
+from benchfile import ROOT, SCALING_MD, cpu_model, export, git_state, write_section  # noqa: E402
 
 CLIENT = """
 import json, resource, sys, time
@@ -203,11 +203,7 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         base = None
         if args.base:
-            base = Path(tmp) / "base"
-            base.mkdir()
-            archive = subprocess.run(["git", "archive", args.base, "optdesign", "problems"], cwd=ROOT, check=True,
-                                     capture_output=True).stdout
-            subprocess.run(["tar", "-x", "-C", str(base)], input=archive, check=True)
+            base = export(args.base, Path(tmp) / "base")
         for k in range(args.repeats):
             for kind, n in runs:
                 measured = measure(kind, n, Path(tmp), k, base)

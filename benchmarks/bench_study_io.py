@@ -34,7 +34,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from benchfile import ROOT, SCALING_MD, cpu_model, git_state, write_section  # noqa: E402
+from benchfile import ROOT, SCALING_MD, cpu_model, export, git_state, write_section  # noqa: E402
 
 SCENE = ROOT / "problems" / "truck_crane.toml"
 MASSES = 10
@@ -110,10 +110,7 @@ def main():
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        base = tmp / "base"
-        base.mkdir()
-        archive = subprocess.run(["git", "archive", args.base, "optdesign"], cwd=ROOT, capture_output=True, check=True)
-        subprocess.run(["tar", "-x", "-C", str(base)], input=archive.stdout, check=True)
+        base = export(args.base, tmp / "base", ("optdesign",))
         for n in sizes:
             size = prepare(n, tmp / f"study-{n}")
             for label, code in (("base", base), ("this", ROOT)):

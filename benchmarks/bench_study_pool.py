@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from benchfile import ROOT, SCALING_MD, cpu_model, git_state, write_section  # noqa: E402
+from benchfile import ROOT, SCALING_MD, cpu_model, export, git_state, write_section  # noqa: E402
 
 STUDY = """
 import hashlib, json, os, resource, sys, time
@@ -64,11 +64,7 @@ def main(argv=None):
     with tempfile.TemporaryDirectory() as tmp:
         codes = {}
         if args.base:
-            archive = subprocess.run(["git", "archive", args.base, "optdesign", "problems"], cwd=ROOT, check=True,
-                                     capture_output=True)
-            (Path(tmp) / "base").mkdir()
-            subprocess.run(["tar", "-x", "-C", str(Path(tmp) / "base")], input=archive.stdout, check=True)
-            codes[f"base {args.base}"] = Path(tmp) / "base"
+            codes[f"base {args.base}"] = export(args.base, Path(tmp) / "base")
         codes["this"] = ROOT
         for name, code in codes.items():   # warm: compiled code in the disk cache
             run(code, 200, Path(tmp) / f"warm-{len(name)}")

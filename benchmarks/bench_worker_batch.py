@@ -134,7 +134,7 @@ def measure(codes, n, repeats) -> dict:
 
 def main(argv=None):
     sys.path.insert(0, str(ROOT / "benchmarks"))
-    from benchfile import SCALING_MD, cpu_model, git_state, write_section
+    from benchfile import SCALING_MD, cpu_model, export, git_state, write_section
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--sizes", default="256,1024")
@@ -146,10 +146,7 @@ def main(argv=None):
     with tempfile.TemporaryDirectory() as tmp:
         codes = {}
         if args.base:
-            archive = subprocess.run(["git", "archive", args.base, "optdesign", "problems"], cwd=ROOT, check=True,
-                                     capture_output=True)
-            subprocess.run(["tar", "-x", "-C", tmp], input=archive.stdout, check=True)
-            codes[f"base {args.base}"] = Path(tmp)
+            codes[f"base {args.base}"] = export(args.base, tmp)
         codes["this"] = ROOT
         results = {n: measure(codes, n, args.repeats) for n in sizes}
     command = f"python benchmarks/bench_worker_batch.py --sizes {args.sizes} --repeats {args.repeats}" + (

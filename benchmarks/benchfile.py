@@ -68,6 +68,16 @@ def against(old) -> tuple:
     return old, commit, git_state(), env
 
 
+def export(rev: str, folder, paths=("optdesign", "problems")) -> Path:
+    """The files ``paths`` of commit ``rev`` written into ``folder`` (made if missing) with
+    ``git archive``: an older code for a benchmark to run beside this one.  Returns the folder."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    archive = subprocess.run(["git", "archive", rev, *paths], cwd=ROOT, check=True, capture_output=True)
+    subprocess.run(["tar", "-x", "-C", str(folder)], input=archive.stdout, check=True)
+    return folder
+
+
 def cpu_model() -> str:
     """The processor's model name (Linux), else what platform knows."""
     try:
