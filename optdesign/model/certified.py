@@ -16,6 +16,7 @@ import math
 import casadi as ca
 import numpy as np
 
+from ..kinematics.batches import parameters_used
 from ..kinematics.enclosure import Enclosures
 from ..kinematics.peaks import Extremum, Request, continuous_maxima_rows, maxima_of_cases, resolving_points
 from ..scene.expressions import Expression
@@ -60,7 +61,7 @@ class CertifiedExtremes:
         inner = ca.vertcat(*[rows[i] for _, _, i in self.aggregate_rows]) if self.aggregate_rows else None
         func = None if inner is None else mech.function("certified_aggregates", {"v": inner})
         self.aggregate_values = None if func is None else MappedFunction(func, compile=True)
-        self.aggregate_parameters = None if func is None else parameters_used(func)
+        self.aggregate_parameters = None if func is None else parameters_used(mech, inner)
         self.q = MappedFunction(mech.function("q", {"q": mech.q}), compile=True)
 
     def many(self, s_values, P, columns, constraints, narrow=None) -> list:
@@ -170,8 +171,7 @@ class CertifiedExtremes:
         evaluated once per distinct value (by its bits) of the parameters they depend on: a
         case's rows are computed with another case's parameters only where they differ in
         parameters the rows' graph does not read (the same bits)."""
-        used = self.aggregate_parameters
-        key = np.ascontiguousarray(P if used is None else P[:, used]).view(np.int64)
+        key = np.ascontiguousarray(P[:, self.aggregate_parameters]).view(np.int64)
         first, inverse = np.zeros(1, int), np.zeros(len(P), int)   # (rows that read no parameter)
         if key.shape[1]:
             _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
@@ -302,27 +302,6 @@ class InTime:
         head, tail = note.split(" s = ", 1)
         number, rest = tail.split(" ", 1)
         return f"{head} s = {self.sweep(float(number)):.9g} {rest}"
-
-
-def parameters_used(func: ca.Function):
-    """The parameters (indices into the Function's second input) that some output of ``func``
-    reads, followed through its instructions (``ca.depends_on`` misses those read through an
-    operation of zero derivative, floor or a comparison); None where not known (not SX)."""
-    if not func.is_a("SXFunction"):
-        return None
-    slots, used = [0] * func.sz_w(), 0
-    for k in range(func.n_instructions()):
-        op, i, o = func.instruction_id(k), func.instruction_input(k), func.instruction_output(k)
-        if op == ca.OP_OUTPUT:
-            used |= slots[i[0]]
-        elif op == ca.OP_INPUT:
-            slots[o[0]] = (1 << int(i[1])) if i[0] == 1 else 0
-        else:
-            mask = 0
-            for x in i:
-                mask |= slots[x]
-            slots[o[0]] = mask
-    return np.array([k for k in range(func.nnz_in(1)) if used >> k & 1], int)
 
 
 def _certificate(bound, note, sign=1.0) -> dict:
