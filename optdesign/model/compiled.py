@@ -444,16 +444,15 @@ def external(func, name: str, source, wait: bool | None = None, level: str | Non
     (virtual machine).  ``source(name)`` writes its C (a function named ``name``).  ``level``:
     the optimisation flag in place of FLAGS' -O1 (part of the key; a source above LARGE_SOURCE is
     still compiled at -O0)."""
-    graph = func.serialize()
-    key = entry_key("external", graph, {"name": name, **({"level": level} if level else {})})
+    graph, own = func.serialize(), {"name": name, **({"level": level} if level else {})}
+    key = entry_key("external", graph, own)
     if key is None:
         return None
 
     def prepare(folder):
         c_file = folder / f"{key}.src{os.getpid()}.c"
         write_atomic(c_file, source(name).encode())
-        return {"kind": "source", "name": name, "source": str(c_file), "cleanup": [str(c_file)],
-                **({"level": level} if level else {})}
+        return {"kind": "source", **own, "source": str(c_file), "cleanup": [str(c_file)]}
 
     path = library(key, prepare, wait, graph_bytes=len(graph))
     return _load(key, lambda: __import__("casadi").external(name, str(path))) if path else None
