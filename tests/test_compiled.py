@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from optdesign import load
-from optdesign.model import compiled
+from optdesign.model import blocked, compiled
 from optdesign.model.analysis import Analysis
 from optdesign.model.blocked import BlockedFunction, stroke_evaluator
 from optdesign.model.vectorised import VectorisedSX
@@ -106,6 +106,26 @@ def test_many_cases_in_whole_chunks_equal_each_case_alone(cache):
             assert np.array_equal(got[name][i], alone[name], equal_nan=True), (i, name)
             assert np.array_equal(ragged[name][ends[i] - counts[i]:ends[i]], mine[name], equal_nan=True), (i, name)
             assert np.array_equal(equal[name][100 * i:100 * (i + 1)], mine_equal[name], equal_nan=True), (i, name)
+
+
+@pytest.mark.parametrize("scene", ["truck_crane", "level_luffing_crane"])
+def test_blocks_compiled_at_their_level_equal_the_general_flags_bit_for_bit(cache, scene):
+    """The blocked model compiled at blocked.LEVEL (-O2, its library's flags say so) gives the
+    numbers of the same C compiled at FLAGS' -O1, bit for bit (==: no fast-math, no contraction),
+    on a stroke of many blocks and its ragged ends, for several parameter rows."""
+    import json
+
+    analysis = Analysis(load(ROOT / "problems" / f"{scene}.toml"), samples=1001, certify=False)
+    fast = analysis.vectorised
+    assert isinstance(fast, BlockedFunction)
+    flags = [json.loads(m.read_text())["flags"][0] for m in cache.glob("external-*.json")]
+    assert flags == [blocked.LEVEL] and blocked.LEVEL != compiled.FLAGS[0]
+    f = analysis.function
+    general = BlockedFunction(compiled.external(f, "optdesign_blocked", lambda name: blocked.blocked_source(f, name)))
+    P = analysis.mech.parameter_values * np.array([[1.0], [0.9], [1.1]])
+    for s in (analysis.s_values, analysis.s_values[:7], analysis.s_values[::3]):
+        got, expected = fast.many(s, P), general.many(s, P)
+        assert all(np.array_equal(got[k], expected[k], equal_nan=True) for k in fast.names)
 
 
 @pytest.mark.parametrize("scene", ["level_luffing_crane", "seed1_slider_crank"])
@@ -288,16 +308,16 @@ def test_another_process_finds_the_same_entry(cache):
     scene = str(ROOT / "problems" / "truck_crane.toml")
     a = Analysis(load(scene), samples=101, certify=False)
     assert isinstance(a.vectorised, BlockedFunction)
-    mine = compiled.entry_key("external", a.function.serialize(), {"name": "optdesign_blocked"})
+    mine = compiled.entry_key("external", a.function.serialize(), {"name": "optdesign_blocked", "level": blocked.LEVEL})
     before = sorted((p.name, p.stat().st_mtime_ns) for p in cache.iterdir())
     code = textwrap.dedent("""
         import sys
         from optdesign import load
-        from optdesign.model import compiled
+        from optdesign.model import blocked, compiled
         from optdesign.model.analysis import Analysis
         a = Analysis(load(sys.argv[1]), samples=101, certify=False)
         print(type(a.vectorised).__name__)
-        print(compiled.entry_key("external", a.function.serialize(), {"name": "optdesign_blocked"}))
+        print(compiled.entry_key("external", a.function.serialize(), {"name": "optdesign_blocked", "level": blocked.LEVEL}))
     """)
     out = subprocess.run([sys.executable, "-c", code, scene], capture_output=True, text=True, cwd=ROOT,
                          env=dict(os.environ), check=True).stdout.split()

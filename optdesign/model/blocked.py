@@ -27,6 +27,10 @@ from .vectorised import VectorisedSX
 
 BLOCK = 64     # samples per block
 CHUNK = 64     # blocks per mapped call over many cases (BlockedFunction.ragged)
+# the blocks compiled at -O2, not FLAGS' -O1: the truck crane's model over its 161 samples 0.087 ->
+# 0.025 ms per case (256 cases, compiled code alone; the same numbers bit for bit: no fast-math, no
+# contraction), compiling its 18 kB of C 0.33 -> 0.42 s
+LEVEL = "-O2"
 SEGMENT = 16   # instructions per loop (level-luffing crane, CPU time per call at 10,001 samples:
 #                one instruction per loop 3.5 ms, 16 per loop 2.3 ms, 32 or 64 2.5 ms; compiling
 #                1.7 s -> 0.4 s)
@@ -349,7 +353,7 @@ def stroke_evaluator(func: ca.Function, wait: bool | None = None):
     background unless ``wait``), else numpy's :class:`~.vectorised.VectorisedSX`, else None
     (MX graphs: CasADi's map)."""
     if supports(func):
-        external = compiled.external(func, "optdesign_blocked", lambda name: blocked_source(func, name), wait)
+        external = compiled.external(func, "optdesign_blocked", lambda name: blocked_source(func, name), wait, LEVEL)
         if external is not None:
             return BlockedFunction(external)
     try:

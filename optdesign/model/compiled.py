@@ -381,6 +381,8 @@ def run_job(job: dict, block: bool = True) -> bool:
                 raise OSError(f"{size / 1e6:.1f} MB of C is more than this cache compiles ({MAX_SOURCE / 1e6:g} MB)")
             # (an interval program's C sets its own levels: its operations O3, its list of calls O0)
             flags = FLAGS if job.get("own_levels") else flags_for(size, job.get("optimised_up_to", LARGE_SOURCE))
+            if job.get("level") and flags[0] != "-O0":
+                flags = (job["level"], *flags[1:])
             out = _compile(cc, flags, c_file, stem)
             if out.returncode != 0 and flags[0] != "-O0" and not job.get("own_levels"):
                 flags = ("-O0", *FLAGS[1:])   # the optimiser ran out of memory or time: unoptimised
@@ -437,18 +439,20 @@ def _nlpsol_source(job, c_file: Path):
 
 
 # --- the two kinds of entry ------------------------------------------------------------------
-def external(func, name: str, source, wait: bool | None = None):
+def external(func, name: str, source, wait: bool | None = None, level: str | None = None):
     """``func`` (a CasADi Function) compiled: a ``ca.external`` of the cached library, or None
-    (virtual machine).  ``source(name)`` writes its C (a function named ``name``)."""
-    graph = func.serialize()
-    key = entry_key("external", graph, {"name": name})
+    (virtual machine).  ``source(name)`` writes its C (a function named ``name``).  ``level``:
+    the optimisation flag in place of FLAGS' -O1 (part of the key; a source above LARGE_SOURCE is
+    still compiled at -O0)."""
+    graph, own = func.serialize(), {"name": name, **({"level": level} if level else {})}
+    key = entry_key("external", graph, own)
     if key is None:
         return None
 
     def prepare(folder):
         c_file = folder / f"{key}.src{os.getpid()}.c"
         write_atomic(c_file, source(name).encode())
-        return {"kind": "source", "name": name, "source": str(c_file), "cleanup": [str(c_file)]}
+        return {"kind": "source", **own, "source": str(c_file), "cleanup": [str(c_file)]}
 
     path = library(key, prepare, wait, graph_bytes=len(graph))
     return _load(key, lambda: __import__("casadi").external(name, str(path))) if path else None
