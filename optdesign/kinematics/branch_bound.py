@@ -45,7 +45,7 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
     if getattr(enclosure, "reason", None) is not None:   # no enclosure for these rows
         return np.full(n, np.nan), [f"not certified: {enclosure.reason}"] * n
     tol = CERTIFY_TOL if tol is None else tol
-    _, best = found.best(tasks.code)
+    best = found.best(tasks.code)[1].copy()   # (updated in place as better maxima are located)
     with np.errstate(invalid="ignore"):
         scale = np.nanmax(np.abs(T), axis=1, initial=0.0) if T.size else np.zeros(n)
     tol_abs = np.where(np.isnan(tasks.tol), tol * np.maximum(np.abs(best), scale), tasks.tol) + 1e-300

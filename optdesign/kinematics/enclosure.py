@@ -265,6 +265,15 @@ class Enclosure:
         it one row per interval."""
         p = np.asarray(p, float)
         self.program, self.p = program, p if p.ndim == 2 else p.ravel()
+        self._varies = None
+
+    def _varied(self) -> int:
+        """A bitmask of the parameters (bit k: parameter k) that differ between the cases (rows of p)."""
+        if self._varies is None:
+            self._varies = 0
+            for k in np.flatnonzero(np.any(self.p != self.p[:1], axis=0)):
+                self._varies |= 1 << int(k)
+        return self._varies
 
     def bounds(self, lo, hi, rows=None, cases=None, centre=None):
         """(L, U, vm_lo, vm_hi), rows x intervals: the bounds of v over [lo, hi] and the
@@ -305,9 +314,10 @@ class Enclosure:
         # call: there all of them in one call)
         if getattr(self.program, "subsets_pay", False):
             p_whole, p_mid, p_ends = (p[:n], p[n:2 * n], p[2 * n:]) if p.ndim == 2 else (p, p, p)
-            (L, U, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(lo, hi, p_whole, rows)
-            (vm_lo, vm_hi, _), (dm_lo, dm_hi, _), _ = self.program(m, m, p_mid, rows, (0, 1))
-            (at_lo, at_hi, _), _, _ = self.program(ends, ends, p_ends, rows, (0,))
+            varied = self._varied() if p.ndim == 2 else None   # (the parameters that differ between the cases)
+            (L, U, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(lo, hi, p_whole, rows, varied=varied)
+            (vm_lo, vm_hi, _), (dm_lo, dm_hi, _), _ = self.program(m, m, p_mid, rows, (0, 1), varied=varied)
+            (at_lo, at_hi, _), _, _ = self.program(ends, ends, p_ends, rows, (0,), varied=varied)
         else:
             (v_lo, v_hi, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(
                 np.concatenate((lo, m, ends)), np.concatenate((hi, m, ends)), p, rows)

@@ -118,9 +118,10 @@ class Tasks:
 
     def sign(self, values):
         """+1/-1 per value (tasks x anything) such that sign * v is the task's target."""
-        code = self.code.reshape((-1,) + (1,) * (np.ndim(values) - 1))
-        sign = np.where(values < 0, -1.0, 1.0)
-        return np.where(code == 1, 1.0, np.where(code == 2, -1.0, sign))
+        sign = np.where(np.asarray(values) < 0, -1.0, 1.0)
+        sign[self.code == 1] = 1.0   # (whole rows: a max's and a min's sign do not depend on v)
+        sign[self.code == 2] = -1.0
+        return sign
 
 
 def target(values, code):
@@ -135,14 +136,18 @@ class Found:
     def __init__(self, n_tasks):
         self.n_tasks = n_tasks
         self.task, self.s, self.v = np.zeros(0, int), np.zeros(0), np.zeros(0)
+        self._best = None   # (code, what best(code) gave) until the next add
 
     def add(self, task, s, v):
+        self._best = None
         self.task = np.concatenate((self.task, np.asarray(task, int)))
         self.s, self.v = np.concatenate((self.s, np.asarray(s, float))), np.concatenate((self.v, np.asarray(v, float)))
 
     def best(self, code):
         """Per task: the index into the arrays of its largest target (the first among equals),
         and that target (-inf where a task has none)."""
+        if self._best is not None and self._best[0] is code:
+            return self._best[1]
         t = target(self.v, code[self.task])
         n, none = self.n_tasks, len(t)
         best = np.full(n, -np.inf)
@@ -156,6 +161,8 @@ class Found:
             nan_only = (top == none) & (first < none)
             best[nan_only] = np.nan
             top = np.where(top < none, top, np.where(first < none, first, -1))
+        top.flags.writeable, best.flags.writeable = False, False   # (shared by the calls until the next add)
+        self._best = (code, (top, best))
         return top, best
 
 

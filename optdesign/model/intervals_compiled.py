@@ -69,7 +69,7 @@ class CompiledProgram:
         self.shapes, self.rows = program.shapes, program.rows
         self._function, self._forms, self._tried = None, None, -np.inf
         self._offsets, self._total = stacked_rows(program)
-        self._need, self._phases = {}, {}
+        self._need, self._phases, self._written = {}, {}, {}
         self.n_p = program.func.nnz_in(1) if program.func.n_in() > 1 else 0
         self._reads, self._params, self._selects = dependencies(program)
         self._outputs = np.array([entry[0] == interval_c.ca.OP_OUTPUT for entry in program.varying], bool)
@@ -184,13 +184,17 @@ class CompiledProgram:
             self._phases[key] = found
         return self._phases[key]
 
-    def __call__(self, lo, hi, p, rows=None, outputs=None):
-        """As :meth:`IntervalProgram.__call__`: per output (lo, hi, jump), output rows x intervals."""
+    def __call__(self, lo, hi, p, rows=None, outputs=None, varied=None):
+        """As :meth:`IntervalProgram.__call__`: per output (lo, hi, jump), output rows x intervals.
+        ``varied``: with a row of parameters per interval, a bitmask (bit k: parameter k) of
+        those that may differ between the rows (None: found from ``p``); lo and hi the same
+        array: points (one key to sort)."""
         function = self._library()
         if function is None:
             return self.program(lo, hi, p, rows, outputs)
+        point = lo is hi
         lo = np.ascontiguousarray(np.asarray(lo, float).ravel())
-        hi = np.ascontiguousarray(np.asarray(hi, float).ravel())
+        hi = lo if point else np.ascontiguousarray(np.asarray(hi, float).ravel())
         n = len(lo)
         p = np.ascontiguousarray(np.asarray(p, float))
         stride = p.shape[-1] if p.ndim == 2 else 0
@@ -204,11 +208,14 @@ class CompiledProgram:
         offsets, total = self._offsets, self._total
         if outputs is not None:   # (the stacked rows up to the last output asked for: C writes no others)
             total = max((offsets[j] + self.shapes[j] for j in outputs), default=0)
-        out_lo, out_hi = np.full((total, n), np.nan), np.full((total, n), np.nan)
-        out_jump = np.zeros((total, n), np.bool_)
         need = self.need(rows, outputs)
+        out_lo, out_hi = np.empty((total, n)), np.empty((total, n))
+        unwritten = self._unwritten(need)[:total]   # (NaN: the rows C does not write)
+        if unwritten.any():
+            out_lo[unwritten], out_hi[unwritten] = np.nan, np.nan
+        out_jump = np.zeros((total, n), np.bool_)
         out = (out_lo.ctypes.data, out_hi.ctypes.data, out_jump.ctypes.data)
-        two = self._shared(lo, hi, p, need) if p.ndim == 2 and n > 1 else None
+        two = self._shared(lo, hi, p, need, point, varied) if p.ndim == 2 and n > 1 else None
         if two is not None:   # the work shared by the rows once per distinct interval, then each row's
             (first, second, col), (lo_1, hi_1, src) = two
             k, m = int(np.count_nonzero(first == 2)), len(lo_1)
@@ -226,23 +233,41 @@ class CompiledProgram:
                 (np.broadcast_to(np.nan, (m, n)), np.broadcast_to(np.nan, (m, n)), np.broadcast_to(False, (m, n)))
                 for o, m in zip(offsets, self.shapes)]   # (outputs not asked for: NaN, read-only)
 
-    def _shared(self, lo, hi, p, need):
+    def _unwritten(self, need):
+        """The stacked output rows that a call of the instructions ``need`` leaves unwritten."""
+        key = need.tobytes()
+        if key not in self._written:
+            written = np.zeros(self._total, bool)
+            for (op, i, *_), kept in zip(self.program.varying, need):
+                if kept and op == interval_c.ca.OP_OUTPUT:
+                    written[self._offsets[i[0]] + self.rows[i[0]][i[1]]] = True
+            self._written[key] = ~written
+        return self._written[key]
+
+    def _shared(self, lo, hi, p, need, point=False, varied=None):
         """The two phases (:meth:`phases`) and the distinct intervals (lo, hi, and each
         interval's index among them) of a call with a row of parameters ``p`` per interval, or
-        None where they would not pay."""
-        varied = 0
-        for k in np.flatnonzero(np.any(p != p[0], axis=0)):
-            varied |= 1 << int(k)
+        None where they would not pay; ``point``: lo is hi; ``varied``: as :meth:`__call__`'s."""
+        if varied is None:
+            varied = 0
+            for k in np.flatnonzero(np.any(p != p[0], axis=0)):
+                varied |= 1 << int(k)
         phases = self.phases(need, varied)
         if phases is None:
             return None
         bits_lo, bits_hi = lo.view(np.int64), hi.view(np.int64)   # (by their bits: -0.0 is not 0.0)
-        order = np.lexsort((bits_hi, bits_lo))
-        first = np.ones(len(lo), bool)
-        first[1:] = (np.diff(bits_lo[order]) != 0) | (np.diff(bits_hi[order]) != 0)
+        if point:
+            order = np.argsort(bits_lo)
+            first = np.ones(len(lo), bool)
+            first[1:] = np.diff(bits_lo[order]) != 0
+        else:
+            order = np.lexsort((bits_hi, bits_lo))
+            first = np.ones(len(lo), bool)
+            first[1:] = (np.diff(bits_lo[order]) != 0) | (np.diff(bits_hi[order]) != 0)
         if np.count_nonzero(first) > SHARED * len(lo):
             return None
         src = np.empty(len(lo), np.int64)
         src[order] = np.cumsum(first) - 1
         pick = order[first]
-        return phases, (np.ascontiguousarray(lo[pick]), np.ascontiguousarray(hi[pick]), src)
+        lo_1 = np.ascontiguousarray(lo[pick])
+        return phases, (lo_1, lo_1 if point else np.ascontiguousarray(hi[pick]), src)
