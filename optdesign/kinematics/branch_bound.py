@@ -122,7 +122,7 @@ def split(task, lo, hi, left_ub, cuts, around=None, middle=None):
     left_ub).  With ``around`` (a mask), ``cuts`` are the rows of the intervals it marks, and
     each other interval is cut at its ``middle`` alone."""
     if around is None:
-        around = np.ones(len(lo), bool)
+        around, middle = np.ones(len(lo), bool), np.full(len(lo), np.nan)
     with np.errstate(invalid="ignore"):
         inside = (cuts > lo[around, None]) & (cuts < hi[around, None])
         halved = (middle > lo) & (middle < hi) & ~around
