@@ -21,9 +21,14 @@ first durable one (``progress`` calls: cases done and times), from that moment t
 rate once both are running.  The time to the first durable result is given too, and the
 client's start-up in it (to the moment the study starts feeding cases: connection, preparation).
 
+Dask's settings.  Each round runs this code's Dask twice: on a cluster started with the settings
+README.md recommends for a study's cluster (optdesign/study/cluster.py: Dask's event-loop check,
+system monitor and worker profiler less often or off) and on the same cluster with Dask's defaults.
+
 ``--base REV``: Dask runs also with the code at REV (``git archive`` of optdesign and problems;
-its own cluster, its workers and helpers importing that code), interleaved with this code's runs,
-against the same pool runs (this code): Dask / pool before and after in one run.
+its own cluster with Dask's defaults, its workers and helpers importing that code), interleaved
+with this code's runs, against the same pool runs (this code): Dask / pool before and after in
+one run.
 
 Writes its section (study_dask) of results/scaling.md (benchmarks/benchfile.py)."""
 from __future__ import annotations
@@ -42,6 +47,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from benchfile import ROOT, SCALING_MD, cpu_model, export, git_state, write_section  # noqa: E402
+from optdesign.study.cluster import environ  # noqa: E402
 
 CLIENT = """
 import json, resource, sys, time
@@ -120,9 +126,10 @@ def status_kB(pid, key):
 
 
 @contextlib.contextmanager
-def cluster(workers=2, code=ROOT):
+def cluster(workers=2, code=ROOT, settings=None):
     """A scheduler and ``workers`` single-threaded workers, each its own process, on loopback:
-    (address, the scheduler's pid)."""
+    (address, the scheduler's pid); ``settings``: Dask's environment variables for them
+    (optdesign.study.cluster.environ(), the ones README.md recommends), else Dask's defaults."""
     import distributed
 
     dask = str(Path(sys.executable).with_name("dask"))
@@ -130,7 +137,7 @@ def cluster(workers=2, code=ROOT):
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     address = f"tcp://127.0.0.1:{port}"
-    env = {**os.environ, "PYTHONPATH": str(code)}
+    env = {**os.environ, "PYTHONPATH": str(code), **(settings or {})}
     procs = [subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"],
                               stderr=subprocess.DEVNULL, env=env, cwd=code)]
     try:
@@ -152,8 +159,8 @@ def cluster(workers=2, code=ROOT):
             p.wait(timeout=60)
 
 
-def on_dask(kind, n, folder, code=ROOT):
-    with cluster(code=code) as (address, (scheduler, *nannies)):
+def on_dask(kind, n, folder, code=ROOT, settings=None):
+    with cluster(code=code, settings=settings) as (address, (scheduler, *nannies)):
         client(kind, 40 if kind == "analyse" else 4, address, folder.with_name(folder.name + "-warm"), code)
         before = status_kB(scheduler, "VmRSS")
         who = roles(scheduler, nannies)   # the helpers the warm-up started (a batch may start more)
@@ -178,16 +185,22 @@ def on_pool(kind, n, folder):
     return pool
 
 
-def measure(kind, n, tmp, k, base=None):
-    """(pool, Dask, Dask with the base's code or None), interleaved: the two Dask runs in turn
-    first and last (round ``k``), so that a load that rises or falls during a round does not
-    always favour the same code."""
+def variants(base):
+    """The Dask runs of a round: (label, code, the cluster's settings)."""
+    runs = [("this", ROOT, environ()), ("this, Dask's defaults", ROOT, None)]
+    return runs + ([(f"base {base[0]}, Dask's defaults", base[1], None)] if base else [])
+
+
+def measure(kind, n, tmp, k, runs):
+    """(pool, then each Dask run of ``runs``), interleaved: the Dask runs in turn in a rotated
+    order (round ``k``), so that a load that rises or falls during a round does not always favour
+    the same one."""
     pool = on_pool(kind, n, tmp / f"{kind}-{n}-{k}-pool")
-    first = on_dask(kind, n, tmp / f"{kind}-{n}-{k}-base", base) if base and k % 2 else None
-    dask = on_dask(kind, n, tmp / f"{kind}-{n}-{k}-dask")
-    if base and not k % 2:
-        first = on_dask(kind, n, tmp / f"{kind}-{n}-{k}-base", base)
-    return pool, dask, first
+    got = {}
+    for j in [(k + i) % len(runs) for i in range(len(runs))]:
+        label, code, settings = runs[j]
+        got[j] = on_dask(kind, n, tmp / f"{kind}-{n}-{k}-{j}", code, settings)
+    return [pool] + [got[j] for j in range(len(runs))]
 
 
 def main():
@@ -201,18 +214,17 @@ def main():
     runs = [("analyse", int(s)) for s in args.sizes.split(",") if s] + ([("optimise", args.optimise)] if args.optimise else [])
     got = {}
     with tempfile.TemporaryDirectory() as tmp:
-        base = None
-        if args.base:
-            base = export(args.base, Path(tmp) / "base")
+        base = (args.base, export(args.base, Path(tmp) / "base")) if args.base else None
+        dask_runs = variants(base)
         for k in range(args.repeats):
             for kind, n in runs:
-                measured = measure(kind, n, Path(tmp), k, base)
+                measured = measure(kind, n, Path(tmp), k, dask_runs)
                 got.setdefault((kind, n), []).append(measured)
                 print(kind, n, *(json.dumps(m) for m in measured), flush=True)
-            report(args, got, load0, k + 1)   # written after every round: a cut-short run leaves its rounds
+            report(args, got, load0, k + 1, [label for label, _, _ in dask_runs])   # after every round
 
 
-def report(args, got, load0, rounds):
+def report(args, got, load0, rounds, labels):
     load1 = os.getloadavg()
     cmd = " ".join(["python benchmarks/bench_study_dask.py", *sys.argv[1:]])
     lines = ["# Dask against the pool (`python benchmarks/bench_study_dask.py`)", "",
@@ -223,12 +235,16 @@ def report(args, got, load0, rounds):
              "a scheduler process on loopback (a fresh cluster per run, warmed by a small study: its helpers "
              "started, the model built; the pool's runs include their processes' start). Analyse: the truck crane, "
              "10 boom masses x payloads; optimise: the jib (seed1_jib_design), mC on a grid, 2 starts, chains of 4. "
-             f"Medians of {rounds} interleaved run(s) (pool, Dask{', Dask at the base; the two Dask runs in turn first' if args.base else ''}). "
+             f"Medians of {rounds} interleaved run(s) (the pool, then the Dask runs in a rotated order). Dask runs: "
+             f"'this': this code, its cluster started with the settings README.md recommends for a study's cluster "
+             f"({', '.join(f'{k}={v}' for k, v in environ().items())}: optdesign/study/cluster.py); 'Dask's defaults': "
+             "the same cluster with Dask's own settings" + (", 'base': the code at the base commit" if args.base else "")
+             + ". "
              "Whole run: wall time from Study.run to its return, start-up included (the client's connection or the "
              "pool's start, the first case's wait); steady: the cases after the first durable one over the time from "
              "it to the last. Peak memory is VmHWM (the client's imports included; the scheduler's since it "
              "started, the warm-up included).", ""]
-    cols = [("this", 1)] + ([(f"base {args.base}", 2)] if args.base else [])
+    cols = [(name, j + 1) for j, name in enumerate(labels)]
     head = " | ".join(f"Dask / pool whole ({name}) | Dask / pool steady ({name})" for name, _ in cols)
     lines += [f"| study | cases | pool cases/s whole / steady | Dask cases/s whole / steady | {head} | first result s "
               "pool / Dask (client start-up) | client CPU per case pool / Dask [us] | client peak MB pool / Dask | scheduler peak MB (at "
@@ -267,7 +283,7 @@ def report(args, got, load0, rounds):
             cells = " | ".join(f"{v:,.0f}" if (v or not j == 0) else "-" for v in parts)
             lines.append(f"| {kind} | {n:,} | {name} | {cells} | {sum(parts):,.0f} | {busy:.2f} |")
     lines.append("")
-    lines.append("Every run's cases all finished; successful cases (pool / Dask" + (" / base" if args.base else "") + "): "
+    lines.append("Every run's cases all finished; successful cases (pool / " + " / ".join(labels) + "): "
                  + ", ".join(f"{kind} {n:,}: " + " / ".join(f"{r['ok']:,}" for r in rs[-1] if r) for (kind, n), rs in got.items())
                  + ".")
     write_section("study_dask", "\n".join(lines) + "\n", SCALING_MD)
