@@ -199,6 +199,37 @@ def test_work_shared_by_the_rows_gives_the_bits_of_one_call_per_row(cache, monke
     assert shared >= 16   # (the shared calls did run)
 
 
+def test_a_batch_mask_points_and_row_subsets_give_the_same_bits(programs):
+    """What Enclosure.bounds passes a compiled program: the mask of the parameters that differ
+    between a batch's cases (``varied``: a superset of those that differ between the rows of
+    this call, or all of them), points given as one array for lo and hi (deduplicated by one
+    key), and subsets of rows and outputs.  The rows asked for: the same bits as the whole
+    program's call on separate lo and hi arrays; the others NaN, without jumps (the C leaves
+    them unwritten)."""
+    _, _, c_program = programs
+    rng = np.random.default_rng(21)
+    lo, hi = random_intervals(22, 40)
+    pick = rng.integers(0, 40, 400)
+    lo, hi = lo[pick], hi[pick]
+    m = 0.5 * (lo + hi)
+    P = np.tile([0.7, 0.4], (len(lo), 1))
+    P[:, 1] = rng.choice([0.3, 0.9, 1.4], len(lo))
+    whole, at_points = c_program(lo, hi.copy(), P), c_program(m, m.copy(), P)
+    for rows, outputs in ((None, None), ([1, 4, 8], None), ([0, 5], (0,)), ([2, 3, 9], (0, 1)), ([7], (1,))):
+        asked = np.arange(whole[0][0].shape[0]) if rows is None else np.asarray(rows)
+        other = np.setdiff1d(np.arange(whole[0][0].shape[0]), asked)
+        for varied in (None, 0b10, 0b11):
+            for mine, theirs in ((c_program(lo, hi, P, rows, outputs, varied=varied), whole),
+                                 (c_program(m, m, P, rows, outputs, varied=varied), at_points)):
+                for j, (a, b) in enumerate(zip(mine, theirs)):
+                    if outputs is not None and j not in outputs:
+                        continue
+                    assert all(np.array_equal(x[asked], y[asked], equal_nan=True) for x, y in zip(a, b)), \
+                        (rows, outputs, varied, j)
+                    assert np.isnan(a[0][other]).all() and np.isnan(a[1][other]).all() and not a[2][other].any()
+    assert any(np.isnan(x[0]).any() for x in whole) and all(np.isfinite(x[0]).mean() > 0.5 for x in whole)
+
+
 def test_the_forms_in_c_give_the_bits_of_numpys(programs, monkeypatch):
     """Enclosure.bounds's mean-value, Taylor and monotone forms, done in C where the program is
     compiled (CompiledProgram.forms): the same bits as its numpy code on the same program

@@ -44,6 +44,7 @@ import numpy as np
 
 from ..errors import SceneError
 from ..kinematics.mechanism import Mechanism
+from ..model.cse import cse_function
 from ..model.intervals_compiled import compile_program
 from ..model.mapped import compiled_function
 from ..model.reduction import ReducedModel
@@ -85,6 +86,7 @@ class DesignProblem:
             raise SceneError(f"{scene.path}: no design variables: give some parameters bounds, e.g. e = {{ value = 1.6, min = 0.5, max = 3.0 }}")
         self.mech = mech = Mechanism(scene)
         mech.interval_compile = compile_program
+        mech.cse_function = cse_function
         names = list(mech.parameter_names)
         self.design_names = [p.name for p in design]
         self.design_index = [names.index(n) for n in self.design_names]

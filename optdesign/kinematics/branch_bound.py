@@ -83,7 +83,8 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
         # the tolerance, or where rounding is larger, four times the width of the midpoint's own
         # enclosure (a row that cancels to ~0: its floating-point evaluation cannot say more)
         with np.errstate(invalid="ignore"):
-            noise = 4.0 * np.where(np.isfinite(vm_hi - vm_lo), vm_hi - vm_lo, 0.0)
+            width_m = vm_hi - vm_lo
+            noise = 4.0 * np.where(np.isfinite(width_m), width_m, 0.0)
             threshold = np.maximum(best[task] + np.maximum(tol_abs[task], noise), tasks.only_above[task])
             keep = ~(ub <= threshold)   # NaN: not bounded, split again
         if np.any(~keep):
@@ -102,11 +103,9 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
         top, _ = found.best(tasks.code)
         centre = found.s[top[task]]
         around = (lo < centre) & (centre < hi)
-        cuts = np.full((len(task), 2 * PRESPLIT + 1), np.nan)
-        cuts[~around, 0] = lo[~around] + width[~around] * 0.5
         steps = width[around, None] * 2.0 ** -np.arange(1, PRESPLIT + 1)[None, :]
-        cuts[around] = centre[around, None] + np.concatenate((-steps, np.zeros((len(steps), 1)), steps[:, ::-1]), axis=1)
-        task, lo, hi, left_ub = split(task, lo, hi, left_ub, cuts)
+        cuts = centre[around, None] + np.concatenate((-steps, np.zeros((len(steps), 1)), steps[:, ::-1]), axis=1)
+        task, lo, hi, left_ub = split(task, lo, hi, left_ub, cuts, around, lo + width * 0.5)
     if left:
         task, lo, hi, left_ub = (np.concatenate(a) for a in zip(*left))
         np.maximum.at(bound, task, left_ub)
@@ -117,18 +116,33 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
     return np.maximum(bound, best), notes
 
 
-def split(task, lo, hi, left_ub, cuts):
+def split(task, lo, hi, left_ub, cuts, around=None, middle=None):
     """Each interval [lo, hi] cut at its row of ``cuts`` (ascending, NaN: none) strictly inside
-    it; the pieces keep their interval's task and bound.  Returns (task, lo, hi, left_ub)."""
+    it; the pieces keep their interval's task and bound, in order.  Returns (task, lo, hi,
+    left_ub).  With ``around`` (a mask), ``cuts`` are the rows of the intervals it marks, and
+    each other interval is cut at its ``middle`` alone."""
+    if around is None:
+        around, middle = np.ones(len(lo), bool), np.full(len(lo), np.nan)
     with np.errstate(invalid="ignore"):
-        inside = (cuts > lo[:, None]) & (cuts < hi[:, None])
+        inside = (cuts > lo[around, None]) & (cuts < hi[around, None])
+        halved = (middle > lo) & (middle < hi) & ~around
     inside[:, 1:] &= cuts[:, 1:] != cuts[:, :-1]   # each cut once
-    edges = np.concatenate((lo[:, None], cuts, hi[:, None]), axis=1)
-    keep = np.concatenate((np.ones((len(lo), 1), bool), inside, np.ones((len(lo), 1), bool)), axis=1)
-    flat, row = edges[keep], np.nonzero(keep)[0]
-    piece = np.flatnonzero(row[:-1] == row[1:])   # consecutive edges of one interval
-    owner = row[piece]
-    return task[owner], flat[piece], flat[piece + 1], left_ub[owner]
+    pieces = 1 + halved.astype(int)
+    pieces[around] = 1 + np.count_nonzero(inside, axis=1)
+    start = np.cumsum(pieces) - pieces   # each interval's first piece
+    owner = np.repeat(np.arange(len(lo)), pieces)
+    new_lo, new_hi = lo[owner], hi[owner]
+    h = np.flatnonzero(halved)   # the halves: [lo, middle], [middle, hi]
+    new_hi[start[h]], new_lo[start[h] + 1] = middle[h], middle[h]
+    if len(cuts):   # the cuts' pieces, as consecutive edges of one interval
+        a = np.flatnonzero(around)
+        edges = np.concatenate((lo[a, None], cuts, hi[a, None]), axis=1)
+        keep = np.concatenate((np.ones((len(a), 1), bool), inside, np.ones((len(a), 1), bool)), axis=1)
+        flat, row = edges[keep], np.nonzero(keep)[0]
+        piece = np.flatnonzero(row[:-1] == row[1:])
+        at = start[a][row[piece]] + (piece - np.searchsorted(row, row[piece]))
+        new_lo[at], new_hi[at] = flat[piece], flat[piece + 1]
+    return task[owner], new_lo, new_hi, left_ub[owner]
 
 
 def first_intervals(tasks, s_grid, found, best):
@@ -187,9 +201,11 @@ def first_intervals(tasks, s_grid, found, best):
 def target_bound(L, U, code, upper):
     """Per interval, an upper (``upper``) or lower bound of its task's target from v's bounds
     [L, U]; ``code``: the sense, an index into SENSES (abs, max, min)."""
-    if upper:
-        return np.select([code == 1, code == 2], [U, -L], np.maximum(U, -L))
-    return np.select([code == 1, code == 2], [L, -U], np.maximum(L, -U))
+    high, low = (U, L) if upper else (L, U)
+    out = np.maximum(high, -low)
+    is_max, is_min = code == 1, code == 2
+    out[is_max], out[is_min] = high[is_max], -low[is_min]
+    return out
 
 
 def locate_better(evaluate, tasks, found, best, task, lo, hi, at_mid, v_mid, s_tol, limits):

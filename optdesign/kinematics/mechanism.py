@@ -54,6 +54,10 @@ class Mechanism:
         # compiles the certificate's interval programs (set by the model's layer:
         # optdesign.model.intervals_compiled.compile_program); None: numpy evaluates them
         self.interval_compile = None
+        # builds function()'s SX Functions with common subexpressions eliminated, reading them from
+        # the cache folder when a run eliminated the same graph (set by the model's layer:
+        # optdesign.model.cse.cse_function); None: CasADi eliminates them each time
+        self.cse_function = None
         sym = ca.MX if self.has_loops else ca.SX
         self.sym = sym
         self.s = sym.sym(scene.sweep.name)
@@ -138,6 +142,8 @@ class Mechanism:
         """A CasADi Function (s, p) -> named outputs.  SX graphs are built with common
         subexpressions eliminated: repeated differentiation duplicates much of the graph
         (level-luffing crane: 3,586 -> 977 instructions per sample, same numbers)."""
+        if self.sym is ca.SX and self.cse_function is not None:
+            return self.cse_function(name, [self.s, self.p], list(outputs.values()), ["s", "p"], list(outputs))
         opts = {"cse": True} if self.sym is ca.SX else {}
         return ca.Function(name, [self.s, self.p], list(outputs.values()), ["s", "p"], list(outputs), opts)
 

@@ -19,6 +19,7 @@ from .joints import PEAKED
 from .quantities import joint_forces, model_value
 from ..scene.cases import is_case_constraint
 from .cases import CaseAnalysis
+from .cse import cse_function
 from .intervals_compiled import compile_program
 from .blocked import stroke_evaluator
 from .per_stroke import StrokeConstraints
@@ -112,6 +113,7 @@ class Analysis:
         t0 = time.perf_counter()
         self.mech = Mechanism(scene_argument("analyse", scene, ResolvedScene))
         self.mech.interval_compile = compile_program
+        self.mech.cse_function = cse_function
         self.resolved = self.mech.resolved
         self.scene = scene = self.mech.scene
         self.model = ReducedModel(self.mech, efficiency_smoothing)

@@ -251,7 +251,7 @@ def prune(keep: str | None = None) -> list:
         if _TEMPORARY.search(f.name):
             if now - st.st_mtime > STALE_S:
                 f.unlink(missing_ok=True)
-        elif f.suffix in (".so", ".npz"):   # libraries and instruction programs (model/programs.py)
+        elif f.suffix in (".so", ".npz", ".fn"):   # libraries, instruction programs (programs.py), Functions (cse.py)
             entries.append((st.st_mtime, st.st_size, f.stem))
     total, removed = sum(size for _, size, _ in entries), []
     for _, size, key in sorted(entries):
@@ -265,7 +265,7 @@ def prune(keep: str | None = None) -> list:
 
 
 def remove(key: str):
-    for suffix in (".json", ".so", ".npz"):
+    for suffix in (".json", ".so", ".npz", ".fn"):
         try:
             (cache_dir() / f"{key}{suffix}").unlink()
         except OSError:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..kinematics.mechanism import Mechanism
+from ..model.cse import cse_function
 from ..model.joint_structure import JointStructureError
 from ..model.joints import JointForces
 from ..model.reduction import ReducedModel
@@ -38,6 +39,7 @@ def governing_pin_forces(scene, s_values, cases=True):
     s_values = np.asarray(s_values, float)
     try:
         mech = Mechanism(ResolvedScene(scene))
+        mech.cse_function = cse_function
         if cases and scene.cases:
             from ..model.cases import CaseModel
 
