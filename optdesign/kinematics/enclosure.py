@@ -300,14 +300,16 @@ class Enclosure:
             ends, where_end = np.unique(np.concatenate((lo, hi)), return_inverse=True)
             p = self.p
         else:
+            one = len(self.p) == 1   # one case: its parameter vector (the same bits, without a row per interval)
             cases = np.asarray(cases, int)
             key_case, key_s = np.concatenate((cases, cases)), np.concatenate((lo, hi))
-            order = np.lexsort((key_s, key_case))
-            first = np.concatenate(([True], (np.diff(key_case[order]) != 0) | (np.diff(key_s[order]) != 0)))
+            order = np.argsort(key_s, kind="stable") if one else np.lexsort((key_s, key_case))
+            changes = np.diff(key_s[order]) != 0
+            first = np.concatenate(([True], changes if one else (np.diff(key_case[order]) != 0) | changes))
             where_end = np.empty(2 * n, int)
             where_end[order] = np.cumsum(first) - 1
             ends, end_case = key_s[order][first], key_case[order][first]
-            p = self.p[np.concatenate((cases, cases, end_case))]
+            p = self.p[0] if one else self.p[np.concatenate((cases, cases, end_case))]
         # over [lo, hi] everything; at the midpoints v and v' (the Taylor form's); at the ends v
         # (the monotone form's): each call runs only the instructions its outputs need
         # (numpy runs a program instruction by instruction, at a fixed cost per instruction and

@@ -229,9 +229,12 @@ class CompiledProgram:
         elif n and function(n, lo.ctypes.data, hi.ctypes.data, p.ctypes.data, stride, need.ctypes.data, *out,
                             None, None, None, None, None, 0) != 0:
             raise MemoryError("the compiled interval program could not allocate its work arrays")
-        return [(out_lo[o:o + m], out_hi[o:o + m], out_jump[o:o + m]) if o + m <= total else
-                (np.broadcast_to(np.nan, (m, n)), np.broadcast_to(np.nan, (m, n)), np.broadcast_to(False, (m, n)))
-                for o, m in zip(offsets, self.shapes)]   # (outputs not asked for: NaN, read-only)
+        if total == self._total:
+            return [(out_lo[o:o + m], out_hi[o:o + m], out_jump[o:o + m]) for o, m in zip(offsets, self.shapes)]
+        nan, no = np.full((max(self.shapes), n), np.nan), np.zeros((max(self.shapes), n), np.bool_)
+        nan.flags.writeable, no.flags.writeable = False, False   # (outputs not asked for: NaN, read-only)
+        return [(out_lo[o:o + m], out_hi[o:o + m], out_jump[o:o + m]) if o + m <= total else (nan[:m], nan[:m], no[:m])
+                for o, m in zip(offsets, self.shapes)]
 
     def _unwritten(self, need):
         """The stacked output rows that a call of the instructions ``need`` leaves unwritten."""
