@@ -43,7 +43,7 @@ import casadi as ca
 
 from .intervals import ROUND, ROUND_LIB, TINY, TWO_PI
 
-BLOCK = 32
+BLOCK = 64   # intervals per loop of one operation (64: 1.1-1.6x faster than 32 on the truck crane, measured; the same numbers)
 
 _PRELUDE = r"""
 #include <math.h>
@@ -278,11 +278,11 @@ static inline double correction(double d1_lo, double d1_hi, double d2_hi, double
   double c = nmax(corr_g(d1_hi, r, b), corr_g(-d1_lo, r_below, b));
   return c + fabs(c) * 1e-12;
 }
-void %(name)s_forms(long n_rows, const long *rows, long n, long n_ends, const double *v_lo, const double *v_hi,
-    const unsigned char *v_jump, const double *d_lo, const double *d_hi, const unsigned char *d_jump,
-    const double *e_lo, const double *e_hi, const double *vm_lo, const double *vm_hi, const double *dm_lo,
-    const double *dm_hi, const double *at_lo, const double *at_hi, const long *end_a, const long *end_b,
-    const double *r_above, const double *r_below, double *out_lo, double *out_hi) {
+/* (restrict: the outputs are arrays of their own, the inputs only read) */
+void %(name)s_forms(long n_rows, const long *restrict rows, long n, long n_ends, C_ v_lo, C_ v_hi,
+    const unsigned char *restrict v_jump, C_ d_lo, C_ d_hi, const unsigned char *restrict d_jump,
+    C_ e_lo, C_ e_hi, C_ vm_lo, C_ vm_hi, C_ dm_lo, C_ dm_hi, C_ at_lo, C_ at_hi, const long *restrict end_a,
+    const long *restrict end_b, C_ r_above, C_ r_below, R_ out_lo, R_ out_hi) {
   for (long k = 0; k < n_rows; k++) {
     long o = rows[k] * n, oe = rows[k] * n_ends;
     for (long i = 0; i < n; i++) {
@@ -299,8 +299,10 @@ void %(name)s_forms(long n_rows, const long *rows, long n, long n_ends, const do
       double dv_lo = (smooth1 & (lo_d > d_lo[x])) ? lo_d : d_lo[x];
       double dv_hi = (smooth1 & (hi_d < d_hi[x])) ? hi_d : d_hi[x];
       int rising = smooth0 & (dv_lo >= 0), falling = smooth0 & (dv_hi <= 0);
-      double U_m = rising ? at_hi[oe + end_b[i]] : (falling ? at_hi[oe + end_a[i]] : INFINITY);
-      double L_m = rising ? at_lo[oe + end_a[i]] : (falling ? at_lo[oe + end_b[i]] : -INFINITY);
+      /* both ends read whatever the form (no load under a condition: the loop vectorises) */
+      double a_lo = at_lo[oe + end_a[i]], a_hi = at_hi[oe + end_a[i]], b_lo = at_lo[oe + end_b[i]], b_hi = at_hi[oe + end_b[i]];
+      double U_m = rising ? b_hi : (falling ? a_hi : INFINITY);
+      double L_m = rising ? a_lo : (falling ? b_lo : -INFINITY);
       double U = v_hi[x], L = v_lo[x];
       U = (smooth0 & (U_mv < U)) ? U_mv : U; L = (smooth0 & (L_mv > L)) ? L_mv : L;
       U = (smooth1 & (U_t < U)) ? U_t : U; L = (smooth1 & (L_t > L)) ? L_t : L;
