@@ -2,9 +2,11 @@
 [[motors]] (default problems/crane_luffing_drive.toml: 4 motors, 20 starts, the default
 workers), this code against an older commit, in one run.
 
-    python benchmarks/bench_catalogue.py --old /tmp/old [--repeats 3] [--scene ...]
+    python benchmarks/bench_catalogue.py (--old /tmp/old | --base REV) [--repeats 3] [--scene ...]
 
-``--old`` is a checkout of the older code (e.g. ``git worktree add --detach /tmp/old e832500``).
+``--old`` is a checkout of the older code (e.g. ``git worktree add --detach /tmp/old e832500``);
+``--base REV`` exports that commit's optdesign/ and problems/ into a temporary folder
+(``benchfile.export``: ``git archive``) and runs it as the old code.
 Each version runs from its own folder with PYTHONPATH set to it (a child started in a
 worktree would otherwise import that worktree's optdesign).  Warm: each version runs once
 before timing with ``OPTDESIGN_COMPILE=wait`` (its compiled libraries in the disk cache, the
@@ -28,7 +30,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_commands import run as run_command  # noqa: E402
-from benchfile import ROOT, SCALING_MD, against, cpu_model, write_section  # noqa: E402
+from benchfile import ROOT, SCALING_MD, against, cpu_model, export, write_section  # noqa: E402
 
 
 NOT_WARMED = ("the compile cache not warmed by this run (--no-warm: what earlier runs left in it; a library "
@@ -49,7 +51,9 @@ def run(tree: Path, scene: str, out: Path, env: dict, starts: int):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--old", required=True, help="a checkout of the older code")
+    old_code = ap.add_mutually_exclusive_group(required=True)
+    old_code.add_argument("--old", help="a checkout of the older code")
+    old_code.add_argument("--base", help="a commit whose code is exported (git archive) and run as the old code")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--scene", default="problems/crane_luffing_drive.toml")
     ap.add_argument("--starts", type=int, default=20)
@@ -57,10 +61,14 @@ def main(argv=None):
     ap.add_argument("--section", default="catalogue",
                     help="the section of results/scaling.md written (and results/<section>_bench.json)")
     args = ap.parse_args(argv)
-    (old, old_commit, git, env), new, load0 = against(args.old), ROOT, os.getloadavg()
     times = {"old": [], "new": []}
     answers = {"old": [], "new": []}
     with tempfile.TemporaryDirectory() as tmp:
+        if args.base:
+            (old, _, git, env), old_commit = against(export(args.base, Path(tmp) / "base")), args.base
+        else:
+            old, old_commit, git, env = against(args.old)
+        new, load0 = ROOT, os.getloadavg()
         for name, tree in () if args.no_warm else (("old", old), ("new", new)):   # compiled libraries in the cache
             print(f"warm-up {name} ...", flush=True)
             run(tree, args.scene, Path(tmp) / f"warm_{name}", dict(env, OPTDESIGN_COMPILE="wait"), args.starts)
@@ -79,7 +87,8 @@ def main(argv=None):
     lines = [
         f"# {args.section}",
         "",
-        f"`python benchmarks/bench_catalogue.py --old {args.old} --repeats {args.repeats} --scene {args.scene} "
+        f"`python benchmarks/bench_catalogue.py {'--base ' + args.base if args.base else '--old ' + args.old} "
+        f"--repeats {args.repeats} --scene {args.scene} "
         f"--starts {args.starts}{' --no-warm' if args.no_warm else ''}"
         f"{'' if args.section == 'catalogue' else ' --section ' + args.section}` "
         f"({time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; {cpu_model()}, {os.cpu_count()} cores; "

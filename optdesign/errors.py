@@ -182,6 +182,37 @@ def worker_process(parent=None):
             pass
     if parent is not None and os.getppid() != parent:   # it died before the prctl
         os._exit(0)
+    one_blas_thread()
+
+
+# what Dask's nanny sets for its workers (distributed.nanny.pre-spawn-environ), and joblib's
+BLAS_THREADS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def one_blas_thread():
+    """One BLAS (and OpenMP) thread in a worker process, unless the user set the number: a pool
+    already runs a process per core, and the threads of CasADi's OpenBLAS (IPOPT's MUMPS) only
+    spin on the other processes' cores.  Measured on the 2-core machine of results/scaling.md
+    (seed1_jib_design, 32 warm-started optimisations in one process, 4 interleaved pairs at load
+    ~8): 3.6-4.0 s of CPU with Dask's worker variables unset, 2.8-3.5 s with
+    ``OPENBLAS_NUM_THREADS=1``.  CasADi loads its OpenBLAS at the first IPOPT solve, where the
+    variables set here count; one the parent loaded before the fork is told directly."""
+    import os
+
+    for name in BLAS_THREADS:
+        os.environ.setdefault(name, "1")
+    if os.environ["OPENBLAS_NUM_THREADS"] != "1":
+        return
+    try:
+        import ctypes
+
+        import casadi
+
+        lib = ctypes.CDLL(os.path.join(os.path.dirname(casadi.__file__), "libcasadi-tp-openblas.so.0"),
+                          mode=os.RTLD_NOLOAD)   # only if loaded already (else OSError)
+        lib.openblas_set_num_threads(1)
+    except (ImportError, OSError, AttributeError):   # not loaded yet, or another CasADi build
+        pass
 
 
 # --- CasADi's own messages ---------------------------------------------------------------------------

@@ -121,11 +121,48 @@ def test_blocks_compiled_at_their_level_equal_the_general_flags_bit_for_bit(cach
     flags = [json.loads(m.read_text())["flags"][0] for m in cache.glob("external-*.json")]
     assert flags == [blocked.LEVEL] and blocked.LEVEL != compiled.FLAGS[0]
     f = analysis.function
-    general = BlockedFunction(compiled.external(f, "optdesign_blocked", lambda name: blocked.blocked_source(f, name)))
+    general = BlockedFunction(compiled.external(f, "optdesign_blocked", lambda name: blocked.blocked_source(f, name, blocked.BLOCK)))
     P = analysis.mech.parameter_values * np.array([[1.0], [0.9], [1.1]])
     for s in (analysis.s_values, analysis.s_values[:7], analysis.s_values[::3]):
         got, expected = fast.many(s, P), general.many(s, P)
         assert all(np.array_equal(got[k], expected[k], equal_nan=True) for k in fast.names)
+
+
+@pytest.mark.parametrize("scene, axes", [("truck_crane", ("mB", "mP")), ("level_luffing_crane", None)])
+def test_cases_sharing_the_sweep_equal_each_case_alone(cache, scene, axes):
+    """A study's build (its axes' parameters variable) runs many cases that share their sweep
+    values in one call of the library's NAME_cases, the work that depends on s alone once per
+    block: each case's values equal its own call of the plain library (==, NaN included), for the
+    model over the stroke and for the RMS quadrature's nodes; parameter rows that differ
+    elsewhere, and rows of different sweep values, take the plain path, with the same numbers."""
+    from optdesign.scene.resolved import ResolvedScene
+
+    base = load(ROOT / "problems" / f"{scene}.toml")
+    names = Analysis(base, certify=False).mech.parameter_names
+    axes = axes or names[-2:]   # the last two leaves, whatever they are
+    study = Analysis(ResolvedScene(base.without_bounds(*axes), variable=list(axes)), samples=301, certify=False)
+    plain = Analysis(base, samples=301, certify=False)
+    assert study.vectorised._cases is not None and plain.vectorised._cases is None
+    rng = np.random.default_rng(3)
+    P = np.tile(study.mech.parameter_values, (70, 1))
+    for name in axes:
+        k = names.index(name)
+        P[:, k] *= rng.uniform(0.2, 3.0, len(P))
+    P[5, names.index(axes[0])] = -1e30    # a case whose values overflow or are not finite
+    s = study.s_values
+    assert study.vectorised._shared(np.broadcast_to(s, (len(P), len(s))), P)
+    for S, Q in ((s, P), (s[:9], P[:3]), (s, P[:1])):
+        got, alone = study.vectorised.many(S, Q), [plain.vectorised(S, q) for q in Q]
+        for name in study.vectorised.names:
+            assert all(np.array_equal(got[name][i], alone[i][name], equal_nan=True) for i in range(len(Q))), name
+    other = P.copy()
+    other[7, [k for k, n in enumerate(names) if n not in axes][0]] *= 1.01   # a fixed parameter differs in one case
+    assert not study.vectorised._shared(np.broadcast_to(s, (len(P), len(s))), other)
+    got = study.vectorised.many(s, other)
+    assert all(np.array_equal(got["drive"][i], plain.vectorised(s, q)["drive"], equal_nan=True)
+               for i, q in enumerate(other))
+    live = np.arange(len(P)) != 5
+    assert study.sweep_rms_many(P[live]) == plain.sweep_rms_many(P[live])
 
 
 @pytest.mark.parametrize("scene", ["level_luffing_crane", "seed1_slider_crank"])

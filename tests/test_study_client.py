@@ -91,12 +91,15 @@ _values = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.booleans(
 
 
 @settings(max_examples=40, deadline=None)
-@given(data=st.data(), n=st.integers(1, 6))
+@given(data=st.data(), n=st.integers(1, 9))
 def test_a_blocks_journal_lines_and_csv_cells_are_json_dumps_and_the_csv_modules(data, n):
     keys = data.draw(st.lists(st.text(min_size=1, max_size=6), min_size=1, max_size=5, unique=True))
-    kind = data.draw(st.sampled_from(["float", "mixed"]))
-    rows = [{k: (data.draw(st.floats(allow_nan=True, allow_infinity=True)) if kind == "float" else data.draw(_values))
-             for k in keys} for _ in range(n)]
+    kind = data.draw(st.sampled_from(["float", "mixed", "repeated"]))
+    # repeated: a column of few distinct floats (their texts made once each), 0.0 and -0.0 among them or not
+    pool = data.draw(st.sampled_from([[1.5, math.nan, 1e16, -2.5e-300, math.inf], [0.0, -0.0, 7.25], [-0.0, 3.0]]))
+    draw = {"float": lambda: data.draw(st.floats(allow_nan=True, allow_infinity=True)), "mixed": lambda: data.draw(_values),
+            "repeated": lambda: data.draw(st.sampled_from(pool))}[kind]
+    rows = [{k: draw() for k in keys} for _ in range(n)]
     outs = [{"row": r, "x": data.draw(st.none() | st.lists(st.floats(-1e3, 1e3), max_size=3)),
              "time_s": data.draw(st.floats(0, 10))} for r in rows]
     ids = [f"{random.getrandbits(64):016x}" for _ in range(n)]

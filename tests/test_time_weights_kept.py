@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from optdesign.design.cycle_certify import _light
+from optdesign.design.cycle_certify import cycle_cases
 from optdesign.design.problem import DesignProblem
 from optdesign.model import duty
 from optdesign.model.case_results import case_nodes
@@ -16,7 +16,7 @@ from test_cases_optimise import MOTOR, _only_ratio, scene
 
 def test_kept_weights_are_the_fresh_ones_for_every_design():
     pb = DesignProblem(_only_ratio(scene("rms_time(motor_torque)", extra=MOTOR), 2.0, 200.0))
-    a = _light(pb)
+    a = cycle_cases(pb)
     grid = pb.mech.stroke()
     dense = np.linspace(grid[0], grid[-1], 4 * (len(grid) - 1) + 1)
     for ratio in (5.0, 40.0, 150.0):   # designs: the weights' inputs are the same

@@ -56,12 +56,24 @@ def rms_key(what) -> tuple:
     return (f"rms_time({what})", "rms_time")
 
 
-def _light(pb):
+def cycle_cases(pb):
     """The cases without their peaks' certificates (their integrals are certified), built once."""
     # compiled: every start's certificate runs the cases at the adaptive quadrature's nodes and
     # its recheck on grids 16 and 8 times the scene's (crane_luffing_drive: ~1 s of a 2.5 s start
     # on the virtual machine)
     return pb._once("cycle integrals", lambda: CaseAnalysis(pb.mech, pb.mech.stroke(), certify=False, compile=True))
+
+
+RECHECK_GRIDS = (16, 8)   # the rule's grids of recheck_cycle, these times denser than the scene's
+
+
+def warm_cycle(pb):
+    """Build what certifying a start's cycle builds on first use: the cases (:func:`cycle_cases`)
+    and their time weights on the recheck's dense grids, which depend on the grids and the cases'
+    profiles alone (model/duty.CaseTimes.of keeps them), by the recheck's rule at the start design."""
+    if integrated(pb):
+        for factor in RECHECK_GRIDS:
+            rule_rms(pb, pb.start, None, factor)
 
 
 def cycle_rms(pb, x, fixed=None) -> dict:
@@ -70,7 +82,7 @@ def cycle_rms(pb, x, fixed=None) -> dict:
     as ``analyse`` reports it; {} when the cycle has no motion in time."""
     if not integrated(pb):
         return {}
-    duty = _light(pb).run(pb.full_parameters(np.clip(np.asarray(x, float), pb.lower, pb.upper), fixed)).duty
+    duty = cycle_cases(pb).run(pb.full_parameters(np.clip(np.asarray(x, float), pb.lower, pb.upper), fixed)).duty
     if "reason" in duty:
         return {}
     rms, errors = duty["rms_time"], duty.get("errors", {}).get("rms_time", {})
@@ -82,7 +94,7 @@ def rule_rms(pb, x, fixed, factor) -> dict:
     another path than :func:`cycle_rms`: the rule on the samples of :mod:`optdesign.model.duty`
     (linear in the sweep between samples against the exact time law, second order) on a grid
     ``factor`` times denser than the scene's, the cases' loads unsmoothed (as analysed)."""
-    a = _light(pb)
+    a = cycle_cases(pb)
     grid = pb.mech.stroke()
     dense = np.linspace(grid[0], grid[-1], factor * (len(grid) - 1) + 1)
     p = pb.full_parameters(np.clip(np.asarray(x, float), pb.lower, pb.upper), fixed)
@@ -116,7 +128,7 @@ def recheck_cycle(pb, x, fixed, certified) -> str | None:
     keys = [k for k in integrated(pb) if rms_key(k) in certified]
     if not keys:
         return None
-    fine, coarse = rule_rms(pb, x, fixed, 16), rule_rms(pb, x, fixed, 8)
+    fine, coarse = (rule_rms(pb, x, fixed, factor) for factor in RECHECK_GRIDS)
     for k in keys:
         mine, error = certified[rms_key(k)], certified.get((rms_key(k)[0], "error"), 0.0)
         if k not in fine:
@@ -139,7 +151,7 @@ def certify_cycle(pb, sol, value, rule_value, fixed=None):
     cycle_constraints = getattr(pb, "cycle_constraints", ())
     if not time_terms and not cycle_constraints:
         return value, "", {}
-    duty = _light(pb).run(pb.full_parameters(np.clip(np.asarray(sol.x, float), pb.lower, pb.upper), fixed)).duty
+    duty = cycle_cases(pb).run(pb.full_parameters(np.clip(np.asarray(sol.x, float), pb.lower, pb.upper), fixed)).duty
     if "reason" in duty:
         return value, duty["reason"], {}
     rms, errors = duty["rms_time"], duty.get("errors", {}).get("rms_time", {})

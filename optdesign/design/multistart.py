@@ -15,7 +15,7 @@ import multiprocessing
 import os
 import time
 from concurrent.futures.process import BrokenProcessPool
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -30,7 +30,7 @@ from .results import OptimisationResult, StartReport
 from .cycle_certify import certify_cycle, uncertified
 from .sensitivities import (constraint_report, objective_gradient_factor, objective_value, sensitivities,
                             sensitivity_notes)
-from .solver import Solver
+from .solver import Solver, initial_w
 from .starts import RETRIES, StartPlan, plan_starts
 
 
@@ -107,6 +107,8 @@ def prepare(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSetti
     t_build = time.perf_counter() - t0
     with contextlib.nullcontext() if ahead else casadi_messages_hidden():
         plan = draw_plan(problem, starts, seed, x_starts=x_starts)
+    if plan.fitting:   # an objective phase will run: what it builds on first use, built once (before workers fork)
+        solver.warm()
     t_all = time.perf_counter() - t0
     return Prepared(problem, solver, repair, plan, {"build_s": t_build, "screen_s": t_all - t_build},
                     t_all if ahead else 0.0)
@@ -115,8 +117,6 @@ def prepare(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSetti
 def interrupted(problem, solver, plan, runs, total, timings) -> OptimisationInterrupted:
     """Ctrl-C after ``runs`` of ``total`` starts finished: the best design of those, marked
     interrupted (a second Ctrl-C while it is summarised stops at once)."""
-    import dataclasses
-
     if not any(s is not None for _, s in runs):
         return OptimisationInterrupted(None, len(runs), total)
     resume_after_interrupt()
@@ -125,7 +125,7 @@ def interrupted(problem, solver, plan, runs, total, timings) -> OptimisationInte
             f"{len(runs)} starts, not a search of all {total}. " if len(runs) < total else
             f"INTERRUPTED by Ctrl-C after {total} of {total} starts, once all had finished: the best design "
             f"of all {total}. ")
-    return OptimisationInterrupted(dataclasses.replace(result, interrupted=True, message=note + result.message),
+    return OptimisationInterrupted(replace(result, interrupted=True, message=note + result.message),
                                    len(runs), total)
 
 
@@ -411,9 +411,7 @@ def _certified_cycle(constraints, cycle):
 
 
 def _with_optimum(report, j):
-    import dataclasses
-
-    return dataclasses.replace(report, optimum=j)
+    return replace(report, optimum=j)
 
 
 def _no_optimum(pb, reports, timings, starts_info) -> OptimisationResult:
@@ -458,7 +456,7 @@ def rows_at(pb, design: dict):
     fixed = pb.mech.parameter_values[pb.fixed_index]
     s_pts = np.r_[pb.base_points, pb.initial_slots]
     phase1 = pb._once("phase 1", lambda: Phase1(pb))
-    w = Solver(pb)._initial_w(x, fixed, s_pts)
+    w = initial_w(pb, x, fixed, s_pts)   # (a Solver would build its continuous check for nothing)
     if isinstance(w, str):
         return None
     return np.asarray(phase1.g(w, pb.nlp_parameters(fixed, s_pts, x))).ravel(), s_pts

@@ -56,10 +56,11 @@ class StartPlan:
     first use when the points were given), with how many candidates were screened and how they
     were drawn ('sobol', 'lhs', 'uniform'; 'given' for explicit points)."""
 
-    def __init__(self, points, reserve=None, screened=0, method="sobol", plan_reserve=None):
+    def __init__(self, points, reserve=None, screened=0, method="sobol", plan_reserve=None, fitting=0):
         self.points = np.atleast_2d(np.asarray(points, float))
         self._reserve, self._plan_reserve = reserve, plan_reserve
         self.screened, self.method = screened, method
+        self.fitting = fitting   # how many of the points were screened feasible on the sample points
 
     @property
     def reserve(self) -> np.ndarray:
@@ -280,6 +281,8 @@ def plan_starts(pb, starts: int, seed: int, fixed=None, method: str = "sobol", z
         new = lo + (hi - lo) * new
         fn, vn = screen(new, fixed, pb.lbg, pb.ubg)
         cand, f, viol = np.vstack([cand, new]), np.r_[f, fn], np.r_[viol, vn]
-    cand = cand[rank(f, viol)]
+    order = rank(f, viol)
+    cand = cand[order]
     points = np.vstack([pb.start[None, :], cand[:starts - 1]])
-    return StartPlan(points, cand[starts - 1:], len(cand), method)
+    fitting = int(np.sum(viol[order[:starts - 1]] <= FEASIBLE))
+    return StartPlan(points, cand[starts - 1:], len(cand), method, fitting=fitting)

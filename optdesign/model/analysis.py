@@ -34,6 +34,9 @@ from .time_integrals import TOLERANCE, rms_error
 # spacings apart, so that a bump of the integrand between two samples still shows in an
 # interval's |K15 - G7| and is halved into (tests/test_sweep_rms.py)
 RMS_PANEL = 4
+# cases per quadrature of :meth:`Analysis.sweep_rms_many` (its arrays, ~2.4 MB per pass at 256 of
+# the truck crane's cases, stay in the cache: 1,024 at once took 0.072 ms per case, 4 x 256 0.047)
+RMS_CASES = 256
 
 
 def rms_starts(s) -> np.ndarray:
@@ -152,13 +155,18 @@ class Analysis:
         self.mapped = MappedFunction(self.function)   # (MX graphs: CasADi's map)
         # over the whole stroke: compiled blocks from the disk cache, else numpy instruction by
         # instruction (SX graphs only; model/blocked.py)
-        self.vectorised = stroke_evaluator(self.function)
+        self.vectorised = stroke_evaluator(self.function, varied=self._varied())
         self._stroke_rows = None   # the aggregates' rows at located sweep values, built on first use
         self.assembly = AssemblyCheck(self.mech)
         self.certified = CertifiedExtremes(self) if certify else None
         # the load cases' columns compiled from the disk cache (the same numbers: CasADi's C)
         self.case_analysis = CaseAnalysis(self.mech, self.s_values, joints, certify, compile=True) if scene.cases and cases else None
         self.build_time = time.perf_counter() - t0
+
+    def _varied(self) -> list:
+        """The indices of the parameters whose values differ between the cases of one build (a
+        study's axes: the resolved scene's ``variable``)."""
+        return [i for i, name in enumerate(self.mech.parameter_names) if name in self.resolved.variable]
 
     def sweep_rms(self, p_values) -> dict:
         """{name: (RMS over the sweep, its error estimate)} of the drive and the power at the
@@ -176,21 +184,27 @@ class Analysis:
         P = np.atleast_2d(np.asarray(P, float))
         if not self._squares:
             return [{} for _ in P]
+        if len(P) > RMS_CASES:   # (each case's numbers are its own whatever the batch)
+            return [r for at in range(0, len(P), RMS_CASES) for r in self.sweep_rms_many(P[at:at + RMS_CASES])]
         if not isinstance(self._squares, tuple):
             # the compiled blocks from the disk cache where they are there, else numpy or
             # CasADi's map (model/blocked.py): each case's quadrature nodes in blocks of its own
             func = self.mech.function("sweep_squares", self._squares)
-            self._squares = (list(self._squares), stroke_evaluator(func) or MappedFunction(func, compile=True))
+            self._squares = (list(self._squares), stroke_evaluator(func, varied=self._varied())
+                             or MappedFunction(func, compile=True))
         names, function = self._squares
         s = np.sort(self.s_values)
 
         def f(x, d, piece, case):
             if isinstance(function, MappedFunction):
                 rows = function(x, P[case])
-            else:   # the nodes come case after case (integrate_many keeps its intervals so)
-                got = function.ragged(x, np.bincount(case, minlength=len(P)), P)
-                rows = [got[k] for k in names]
-            return np.vstack([np.reshape(row, (1, -1)) ** 2 for row in rows])
+                return np.vstack([np.reshape(row, (1, -1)) ** 2 for row in rows])
+            # the nodes come case after case (integrate_many keeps its intervals so)
+            got = function.ragged(x, np.bincount(case, minlength=len(P)), P)
+            squares = np.empty((len(names), len(x)))
+            for k, row in zip(names, squares):
+                np.multiply(got[k], got[k], out=row)   # (x ** 2 is x * x)
+            return squares
 
         values, errors = integrate_arrays(f, [(float(s[0]), float(s[-1]), 1.0)], [rms_starts(s)], TOLERANCE,
                                           cases=len(P))[:2]

@@ -439,14 +439,13 @@ def _nlpsol_source(job, c_file: Path):
 
 
 # --- the two kinds of entry ------------------------------------------------------------------
-def external(func, name: str, source, wait: bool | None = None, level: str | None = None):
-    """``func`` (a CasADi Function) compiled: a ``ca.external`` of the cached library, or None
-    (virtual machine).  ``source(name)`` writes its C (a function named ``name``).  ``level``:
-    the optimisation flag in place of FLAGS' -O1 (part of the key; a source above LARGE_SOURCE is
-    still compiled at -O0)."""
+def external(func, name: str, source, wait: bool | None = None, level: str | None = None, load=None):
+    """``func`` (a CasADi Function) compiled: a ``ca.external`` of the cached library (or what
+    ``load(path)`` makes of it), or None (virtual machine).  ``source(name)`` writes its C (a
+    function named ``name``).  ``level``: the flag in place of FLAGS' -O1 (in the key; a source
+    above LARGE_SOURCE is still compiled at -O0)."""
     graph, own = func.serialize(), {"name": name, **({"level": level} if level else {})}
-    key = entry_key("external", graph, own)
-    if key is None:
+    if (key := entry_key("external", graph, own)) is None:
         return None
 
     def prepare(folder):
@@ -455,7 +454,8 @@ def external(func, name: str, source, wait: bool | None = None, level: str | Non
         return {"kind": "source", **own, "source": str(c_file), "cleanup": [str(c_file)]}
 
     path = library(key, prepare, wait, graph_bytes=len(graph))
-    return _load(key, lambda: __import__("casadi").external(name, str(path))) if path else None
+    load = load or (lambda lib: __import__("casadi").external(name, lib))
+    return _load(key, lambda: load(str(path))) if path else None
 
 
 def solver(name: str, plugin: str, nlp, options: dict, wait: bool | None = None):

@@ -154,8 +154,9 @@ def _rules(f, case, piece, lo, hi, anchors, lengths, powers):
     s = anchors[piece][:, None] + np.sign(L) * d
     jac = np.abs(L) * m * (1.0 if regular else u ** (m - 1)) * half[:, None]   # ds/du x du per unit node
     values = np.asarray(f(s.ravel(), d.ravel(), np.repeat(piece, 15), np.repeat(case, 15)), float)
-    values = values.reshape(values.shape[0], len(piece), 15) * jac[None, :, :]
-    values = np.where(np.isfinite(values), values, np.nan)
+    values = values.reshape(values.shape[0], len(piece), 15) * jac[None, :, :]   # (a new array)
+    if not np.isfinite(np.sum(values)):   # (a sum of finite values that overflows: nothing to change)
+        values[~np.isfinite(values)] = np.nan
     nodes = np.ascontiguousarray(values.transpose(2, 0, 1))              # 15 x integrands x intervals
     k, g, absk = (np.zeros(nodes.shape[1:]) for _ in range(3))
     for j in range(15):

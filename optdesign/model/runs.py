@@ -112,9 +112,9 @@ def run_cases(a, P):
             if dead[i]:
                 r.certificates["dead centre"] = {"bound": None, "note": dead[i]}
         if any(x is not None for x in extra):
-            certified = a.stroke.values(values, P, _at_extra(a, P, extra))
+            certified = a.stroke.values(values, P, _at_extra(a, P, extra)).tolist()
             for i in (i for i in range(n) if runs[i].error is None):
-                runs[i].stroke = dict(zip(names, certified[i].tolist()))
+                runs[i].stroke = dict(zip(names, certified[i]))
     else:
         for r in runs:
             r.constraint_extremes = {k: dict(e, min_sampled=e["min"], max_sampled=e["max"])
@@ -148,12 +148,12 @@ def _sampled_places(r, i, found, lows):
                              for k, e in lows.items()}
 
 
-def _finite_sum(*named) -> bool:
-    """Whether the sum of the values of the dicts ``named`` is finite: then every value is (a
-    value that is not finite, or None, makes it not; so may an overflow, which the exact check
-    then clears)."""
+def _finite_sum(first: dict, second: dict) -> bool:
+    """Whether the sum of the values of the dicts ``first`` and ``second`` is finite: then every
+    value is (a value that is not finite, or None, makes it not; so may an overflow, which the
+    exact check then clears)."""
     try:
-        return math.isfinite(sum(sum(d.values()) for d in named))
+        return math.isfinite(sum(second.values(), sum(first.values())))
     except TypeError:
         return False
 
@@ -206,8 +206,8 @@ def _check_finite(a, s, columns, constraints, P, runs):
     """:func:`~.finite.check_columns` of the cases whose columns hold a value that is not finite
     or a negative reduced inertia (the others pass it: nothing to look at)."""
     bad = np.zeros(len(P), bool)
-    for v in (*columns.values(), *constraints.values()):
-        bad |= ~np.all(np.isfinite(v), axis=1)
+    for v in (*columns.values(), *constraints.values()):   # a row's sum is finite where every value is (one
+        bad |= ~np.isfinite(np.sum(v, axis=1))            # that overflows: check_columns clears the case)
     if "reduced_inertia" in columns:
         bad |= np.any(columns["reduced_inertia"] < 0, axis=1)
     for i in np.flatnonzero(bad):

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import collections
 import dataclasses
+import gc
 import json
 import math
 import pickle
@@ -57,6 +58,12 @@ def execute(study, folder: Path, workers, scheduler, progress, restart, figures)
             reused = len(cases) - todo
             executor = _executor(workers, scheduler, todo if not cases.chain else cases.n_chains)
             computed, interrupted, lost = 0, False, None
+            # the objects alive now (the scene, the case list: ~39,000) left out of the collector's
+            # full passes while the cases run (they took 0.004 of the client's 0.040 ms per case),
+            # and out of those of the pool's forked processes
+            frozen = not gc.get_freeze_count()
+            if frozen:
+                gc.freeze()
             with _CtrlC() as ctrl_c:
                 try:
                     computed = _schedule(study, cases, todo, journal, executor, progress, reused, ctrl_c,
@@ -67,6 +74,8 @@ def execute(study, folder: Path, workers, scheduler, progress, restart, figures)
                 except ClusterLost as exc:   # the Dask scheduler is gone: keep what came back
                     lost, computed = exc, executor.finished
                 finally:
+                    if frozen:
+                        gc.unfreeze()
                     journal.sync()
                     where = executor.describe()
                     executor.close()

@@ -275,21 +275,21 @@ def _not_started(exc) -> ClusterLost:
 class _Dask(_Futures):
     """A Dask distributed cluster: ``scheduler`` is its address or a ``distributed.Client``.
 
-    Cases go in batches of consecutive cases of a chain, about ``BATCH_S`` seconds of work each
-    (from the cases finished so far): a task's round trip through the scheduler costs
-    milliseconds to tens of milliseconds, a case of an optimisation study a few tens; an analyse
-    study's independent cases in batches of about ``group_s`` seconds.  Each
+    Cases go in batches of about ``group_s`` seconds of work each (from the cases finished so far):
+    consecutive cases of a chain, or an analyse study's independent cases.  Each
     batch is computed in a helper process of its worker (:mod:`.worker`: the worker's own threads
     slowed the cases down 1.3-1.9 times), which builds the scene's model once.  At most
     ``WINDOW`` batches per worker thread are in flight, consumed as they complete
     (``distributed.as_completed``).  The journal stays here, each case written when its batch
     comes back."""
 
-    BATCH_S = 0.5
-    # an analyse batch's seconds of work (execute._group_size; the pool's: execute.GROUP_S, 0.5 s):
-    # a Dask task costs the client, the scheduler and the worker's process milliseconds of CPU
-    # each, tens on a loaded machine, on the cores the helpers compute on, and a case's time is
-    # wall time: the busier the machine, the fewer cases in a batch of GROUP_S
+    # a batch's seconds of work (an analyse batch's: execute._group_size; the pool's: execute.GROUP_S,
+    # 0.5 s, and one case per chain batch): a Dask task costs the client, the scheduler and the
+    # worker's process milliseconds of CPU each, tens on a loaded machine, on the cores the
+    # helpers compute on, and a case's time is wall time: the busier the machine, the fewer cases
+    # in a batch of 0.5 s.  Optimise chains of 4 jib cases (bench_study_dask.py's), 96 cases, a
+    # cluster with cluster.SETTINGS, 2 interleaved pairs at load ~7: the client's, scheduler's
+    # and workers' CPU 3.1 / 2.5 s in batches of 0.5 s (84 tasks), 1.9 / 1.3 s in batches of 2 s
     group_s = 2.0
     FIRST_BATCH = 4      # cases per batch before any case has finished
     WINDOW = 2           # batches in flight per worker thread
@@ -339,9 +339,9 @@ class _Dask(_Futures):
             pass
 
     def batch_size(self, remaining):
-        """The chain's ``remaining`` cases cut into batches of about BATCH_S seconds, evenly."""
+        """The chain's ``remaining`` cases cut into batches of about ``group_s`` seconds, evenly."""
         per_batch = (self.FIRST_BATCH if not self.work_n else
-                     max(1, int(self.BATCH_S / max(self.work_s / self.work_n, 1e-4))))
+                     max(1, int(self.group_s / max(self.work_s / self.work_n, 1e-4))))
         batches = -(-remaining // per_batch)
         return -(-remaining // batches)
 
