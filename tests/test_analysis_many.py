@@ -310,6 +310,25 @@ def test_per_stroke_values_with_located_extrema_are_those_of_the_samples_and_the
     assert not np.array_equal(got, stroke.values(columns, P), equal_nan=True)   # the located values count
 
 
+@pytest.mark.parametrize("n", [1, 5, 256, 300, 700])
+def test_per_stroke_values_through_the_buffer_are_casadis_ordinary_call(n):
+    """The per-stroke constraints' Function over n cases through CasADi's buffer interface (calls
+    of CHUNK cases, the last padded) gives each case the numbers of CasADi's ordinary mapped call
+    (==, NaN where an aggregate is 0: 0/0), whatever the number of cases."""
+    from optdesign.model.per_stroke import CHUNK
+
+    scene = optdesign.load(ROOT / "problems" / "truck_crane.toml")
+    stroke = Analysis(ResolvedScene(scene, variable=CRANE), certify=False).stroke
+    rng = np.random.default_rng(n)
+    P = np.asarray(Analysis(scene, certify=False).mech.parameter_values, float) * rng.uniform(0.5, 2, (n, 7))
+    A = rng.uniform(-3, 3, (len(stroke.keys), n))
+    A[:, ::7] = 0.0
+    got = stroke._call(A, P)
+    assert stroke._maps["buffer"] is not None and (n <= CHUNK or n % CHUNK)
+    expected = np.asarray(stroke.function.map(n)(A, P.T), float).reshape(len(stroke.names), n).T
+    assert np.isnan(got).any() and np.array_equal(got, expected, equal_nan=True)
+
+
 def test_a_per_stroke_value_that_is_not_finite_stops_its_case_alone_and_large_finite_ones_pass():
     """A per-stroke constraint that divides by zero for one case of a batch (mP = 1000): that case
     carries the ResultError naming the constraint, the others their figures; two per-stroke

@@ -98,3 +98,31 @@ def test_pruned_with_the_libraries(cache, monkeypatch):
     monkeypatch.setattr(compiled, "max_bytes", lambda: 0)
     assert fn.stem in compiled.prune()
     assert not list(cache.glob("cse-*"))
+
+
+def test_a_derived_function_is_keyed_by_what_it_is_derived_from(cache, tmp_path):
+    """cse_derived: the Function CasADi eliminates from the derived outputs, read back without
+    deriving them again; another base graph, or another code of the files named, is another entry."""
+    s, p = ca.SX.sym("s"), ca.SX.sym("p", 2)
+    code = tmp_path / "recipe.py"
+    code.write_text("# derivatives in s and p\n")
+    calls = []
+
+    def derive_from(base):
+        def derive():
+            calls.append(1)
+            return [ca.jacobian(base, s), ca.jacobian(ca.jacobian(base, s), p)]
+        return derive
+
+    def cached_of(base):
+        return cse.cse_derived("tracking", [s, p], base, derive_from(base), ["s", "p"], ["d2v", "dvdp"], code=(code,))
+
+    base = ca.vertcat(ca.sin(s * p[0]) * ca.sqrt(p[1] + s ** 2), ca.atan2(p[0], s + 2))
+    theirs = ca.Function("tracking", [s, p], derive_from(base)(), ["s", "p"], ["d2v", "dvdp"], {"cse": True})
+    calls.clear()
+    assert cached_of(base).serialize() == theirs.serialize() and len(calls) == 1   # derived, and kept
+    assert cached_of(base).serialize() == theirs.serialize() and len(calls) == 1   # read back, not derived
+    cached_of(base + 1.0)                                                            # another base graph
+    code.write_text("# second derivatives in s and p\n")
+    cached_of(base)                                                                  # another code
+    assert len(calls) == 3 and len(list(cache.glob("cse-*.fn"))) == 3

@@ -37,6 +37,7 @@ IPOPT solvers and row bounds), :mod:`.bounds` (other constraint bounds on the sa
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass
 
 import casadi as ca
@@ -44,7 +45,7 @@ import numpy as np
 
 from ..errors import SceneError
 from ..kinematics.mechanism import Mechanism
-from ..model.cse import cse_function
+from ..model.cse import cse_derived, cse_function
 from ..model.intervals_compiled import compile_program
 from ..model.mapped import compiled_function
 from ..model.reduction import ReducedModel
@@ -166,8 +167,16 @@ class DesignProblem:
         """How each row's extrema move with the parameters: d2v/ds2 and d(dv/ds)/dp, for peak
         tracking (built on first use: only exchange steps need it)."""
         mech, dv = self.mech, self._dv
+
+        def outputs():
+            return [mech.ds(dv), ca.jacobian(dv, mech.p)]
+
         def build():
-            f = mech.function("quantities_tracking", {"d2v": mech.ds(dv), "dvdp": ca.jacobian(dv, mech.p)})
+            if mech.sym is ca.SX:   # eliminated once, kept under the key of dv and this code (model/cse.py)
+                f = cse_derived("quantities_tracking", [mech.s, mech.p], dv, outputs, ["s", "p"], ["d2v", "dvdp"],
+                                code=(__file__, sys.modules[Mechanism.__module__].__file__))
+            else:
+                f = mech.function("quantities_tracking", dict(zip(("d2v", "dvdp"), outputs())))
             return compiled_function(f) or f   # from the disk cache of compiled code: the same numbers
         return self._once("tracking", build)
 
