@@ -339,6 +339,24 @@ def test_background_compiler_fills_the_cache_for_later_runs(cache, monkeypatch):
     assert not [p for p in cache.iterdir() if ".tmp" in p.name or ".job" in p.name or ".src" in p.name]
 
 
+def test_a_studys_build_runs_on_the_plain_library_while_its_own_is_compiled(cache, monkeypatch):
+    """A study's build (its axes variable) whose library for many cases is not yet in the cache
+    runs on the scene's plain library when the cache holds that (not on numpy), and on its own
+    once the background compiler has made it."""
+    from optdesign.scene.resolved import ResolvedScene
+
+    scene = load(ROOT / "problems" / "truck_crane.toml")
+    Analysis(scene, certify=False)   # the plain library, compiled (wait)
+    monkeypatch.setenv("OPTDESIGN_COMPILE", "background")
+    study = ResolvedScene(scene.without_bounds("mB", "mP"), variable=["mB", "mP"])
+    first = Analysis(study, certify=False).vectorised
+    assert isinstance(first, BlockedFunction) and first._cases is None
+    for child in compiled._children:
+        child.wait(timeout=300)
+    later = Analysis(study, certify=False).vectorised
+    assert isinstance(later, BlockedFunction) and later._cases is not None
+
+
 def test_another_process_finds_the_same_entry(cache):
     """A study's worker builds the scene again: its graph has the same key, so it loads the
     library this process compiled instead of compiling it again."""

@@ -223,6 +223,8 @@ def stroke_evaluator(func: ca.Function, wait: bool | None = None, varied=()):
                                  LEVEL, load)
         if made is not None:
             return BlockedFunction(made[0], BLOCK, made[1])
+        if varied:   # (being compiled: the plain library where the cache holds it, the same numbers)
+            return stroke_evaluator(func, wait)
     try:
         return VectorisedSX(func)
     except NotImplementedError:
