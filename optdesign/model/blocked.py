@@ -16,7 +16,7 @@ import hashlib
 import casadi as ca
 import numpy as np
 
-from . import compiled
+from . import blocked_c, compiled
 from .blocked_c import blocked_source, supports
 from .vectorised import VectorisedSX
 
@@ -220,7 +220,7 @@ def stroke_evaluator(func: ca.Function, wait: bool | None = None, varied=()):
             return external, (run, int(work()), varied)
 
         made = compiled.external(func, name, lambda n: blocked_source(func, n, BLOCK, varied=varied or None), wait,
-                                 LEVEL, load)
+                                 LEVEL, load, code=(blocked_c.__file__, __file__))
         if made is not None:
             return BlockedFunction(made[0], BLOCK, made[1])
         if varied:   # (being compiled: the plain library where the cache holds it, the same numbers)

@@ -3,6 +3,7 @@ background compiler, other runs): atomic writes, file locks, and which process o
 first to meet a failed entry (so that the run says so once)."""
 from __future__ import annotations
 
+import hashlib
 import os
 from pathlib import Path
 
@@ -69,4 +70,15 @@ class FileLock:
             self.fd = None
 
 
-__all__ = ["FileLock", "first_in_this_run", "write_atomic"]
+def code_hash(files) -> str:
+    """A hash of the files' text: part of a cache key where that code writes what is cached, so
+    that a change of it makes a new entry instead of reading one it no longer writes."""
+    h = hashlib.sha256()
+    for f in files:
+        h.update(Path(f).read_bytes())
+        h.update(b"\0")
+    return h.hexdigest()[:16]
+
+
+__all__ = ["FileLock", "code_hash", "first_in_this_run", "write_atomic"]
+

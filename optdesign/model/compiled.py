@@ -1,17 +1,17 @@
 """Compiled CasADi Functions, cached on disk.
 
-A scene's Functions (the reduced model over the stroke, the design problem's NLP) are written
-as C, compiled once with the system's C compiler (``$CC`` or ``gcc``) into a shared library in
-the user's cache folder (``platformdirs.user_cache_dir("optdesign")/compiled``, or
+A scene's Functions (the reduced model over the stroke, the design problem's NLP) are written as
+C, compiled once with the system's C compiler (``$CC`` or ``gcc``) into a shared library in the
+user's cache folder (``platformdirs.user_cache_dir("optdesign")/compiled``, or
 ``$OPTDESIGN_CACHE_DIR``), and loaded with ``ca.external`` (``ca.nlpsol`` for an NLP) whenever
 the same graph comes again: in a later run, in a study's worker processes, on a Dask worker of
 the same machine.  An entry's name is a hash of the graph (CasADi's serialization of the
-Function), the kind of code, the compiler's identity and version, its flags, CasADi's version
-and this module's format; parameter values are inputs of the graphs, not part of them, so
-``--set`` and a study's cases reuse one entry.  Beside each library a small JSON file holds its
-SHA-256: an entry whose library does not match it (a torn write, a damaged file) or does not
-load is removed and built again.  The cache keeps within 1 GB (``$OPTDESIGN_CACHE_MAX_MB``):
-the least recently used libraries go first (:func:`prune`).
+Function), the kind of code (and the text of our code that writes its C), the compiler's
+identity and version, its flags, CasADi's version and this module's format; parameter values are
+inputs of the graphs, not part of them, so ``--set`` and a study's cases reuse one entry.  Beside
+each library a small JSON file holds its SHA-256: an entry whose library does not match it (a
+torn write, a damaged file) or does not load is removed and built again.  The cache keeps within
+1 GB (``$OPTDESIGN_CACHE_MAX_MB``): the least recently used libraries go first (:func:`prune`).
 
 When.  Compiling takes seconds (a reduced model about 2 s of one core, a design NLP longer), more
 than a single command needs, so by default (``OPTDESIGN_COMPILE=background``) a run that misses
@@ -43,7 +43,7 @@ import time
 import warnings
 from pathlib import Path
 
-from .cachefiles import FileLock, first_in_this_run, write_atomic
+from .cachefiles import FileLock, code_hash, first_in_this_run, write_atomic
 
 FORMAT = 1
 # -march=native (the key names the processor: a shared cache folder keeps one library per kind
@@ -439,12 +439,12 @@ def _nlpsol_source(job, c_file: Path):
 
 
 # --- the two kinds of entry ------------------------------------------------------------------
-def external(func, name: str, source, wait: bool | None = None, level: str | None = None, load=None):
+def external(func, name: str, source, wait: bool | None = None, level: str | None = None, load=None, code=()):
     """``func`` (a CasADi Function) compiled: a ``ca.external`` of the cached library (or what
     ``load(path)`` makes of it), or None (virtual machine).  ``source(name)`` writes its C (a
-    function named ``name``).  ``level``: the flag in place of FLAGS' -O1 (in the key; a source
-    above LARGE_SOURCE is still compiled at -O0)."""
-    graph, own = func.serialize(), {"name": name, **({"level": level} if level else {})}
+    function named ``name``), the code in the files ``code`` (in the key, as is ``level``: the
+    flag in place of FLAGS' -O1; a source above LARGE_SOURCE is still compiled at -O0)."""
+    graph, own = func.serialize(), {"name": name, **({"level": level} if level else {}), **({"writer": code_hash(code)} if code else {})}
     if (key := entry_key("external", graph, own)) is None:
         return None
 
