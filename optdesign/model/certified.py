@@ -90,8 +90,11 @@ class CertifiedExtremes:
         out = [None] * n
         for extra, index in groups.items():
             index = np.array(index)
-            found = self._group(s_values, P[index], {k: np.asarray(v)[index] for k, v in columns.items()},
-                                {k: np.asarray(v)[index] for k, v in constraints.items()}, list(extra))
+            if len(index) == n:   # every case (in order): the arrays as they are
+                found = self._group(s_values, P, columns, constraints, list(extra))
+            else:
+                found = self._group(s_values, P[index], {k: np.asarray(v)[index] for k, v in columns.items()},
+                                    {k: np.asarray(v)[index] for k, v in constraints.items()}, list(extra))
             for i, f in zip(index, found):
                 out[i] = f
         return out
@@ -188,7 +191,8 @@ class CertifiedExtremes:
             known = np.isfinite(q_sampled)   # the samples', not the joined sweep values'
             distance = np.where(known[:, None, :], np.abs(s_values[None, None, :] - s[:, :, None]), np.inf)
             near = np.take_along_axis(q_sampled, np.argmin(distance, axis=2), axis=1)
-            q = near + np.vectorize(math.remainder, otypes=[float])(q - near, 2 * math.pi)
+            turn = [math.remainder(x, 2 * math.pi) for x in (q - near).ravel().tolist()]   # (np.vectorize's, cheaper)
+            q = near + np.array(turn, float).reshape(q.shape)
         return q.tolist()
 
 
