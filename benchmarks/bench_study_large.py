@@ -179,14 +179,14 @@ STAND_IN = """
 import json, sys, time
 n, folder = int(sys.argv[1]), sys.argv[2]
 import optdesign
-from optdesign.study import Study, grid, executors
+from optdesign.study import Study, grid, tasks
 from optdesign.study.tasks import run_task
 study = Study(optdesign.load(%r), [grid("mB", 500, 800, %d), grid("mP", 500, 3000, n // %d)], mode="analyse")
 # the pool's workers (forked after this) answer every case at once with one real row, claiming
 # 0.4 ms of work per case (the issue's 5,000 cases/s on 2 cores: the batches sized for that)
 out = dict(run_task(study.task(study.cases()[0])), time_s=0.0004)
 from optdesign.study.blocks import blocks
-executors.batch_blocks = lambda tasks, index, ids: blocks(index, ids, [dict(out) for _ in tasks])
+tasks.batch_blocks = lambda batch, index, ids: blocks(index, ids, [dict(out) for _ in batch])   # (worker.blocks_made's)
 t0, c0 = time.perf_counter(), time.process_time()
 r = study.run(out=folder, workers=2, figures=False)
 wall, cpu = time.perf_counter() - t0, time.process_time() - c0

@@ -34,17 +34,15 @@ from concurrent.futures.process import BrokenProcessPool
 from ..errors import OptdesignError, worker_process
 from .results import ClusterLost
 from .blocks import as_blocks
-from .tasks import batch_blocks, died_output, run_batch, settle
-from .worker import MAX_DEATHS, lines_made, pickled_blocks_in_helper, prestart, profiler_paused
+from .tasks import died_output, run_batch
+from .worker import MAX_DEATHS, blocks_made, pickled_blocks_in_helper, prestart, profiler_paused
 
 
 def computed(tasks, index, ids) -> list:
     """:func:`~.tasks.run_batch` where the batch runs (a pool's process), its outputs handed back
     as blocks with their text made there (:func:`.tasks.batch_blocks`): the client's work per
     case done by the workers, in parallel."""
-    made = lines_made(batch_blocks(tasks, index, ids))
-    settle()
-    return made
+    return blocks_made(tasks, index, ids)
 
 
 def computed_in_helper(tasks, index, ids):

@@ -130,6 +130,16 @@ def lines_made(made: list) -> list:
     return made
 
 
+def blocks_made(tasks, index: list, ids: list) -> list:
+    """The batch's blocks with their text made (:func:`.tasks.batch_blocks`) where it runs (a
+    pool's process, a Dask worker's helper), which then settles (:func:`.tasks.settle`)."""
+    from .tasks import batch_blocks, settle
+
+    made = lines_made(batch_blocks(tasks, index, ids))
+    settle()
+    return made
+
+
 def run_batch_in_helper(tasks: list, alone: bool = False) -> list:
     """:func:`.tasks.run_batch` in a helper process of this worker (one per batch running at the
     same time; each kept for the worker's life).  The helper sends each case's output as it
@@ -236,7 +246,7 @@ def _receive(stream):
 
 def serve():
     """The helper: batches in, outputs out, until its input ends."""
-    from .tasks import batch_blocks, run_batch
+    from .tasks import run_batch
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)   # Ctrl-C is the client's to handle (as in the pool)
     from ..design import multistart, problem, repair   # noqa: F401  (what the first case needs,
@@ -252,7 +262,7 @@ def serve():
             return
         try:
             if isinstance(tasks, tuple) and tasks[0] == "blocks":   # the batch's blocks in one message,
-                made = lines_made(batch_blocks(*tasks[1:]))                 # (executors.computed's) pickled
+                made = blocks_made(*tasks[1:])                              # (executors.computed's) pickled
                 answer = ("blocks", pickle.dumps(made, protocol=pickle.HIGHEST_PROTOCOL))   # for the client
             else:   # each case's output as it finishes, then the end of the batch
                 run_batch(tasks, each=lambda output: _send(out, ("case", output)))
