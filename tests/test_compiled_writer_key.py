@@ -7,25 +7,13 @@ from __future__ import annotations
 import os
 
 import casadi as ca
-import numpy as np
 import pytest
 
 from optdesign.model import blocked, blocked_c, compiled
+from test_compiled import cache  # noqa: F401  (the fixture: a fresh cache folder, compiling at once)
 
 pytestmark = pytest.mark.skipif(compiled.shutil.which(os.environ.get("CC", "gcc")) is None,
                                 reason="no C compiler on this machine")
-
-
-@pytest.fixture
-def cache(tmp_path, monkeypatch):
-    monkeypatch.delenv("OPTDESIGN_NO_COMPILE", raising=False)
-    monkeypatch.setenv("OPTDESIGN_COMPILE", "wait")
-    monkeypatch.setenv("OPTDESIGN_CACHE_DIR", str(tmp_path / "cache"))
-    compiled._compiler.clear()
-    compiled._warned.clear()
-    yield tmp_path / "cache"
-    compiled._compiler.clear()
-    compiled._warned.clear()
 
 
 def test_a_changed_writer_is_compiled_anew(cache, tmp_path):

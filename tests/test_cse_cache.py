@@ -8,20 +8,11 @@ from __future__ import annotations
 
 import casadi as ca
 import numpy as np
-import pytest
 
 from optdesign.kinematics.mechanism import Mechanism
 from optdesign.model import compiled, cse
 from optdesign.scene import load
-
-
-@pytest.fixture
-def cache(tmp_path, monkeypatch):
-    folder = tmp_path / "cache"
-    monkeypatch.setenv("OPTDESIGN_CACHE_DIR", str(folder))
-    monkeypatch.delenv("OPTDESIGN_NO_COMPILE", raising=False)
-    monkeypatch.setenv("OPTDESIGN_COMPILE", "background")
-    return folder
+from test_programs import cache  # noqa: F401  (the fixture: a fresh cache folder)
 
 
 def graph(scale=0.1):

@@ -70,6 +70,15 @@ class FileLock:
             self.fd = None
 
 
+def entry_name(prefix: str, parts) -> str:
+    """A cache entry's name: ``prefix`` and a hash of ``parts`` (bytes, each ended by a NUL)."""
+    h = hashlib.sha256()
+    for part in parts:
+        h.update(part)
+        h.update(b"\0")
+    return f"{prefix}-{h.hexdigest()[:32]}"
+
+
 def code_hash(files) -> str:
     """A hash of the files' text: part of a cache key where that code writes what is cached, so
     that a change of it makes a new entry instead of reading one it no longer writes."""
@@ -80,5 +89,5 @@ def code_hash(files) -> str:
     return h.hexdigest()[:16]
 
 
-__all__ = ["FileLock", "code_hash", "first_in_this_run", "write_atomic"]
+__all__ = ["FileLock", "code_hash", "entry_name", "first_in_this_run", "write_atomic"]
 

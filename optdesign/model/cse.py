@@ -24,6 +24,8 @@ from pathlib import Path
 
 import casadi as ca
 
+from .cachefiles import entry_name
+
 FORMAT = 1
 
 
@@ -61,11 +63,8 @@ def _cached(graph: str, tag, eliminate) -> ca.Function:
     ``eliminate()`` kept under that key."""
     from . import compiled
 
-    h = hashlib.sha256()
-    for part in (str(FORMAT).encode(), ca.__version__.encode(), Path(__file__).read_bytes(), *tag, graph.encode()):
-        h.update(part)
-        h.update(b"\0")
-    folder, key = compiled.cache_dir(), f"cse-{h.hexdigest()[:32]}"
+    folder, key = compiled.cache_dir(), entry_name(
+        "cse", (str(FORMAT).encode(), ca.__version__.encode(), Path(__file__).read_bytes(), *tag, graph.encode()))
     found = _load(folder, key)
     if found is not None:
         compiled._touch(folder / f"{key}.fn")

@@ -23,6 +23,7 @@ import casadi as ca
 import numpy as np
 
 from . import vectorised
+from .cachefiles import entry_name
 from .vectorised import BINARY, UNARY, instruction_program
 
 FORMAT = 1
@@ -37,12 +38,9 @@ def cached_program(func: ca.Function) -> tuple:
 
     folder = name = None
     if compiled.mode() != "off":
-        h = hashlib.sha256()
-        for part in (str(FORMAT).encode(), ca.__version__.encode(), Path(__file__).read_bytes(),
-                     Path(vectorised.__file__).read_bytes(), func.serialize().encode()):
-            h.update(part)
-            h.update(b"\0")
-        folder, name = compiled.cache_dir(), f"program-{h.hexdigest()[:32]}"
+        folder, name = compiled.cache_dir(), entry_name("program", (
+            str(FORMAT).encode(), ca.__version__.encode(), Path(__file__).read_bytes(),
+            Path(vectorised.__file__).read_bytes(), func.serialize().encode()))
         found = _load(folder, name)
         if found is not None:
             compiled._touch(folder / f"{name}.npz")
