@@ -50,8 +50,10 @@ def _unset_threads_in_parent():
 
 def test_a_worker_has_one_blas_thread_whether_or_not_its_parent_loaded_openblas():
     # in a fresh process (nothing loaded, no thread variables set): the parent's own count is the
-    # machine's (so the worker's 1 is the worker's doing), then the worker's
-    ctx = multiprocessing.get_context("fork")
+    # machine's (so the worker's 1 is the worker's doing), then the worker's.  Spawned, not forked:
+    # a fork of this process would inherit an OpenBLAS an earlier test loaded here with one thread
+    # (seen under xdist: the parent's count was 1, whatever its variables)
+    ctx = multiprocessing.get_context("spawn")
     with cf.ProcessPoolExecutor(1, mp_context=ctx) as outer:   # a plain process: no initializer
         assert outer.submit(_in_worker, _solved_threads, {}).result(timeout=120) == 1
         parent_had = outer.submit(_unset_threads_in_parent).result(timeout=120)
@@ -59,5 +61,12 @@ def test_a_worker_has_one_blas_thread_whether_or_not_its_parent_loaded_openblas(
     assert _in_worker(_solved_threads) == 1   # this process may have loaded it: told directly
 
 
+def _user_set_two():
+    return _in_worker(_solved_threads, {"OPENBLAS_NUM_THREADS": "2"})
+
+
 def test_a_thread_count_the_user_set_is_kept():
-    assert _in_worker(_solved_threads, {"OPENBLAS_NUM_THREADS": "2"}) == 2
+    # from a fresh process, as the user's variable is there before anything loads OpenBLAS (this
+    # process may have loaded it with another count: a fork of it would keep that one)
+    with cf.ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as outer:
+        assert outer.submit(_user_set_two).result(timeout=120) == 2
