@@ -19,8 +19,9 @@ README = Path(__file__).resolve().parents[1] / "README.md"
 
 
 def test_every_setting_is_one_dask_has():
+    missing = object()
     for key in SETTINGS:
-        dask.config.get(key)   # KeyError for a key Dask does not have
+        assert dask.config.get(key, default=missing) is not missing, f"Dask has no setting {key}"
 
 
 def test_the_environment_variables_are_read_back_by_dask_as_the_settings():
