@@ -81,6 +81,54 @@ def test_many_checks_its_arguments(crane):
         analysis.certified.many(analysis.s_values, P, columns, constraints, narrow=[()])
 
 
+
+def test_rows_no_axis_moves_are_certified_once_per_batch_and_each_case_keeps_its_own(crane, monkeypatch):
+    """A study of masses alone (axes mB, mP): the rows whose graphs read neither (the transmission
+    angle, the cylinder's length ratio: found from the graphs' structure) are certified once for
+    a batch whose cases are equal in what they read, apart from the rows the masses move; each
+    case still gets exactly its own one-case result, and every bound holds: at or above the
+    located extreme and the samples, within the tolerance of what the analysis without axes
+    (one branch and bound for all rows) certifies for the same case."""
+    from optdesign.model import certified as certified_module
+    from optdesign.scene.resolved import ResolvedScene
+
+    scene = optdesign.load(PROBLEMS / "truck_crane.toml")
+    analysis = Analysis(ResolvedScene(scene.without_bounds("mB", "mP"), variable=("mB", "mP")))
+    c = analysis.certified
+    assert c.fixed_rows == {c.constraint_rows["transmission angle"], *(i for _, _, i in c.aggregate_rows)}
+    geometry = Analysis(ResolvedScene(scene.without_bounds("mB", "xD"), variable=("mB", "xD")))
+    assert geometry.certified.fixed_rows == frozenset()   # xD moves every row
+    assert crane.certified.fixed_rows == frozenset()       # no axes: as before
+    P = crane_parameters(analysis, 8, 5, {k: VARIED[k] for k in ("mB", "mP")})
+    columns, constraints = stacked(analysis, P)
+    s = analysis.s_values
+    calls = []
+    keep = certified_module.maxima_of_cases
+    monkeypatch.setattr(certified_module, "maxima_of_cases", lambda f, grid, V, requests, **kw: calls.append(
+        (len(V), sorted({r.row for r in requests}))) or keep(f, grid, V, requests, **kw))
+    together = c.many(s, P, columns, constraints)
+    assert calls == [(8, sorted(c.peak_rows.values())), (1, sorted(c.fixed_rows))]
+    monkeypatch.setattr(certified_module, "maxima_of_cases", keep)
+    alone = [c(s, P[i], {k: v[i] for k, v in columns.items()}, {k: v[i] for k, v in constraints.items()})
+             for i in range(len(P))]
+    assert together == alone   # bit-identical, certificates included
+    assert c.many(s, P[::-1], {k: v[::-1] for k, v in columns.items()},
+                  {k: v[::-1] for k, v in constraints.items()}) == alone[::-1]
+    joint = crane.certified.many(s, P, columns, constraints)   # (the same scene's rows, one branch and bound)
+    for i, (f, g) in enumerate(zip(together, joint)):
+        assert f["peaks"] == g["peaks"] and f["peak_at"] == g["peak_at"]
+        for name, e in f["constraint_extremes"].items():
+            row = constraints[name][i]
+            scale = float(np.max(np.abs(row)))
+            high, low = f["certificates"][f"{name} max"], f["certificates"][f"{name} min"]
+            assert high["note"] == low["note"] == ""
+            assert high["bound"] >= e["max"] >= float(np.max(row)) and low["bound"] <= e["min"] <= float(np.min(row))
+            assert e["max"] == g["constraint_extremes"][name]["max"] and e["min"] == g["constraint_extremes"][name]["min"]
+            for key in (f"{name} max", f"{name} min"):
+                assert abs(f["certificates"][key]["bound"] - g["certificates"][key]["bound"]) <= 1e-9 * scale
+        assert f["aggregates"] == g["aggregates"]
+
+
 # --- generated families: each case of a batch against an independent reference ---
 
 def four_bar_batch(n, seed, count=None):
