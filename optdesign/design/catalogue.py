@@ -64,8 +64,7 @@ def optimise_catalogue(scene, progress=None, **options) -> CatalogueResult:
     ``best`` is None when nothing was decided: no motor finished and no start of the first
     found a feasible design); ``result``, ``finished`` and ``total`` are the interrupted
     motor's, as from :func:`.multistart.optimise`."""
-    values = scene.parameter_values()
-    motors = sorted(scene.motors, key=lambda m: (motor_numbers(m, values)["rated_torque"], m.name))
+    motors = motor_order(scene)
     results, chosen, ahead = {}, None, None
     with interruptible():   # a Ctrl-C between two motors' starts (a motor's build) is kept too
         for k, motor in enumerate(motors):
@@ -142,6 +141,18 @@ class Ahead:
         if kind == "error":
             raise value
         return value
+
+
+def motor_order(scene) -> list:
+    """The motors of the catalogue in the order tried: smallest rated torque first (then by name)."""
+    values = scene.parameter_values()
+    return sorted(scene.motors, key=lambda m: (motor_numbers(m, values)["rated_torque"], m.name))
+
+
+def catalogue_scene(scene):
+    """The scene whose analysis at the chosen design gives the catalogue's table of motors
+    (report/drive_train.catalogue_analysis): every motor, in the order tried."""
+    return dataclasses.replace(scene, motors=tuple(motor_order(scene)))
 
 
 def with_motor(scene, motor):

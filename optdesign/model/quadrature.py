@@ -105,7 +105,8 @@ def integrate_arrays(f, pieces, starts=None, tol=1e-10, max_rounds=48, cases=1) 
     done_k = done_g = done_abs = done_err = None
     rounds, count = 0, np.zeros(cases, int)
     while len(piece):
-        k, absk, err = _rules(f, case, piece, lo, hi, anchors, lengths, powers)
+        # the first round's intervals are each case's the same: their nodes made once (rounds > 0)
+        k, absk, err = _rules(f, case, piece, lo, hi, anchors, lengths, powers, first if rounds == 0 else None)
         count += np.bincount(case, minlength=cases)
         if done_k is None:
             done_k, done_abs, done_err = (np.zeros((k.shape[0], cases)) for _ in range(3))
@@ -141,19 +142,23 @@ def _map(u, m):
     return u ** m
 
 
-def _rules(f, case, piece, lo, hi, anchors, lengths, powers):
+def _rules(f, case, piece, lo, hi, anchors, lengths, powers, tiled=None):
     """Kronrod sums, Kronrod sums of |integrand| and |Kronrod - Gauss| on each interval
     (integrands x intervals), each a sum over the nodes in a fixed order (element by element,
-    not a matrix product whose order may depend on an interval's place in the call)."""
-    half = 0.5 * (hi - lo)
-    u = (0.5 * (lo + hi))[:, None] + half[:, None] * NODES[None, :]       # intervals x 15
-    m = powers[piece][:, None]
-    L = lengths[piece][:, None]
-    regular = bool(np.all(powers == 1.0))   # u ** 1 is u and u ** 0 is 1, exactly: skipped
-    d = np.abs(L) * (u if regular else u ** m)                           # distance from the anchor
-    s = anchors[piece][:, None] + np.sign(L) * d
-    jac = np.abs(L) * m * (1.0 if regular else u ** (m - 1)) * half[:, None]   # ds/du x du per unit node
-    values = np.asarray(f(s.ravel(), d.ravel(), np.repeat(piece, 15), np.repeat(case, 15)), float)
+    not a matrix product whose order may depend on an interval's place in the call).
+    ``tiled``: the intervals are copies of their first ``tiled`` (each case's first intervals):
+    the nodes of those are made and repeated (the same numbers: each is the same operation on
+    the same operands)."""
+    if tiled:
+        reps = len(piece) // tiled
+        s, d, jac = (np.tile(x, (reps, 1)) for x in _nodes(piece[:tiled], lo[:tiled], hi[:tiled], anchors,
+                                                              lengths, powers))
+        node_piece = np.tile(np.repeat(piece[:tiled], 15), reps)
+        node_case = np.repeat(case[::tiled], 15 * tiled)
+    else:
+        s, d, jac = _nodes(piece, lo, hi, anchors, lengths, powers)
+        node_piece, node_case = np.repeat(piece, 15), np.repeat(case, 15)
+    values = np.asarray(f(s.ravel(), d.ravel(), node_piece, node_case), float)
     values = values.reshape(values.shape[0], len(piece), 15) * jac[None, :, :]   # (a new array)
     if not np.isfinite(np.sum(values)):   # (a sum of finite values that overflows: nothing to change)
         values[~np.isfinite(values)] = np.nan
@@ -165,6 +170,21 @@ def _rules(f, case, piece, lo, hi, anchors, lengths, powers):
         if W_GAUSS[j]:
             g = g + W_GAUSS[j] * nodes[j]
     return k, absk, np.abs(k - g)
+
+
+def _nodes(piece, lo, hi, anchors, lengths, powers) -> tuple:
+    """The 15 Kronrod nodes of each interval (intervals x 15): sweep values s, their distances d
+    from their piece's anchor, and ds/du x du per unit node (intervals x 15, or x 1 where it is
+    the same at every node)."""
+    half = 0.5 * (hi - lo)
+    u = (0.5 * (lo + hi))[:, None] + half[:, None] * NODES[None, :]       # intervals x 15
+    m = powers[piece][:, None]
+    L = lengths[piece][:, None]
+    regular = bool(np.all(powers == 1.0))   # u ** 1 is u and u ** 0 is 1, exactly: skipped
+    d = np.abs(L) * (u if regular else u ** m)                           # distance from the anchor
+    s = anchors[piece][:, None] + np.sign(L) * d
+    jac = np.abs(L) * m * (1.0 if regular else u ** (m - 1)) * half[:, None]   # ds/du x du per unit node
+    return s, d, jac
 
 
 def end_power(speed, length, scale) -> float:
