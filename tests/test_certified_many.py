@@ -129,6 +129,47 @@ def test_rows_no_axis_moves_are_certified_once_per_batch_and_each_case_keeps_its
         assert f["aggregates"] == g["aggregates"]
 
 
+
+def test_four_bars_studied_over_masses_hold_their_rows_certified_apart_against_a_denser_sampling():
+    """Generated four-bars (Sobol) with a transmission angle and a rocker swing's max()/min(),
+    each studied over its masses and load (axes m2, m3, T0): the rows those do not move are
+    certified apart (their extremes inside the stroke); every bound holds against a 16x denser
+    sampling of its case, and the peaks, located extremes and per-stroke values are those of the
+    analysis without axes (bounds within the tolerance: their last digits may move, the
+    intervals being the rows' own)."""
+    from optdesign.scene.resolved import ResolvedScene
+    from test_analysis_many import CONSTRAINTS
+    from test_enclosure_fourbars import G, M2, M3, OMEGA, SCENE, designs
+
+    axes = ("m2", "m3", "T0")
+    for g, d in enumerate(designs(8, seed=21)[1:3]):
+        text = SCENE.format(side="left", m2=M2, m3=M3, g=G, omega=OMEGA, **{k: float(v) for k, v in d.items()})
+        scene = optdesign.loads(text + CONSTRAINTS, "four-bar over masses")
+        split, joint = Analysis(ResolvedScene(scene.without_bounds(*axes), variable=axes)), Analysis(scene)
+        dense = Analysis(scene, samples=16 * (len(split.s_values) - 1) + 1, certify=False)
+        assert split.certified.fixed_rows == {split.certified.constraint_rows["transmission"],
+                                              *(i for _, _, i in split.certified.aggregate_rows)}
+        names = split.mech.parameter_names
+        P = np.tile(split.mech.parameter_values, (4, 1))
+        for k, (lo, hi) in zip(axes, ((1.0, 6.0), (1.0, 5.0), (0.0, 30.0))):
+            P[:, names.index(k)] = lo + (hi - lo) * qmc.Sobol(1, seed=g).random(4)[:, 0]
+        for p, a, b in zip(P, split.run_many(P), joint.run_many(P)):
+            assert a.error is None and b.error is None
+            assert (a.peaks, a.peak_at, a.constraint_extremes, a.stroke) == (b.peaks, b.peak_at, b.constraint_extremes,
+                                                                             b.stroke)
+            sampled = dense.run(p).constraints
+            for name, e in a.constraint_extremes.items():
+                high, low = a.certificates[f"{name} max"], a.certificates[f"{name} min"]
+                assert high["note"] == low["note"] == ""
+                scale = max(abs(e["max"]), abs(e["min"]))
+                top, bottom = float(np.max(sampled[name])), float(np.min(sampled[name]))
+                assert high["bound"] >= e["max"] >= e["max_sampled"] and e["max"] >= top - 1e-12 * scale
+                assert low["bound"] <= e["min"] <= e["min_sampled"] and e["min"] <= bottom + 1e-12 * scale
+                assert high["bound"] >= top and low["bound"] <= bottom   # (the bounds hold between the samples)
+                for key in (f"{name} max", f"{name} min"):
+                    assert abs(a.certificates[key]["bound"] - b.certificates[key]["bound"]) <= 1e-9 * scale
+
+
 # --- generated families: each case of a batch against an independent reference ---
 
 def four_bar_batch(n, seed, count=None):

@@ -146,18 +146,18 @@ class CertifiedExtremes:
         s, v, bound, notes = self._maxima(grid, values, P, requests)
         k_peaks = len(self.peak_rows)
         q = self._q(s[:, :k_peaks], s_values, q_sampled, P)
-        for c, found in enumerate(out):
-            sc, vc, bc, nc = s[c].tolist(), v[c].tolist(), bound[c].tolist(), notes[c]
-            for j, name in enumerate(self.peak_rows):
+        peaks = [(j, name, f"peak |{name}|") for j, name in enumerate(self.peak_rows)]
+        extremes = [(k_peaks + 2 * i, name, f"{name} max", f"{name} min") for i, name in enumerate(self.constraint_rows)]
+        for found, sc, vc, bc, nc, qc in zip(out, s.tolist(), v.tolist(), bound.tolist(), notes, q):
+            for j, name, key in peaks:
                 found["peaks"][name] = abs(vc[j])
-                found["peak_at"][name] = {"s": sc[j], "q": q[c][j], "value": vc[j]}
-                found["certificates"][f"peak |{name}|"] = _certificate(bc[j], nc[j])
-            j = k_peaks
-            for name in self.constraint_rows:
+                found["peak_at"][name] = {"s": sc[j], "q": qc[j], "value": vc[j]}
+                found["certificates"][key] = _certificate(bc[j], nc[j])
+            for j, name, high, low in extremes:
                 found["constraint_extremes"][name] = {"min": vc[j + 1], "min_s": sc[j + 1], "max": vc[j], "max_s": sc[j]}
-                found["certificates"][f"{name} max"] = _certificate(bc[j], nc[j])
-                found["certificates"][f"{name} min"] = _certificate(bc[j + 1], nc[j + 1], -1.0)
-                j += 2
+                found["certificates"][high] = _certificate(bc[j], nc[j])
+                found["certificates"][low] = _certificate(bc[j + 1], nc[j + 1], -1.0)
+            j = k_peaks + 2 * len(extremes)
             for name, _, _ in self.aggregate_rows:
                 found["aggregates"].setdefault(name, []).append(sc[j])
                 j += 1
