@@ -81,6 +81,95 @@ def test_many_checks_its_arguments(crane):
         analysis.certified.many(analysis.s_values, P, columns, constraints, narrow=[()])
 
 
+
+def test_rows_no_axis_moves_are_certified_once_per_batch_and_each_case_keeps_its_own(crane, monkeypatch):
+    """A study of masses alone (axes mB, mP): the rows whose graphs read neither (the transmission
+    angle, the cylinder's length ratio: found from the graphs' structure) are certified once for
+    a batch whose cases are equal in what they read, apart from the rows the masses move; each
+    case still gets exactly its own one-case result, and every bound holds: at or above the
+    located extreme and the samples, within the tolerance of what the analysis without axes
+    (one branch and bound for all rows) certifies for the same case."""
+    from optdesign.model import certified as certified_module
+    from optdesign.scene.resolved import ResolvedScene
+
+    scene = optdesign.load(PROBLEMS / "truck_crane.toml")
+    analysis = Analysis(ResolvedScene(scene.without_bounds("mB", "mP"), variable=("mB", "mP")))
+    c = analysis.certified
+    assert c.fixed_rows == {c.constraint_rows["transmission angle"], *(i for _, _, i in c.aggregate_rows)}
+    geometry = Analysis(ResolvedScene(scene.without_bounds("mB", "xD"), variable=("mB", "xD")))
+    assert geometry.certified.fixed_rows == frozenset()   # xD moves every row
+    assert crane.certified.fixed_rows == frozenset()       # no axes: as before
+    P = crane_parameters(analysis, 8, 5, {k: VARIED[k] for k in ("mB", "mP")})
+    columns, constraints = stacked(analysis, P)
+    s = analysis.s_values
+    calls = []
+    keep = certified_module.maxima_of_cases
+    monkeypatch.setattr(certified_module, "maxima_of_cases", lambda f, grid, V, requests, **kw: calls.append(
+        (len(V), sorted({r.row for r in requests}))) or keep(f, grid, V, requests, **kw))
+    together = c.many(s, P, columns, constraints)
+    assert calls == [(8, sorted(c.peak_rows.values())), (1, sorted(c.fixed_rows))]
+    monkeypatch.setattr(certified_module, "maxima_of_cases", keep)
+    alone = [c(s, P[i], {k: v[i] for k, v in columns.items()}, {k: v[i] for k, v in constraints.items()})
+             for i in range(len(P))]
+    assert together == alone   # bit-identical, certificates included
+    assert c.many(s, P[::-1], {k: v[::-1] for k, v in columns.items()},
+                  {k: v[::-1] for k, v in constraints.items()}) == alone[::-1]
+    joint = crane.certified.many(s, P, columns, constraints)   # (the same scene's rows, one branch and bound)
+    for i, (f, g) in enumerate(zip(together, joint)):
+        assert f["peaks"] == g["peaks"] and f["peak_at"] == g["peak_at"]
+        for name, e in f["constraint_extremes"].items():
+            row = constraints[name][i]
+            scale = float(np.max(np.abs(row)))
+            high, low = f["certificates"][f"{name} max"], f["certificates"][f"{name} min"]
+            assert high["note"] == low["note"] == ""
+            assert high["bound"] >= e["max"] >= float(np.max(row)) and low["bound"] <= e["min"] <= float(np.min(row))
+            assert e["max"] == g["constraint_extremes"][name]["max"] and e["min"] == g["constraint_extremes"][name]["min"]
+            for key in (f"{name} max", f"{name} min"):
+                assert abs(f["certificates"][key]["bound"] - g["certificates"][key]["bound"]) <= 1e-9 * scale
+        assert f["aggregates"] == g["aggregates"]
+
+
+
+def test_four_bars_studied_over_masses_hold_their_rows_certified_apart_against_a_denser_sampling():
+    """Generated four-bars (Sobol) with a transmission angle and a rocker swing's max()/min(),
+    each studied over its masses and load (axes m2, m3, T0): the rows those do not move are
+    certified apart (their extremes inside the stroke); every bound holds against a 16x denser
+    sampling of its case, and the peaks, located extremes and per-stroke values are those of the
+    analysis without axes (bounds within the tolerance: their last digits may move, the
+    intervals being the rows' own)."""
+    from optdesign.scene.resolved import ResolvedScene
+    from test_analysis_many import CONSTRAINTS
+    from test_enclosure_fourbars import G, M2, M3, OMEGA, SCENE, designs
+
+    axes = ("m2", "m3", "T0")
+    for g, d in enumerate(designs(8, seed=21)[1:3]):
+        text = SCENE.format(side="left", m2=M2, m3=M3, g=G, omega=OMEGA, **{k: float(v) for k, v in d.items()})
+        scene = optdesign.loads(text + CONSTRAINTS, "four-bar over masses")
+        split, joint = Analysis(ResolvedScene(scene.without_bounds(*axes), variable=axes)), Analysis(scene)
+        dense = Analysis(scene, samples=16 * (len(split.s_values) - 1) + 1, certify=False)
+        assert split.certified.fixed_rows == {split.certified.constraint_rows["transmission"],
+                                              *(i for _, _, i in split.certified.aggregate_rows)}
+        names = split.mech.parameter_names
+        P = np.tile(split.mech.parameter_values, (4, 1))
+        for k, (lo, hi) in zip(axes, ((1.0, 6.0), (1.0, 5.0), (0.0, 30.0))):
+            P[:, names.index(k)] = lo + (hi - lo) * qmc.Sobol(1, seed=g).random(4)[:, 0]
+        for p, a, b in zip(P, split.run_many(P), joint.run_many(P)):
+            assert a.error is None and b.error is None
+            assert (a.peaks, a.peak_at, a.constraint_extremes, a.stroke) == (b.peaks, b.peak_at, b.constraint_extremes,
+                                                                             b.stroke)
+            sampled = dense.run(p).constraints
+            for name, e in a.constraint_extremes.items():
+                high, low = a.certificates[f"{name} max"], a.certificates[f"{name} min"]
+                assert high["note"] == low["note"] == ""
+                scale = max(abs(e["max"]), abs(e["min"]))
+                top, bottom = float(np.max(sampled[name])), float(np.min(sampled[name]))
+                assert high["bound"] >= e["max"] >= e["max_sampled"] and e["max"] >= top - 1e-12 * scale
+                assert low["bound"] <= e["min"] <= e["min_sampled"] and e["min"] <= bottom + 1e-12 * scale
+                assert high["bound"] >= top and low["bound"] <= bottom   # (the bounds hold between the samples)
+                for key in (f"{name} max", f"{name} min"):
+                    assert abs(a.certificates[key]["bound"] - b.certificates[key]["bound"]) <= 1e-9 * scale
+
+
 # --- generated families: each case of a batch against an independent reference ---
 
 def four_bar_batch(n, seed, count=None):

@@ -37,8 +37,15 @@ def run(args):
         import dataclasses
 
         scene = dataclasses.replace(scene, sweep=dataclasses.replace(scene.sweep, samples=args.samples))
-    # matplotlib and the drawing modules are imported by a forked process during the solve
-    with FigureProcess() if args.workers > 1 else contextlib.nullcontext() as figures:
+    # matplotlib and the drawing modules are imported by a forked process during the solve, and
+    # the analysis of the optimum built there (what is analysed: a catalogue's every motor)
+    if len(scene.motors) > 1:
+        from ..design.catalogue import catalogue_scene
+
+        analysed = catalogue_scene(scene)
+    else:
+        analysed = scene
+    with FigureProcess(analysed) if args.workers > 1 else contextlib.nullcontext() as figures:
         solve_and_write(args, scene, folder, figures)
 
 

@@ -36,7 +36,7 @@ from .starts import RETRIES, StartPlan, plan_starts
 
 def optimise(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSettings | None = None,
              progress=None, x_starts=None, workers: int = 1, prepared=None, finished=None,
-             retry_if_fits: bool = False) -> OptimisationResult:
+             retry_if_fits: bool = False, planned=None) -> OptimisationResult:
     """Minimise the scene's objective over its design variables (front door).
 
     ``starts`` local solves from reproducible starts (the scene's start, then the best of a
@@ -46,7 +46,8 @@ def optimise(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSett
     start; ``workers`` > 1 solves the starts in that many forked processes (where the platform
     can fork; the result does not depend on the number of workers).  ``prepared``: the
     :class:`Prepared` problem and plan of these arguments, made beforehand (the motor
-    catalogue makes the next motor's while this one's starts run); ``finished(report)`` is
+    catalogue makes the next motor's while this one's starts run); ``planned(prepared)`` is
+    called with it once made (or given), before the starts; ``finished(report)`` is
     called with each start's :class:`StartReport` as it finishes.
 
     ``retry_if_fits`` (the motor catalogue's rule, :mod:`.catalogue`): each start first tries
@@ -61,6 +62,8 @@ def optimise(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSett
     with interruptible():   # Ctrl-C: stop at once, keep the finished starts
         if prepared is None:
             prepared = prepare(scene, starts, seed, settings, x_starts)
+        if planned is not None:
+            planned(prepared)
         problem, solver, repair, plan = prepared.problem, prepared.solver, prepared.repair, prepared.plan
         timings = dict(prepared.timings)
 

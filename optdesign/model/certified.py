@@ -63,6 +63,7 @@ class CertifiedExtremes:
         self.aggregate_values = None if func is None else MappedFunction(func, compile=True)
         self.aggregate_parameters = None if func is None else parameters_used(mech, inner)
         self.q = MappedFunction(mech.function("q", {"q": mech.q}), compile=True)
+        self.fixed_rows, self.fixed_parameters = _fixed_rows(mech, rows)
 
     def many(self, s_values, P, columns, constraints, narrow=None) -> list:
         """The continuous extremes of N cases of this analysis that differ only in their
@@ -142,26 +143,58 @@ class CertifiedExtremes:
             return out
         ascending = len(s_values) < 2 or s_values[-1] >= s_values[0]
         grid, values = (s_values, V) if ascending else (s_values[::-1], V[:, :, ::-1])
-        s, v, bound, notes = maxima_of_cases(lambda x, cases: self.derivatives(x, P[cases]), grid, values, requests,
-                                             enclosure=self.enclosures.at(P))
+        s, v, bound, notes = self._maxima(grid, values, P, requests)
         k_peaks = len(self.peak_rows)
         q = self._q(s[:, :k_peaks], s_values, q_sampled, P)
-        for c, found in enumerate(out):
-            sc, vc, bc, nc = s[c].tolist(), v[c].tolist(), bound[c].tolist(), notes[c]
-            for j, name in enumerate(self.peak_rows):
+        peaks = [(j, name, f"peak |{name}|") for j, name in enumerate(self.peak_rows)]
+        extremes = [(k_peaks + 2 * i, name, f"{name} max", f"{name} min") for i, name in enumerate(self.constraint_rows)]
+        for found, sc, vc, bc, nc, qc in zip(out, s.tolist(), v.tolist(), bound.tolist(), notes, q):
+            for j, name, key in peaks:
                 found["peaks"][name] = abs(vc[j])
-                found["peak_at"][name] = {"s": sc[j], "q": q[c][j], "value": vc[j]}
-                found["certificates"][f"peak |{name}|"] = _certificate(bc[j], nc[j])
-            j = k_peaks
-            for name in self.constraint_rows:
+                found["peak_at"][name] = {"s": sc[j], "q": qc[j], "value": vc[j]}
+                found["certificates"][key] = _certificate(bc[j], nc[j])
+            for j, name, high, low in extremes:
                 found["constraint_extremes"][name] = {"min": vc[j + 1], "min_s": sc[j + 1], "max": vc[j], "max_s": sc[j]}
-                found["certificates"][f"{name} max"] = _certificate(bc[j], nc[j])
-                found["certificates"][f"{name} min"] = _certificate(bc[j + 1], nc[j + 1], -1.0)
-                j += 2
+                found["certificates"][high] = _certificate(bc[j], nc[j])
+                found["certificates"][low] = _certificate(bc[j + 1], nc[j + 1], -1.0)
+            j = k_peaks + 2 * len(extremes)
             for name, _, _ in self.aggregate_rows:
                 found["aggregates"].setdefault(name, []).append(sc[j])
                 j += 1
         return out
+
+    def _maxima(self, grid, values, P, requests):
+        """:func:`~optdesign.kinematics.peaks.maxima_of_cases` of ``requests`` (s, value, bound,
+        notes): those of the rows that depend on none of the study's axes (:func:`_fixed_rows`: a
+        study of masses, the transmission angle and the cylinder's lengths) apart from the
+        others, once per group of cases equal bit for bit in the parameters those rows read and
+        in their sampled values (a batch of masses: once); each case gets its group's numbers,
+        what the case alone gives (the same operations on the same bits).  Without such rows,
+        or without others, all in one branch and bound as before (an analysis without axes)."""
+        fixed = [j for j, r in enumerate(requests) if r.row in self.fixed_rows]
+        if not fixed or len(fixed) == len(requests):
+            return maxima_of_cases(lambda x, cases: self.derivatives(x, P[cases]), grid, values, requests,
+                                   enclosure=self.enclosures.at(P))
+        moving = [j for j in range(len(requests)) if j not in fixed]
+        s_m, v_m, b_m, n_m = maxima_of_cases(lambda x, cases: self.derivatives(x, P[cases]), grid, values,
+                                             [requests[j] for j in moving], enclosure=self.enclosures.at(P))
+        rows = sorted({requests[j].row for j in fixed})
+        key = np.concatenate((P[:, self.fixed_parameters], values[:, rows].reshape(len(P), -1)), axis=1)
+        first, inverse = _groups(np.ascontiguousarray(key).view(np.int64))
+        Q = P[first]
+        s_f, v_f, b_f, n_f = maxima_of_cases(lambda x, cases: self.derivatives(x, Q[cases]), grid, values[first],
+                                             [requests[j] for j in fixed], enclosure=self.enclosures.at(Q))
+        n, k = len(P), len(requests)
+        s, v, bound = np.empty((n, k)), np.empty((n, k)), np.empty((n, k))
+        for out, a, b in ((s, s_m, s_f), (v, v_m, v_f), (bound, b_m, b_f)):
+            out[:, moving], out[:, fixed] = a, b[inverse]
+        notes = [[None] * k for _ in range(n)]
+        for c in range(n):
+            for j, note in zip(moving, n_m[c]):
+                notes[c][j] = note
+            for j, note in zip(fixed, n_f[inverse[c]]):
+                notes[c][j] = note
+        return s, v, bound, notes
 
     def _values(self, s, P):
         """The rows at the sweep values ``s`` for each case: cases x rows x len(s)."""
@@ -306,6 +339,32 @@ class InTime:
         head, tail = note.split(" s = ", 1)
         number, rest = tail.split(" ", 1)
         return f"{head} s = {self.sweep(float(number)):.9g} {rest}"
+
+
+def _fixed_rows(mech, rows) -> tuple:
+    """(the rows, by index, whose graphs depend on none of the study's axes, the parameters
+    that those rows read), by the graphs' structure (CasADi's which_depends): no rows where the
+    analysis has no axes (one branch and bound for all, :meth:`CertifiedExtremes._maxima`) or
+    an axis is not a leaf parameter."""
+    axes = mech.resolved.axes
+    if not axes or any(a not in mech.parameter_names for a in axes):
+        return frozenset(), np.zeros(0, int)
+    moved = {mech.parameter_names.index(a) for a in axes}
+    used = [parameters_used(mech, row) for row in rows]
+    fixed = [i for i, u in enumerate(used) if not moved & set(u.tolist())]
+    return frozenset(fixed), np.unique(np.concatenate([used[i] for i in fixed] + [np.zeros(0, int)])).astype(int)
+
+
+def _groups(key) -> tuple:
+    """(the first row of each group of equal rows of ``key``, each row's group): the rows
+    compared whole with each group's first (a batch of a study: all in one group)."""
+    inverse = np.full(len(key), -1)
+    first = []
+    while (inverse < 0).any():
+        i = int(np.argmax(inverse < 0))
+        inverse[(inverse < 0) & np.all(key == key[i], axis=1)] = len(first)
+        first.append(i)
+    return np.array(first, int), inverse
 
 
 def _certificate(bound, note, sign=1.0) -> dict:

@@ -105,18 +105,25 @@ def integrate_arrays(f, pieces, starts=None, tol=1e-10, max_rounds=48, cases=1) 
     done_k = done_g = done_abs = done_err = None
     rounds, count = 0, np.zeros(cases, int)
     while len(piece):
-        k, absk, err = _rules(f, case, piece, lo, hi, anchors, lengths, powers)
+        # the first round's intervals are each case's the same: their nodes made once (rounds > 0)
+        k, absk, err = _rules(f, case, piece, lo, hi, anchors, lengths, powers, first if rounds == 0 else None)
         count += np.bincount(case, minlength=cases)
         if done_k is None:
             done_k, done_abs, done_err = (np.zeros((k.shape[0], cases)) for _ in range(3))
-        scale = np.maximum(done_abs + _by_case(absk, case, cases), 1e-300)
-        share = np.abs(lengths[piece]) * (_map(hi, powers[piece]) - _map(lo, powers[piece])) / total
+        by_abs, by_err = _by_case(absk, case, cases), _by_case(err, case, cases)
+        scale = np.maximum(done_abs + by_abs, 1e-300)
+        share = _share(piece, lo, hi, lengths, powers, total, first if rounds == 0 else None)
         fine = np.all(err <= tol * scale[:, case] * share[None, :], axis=0) | ~np.all(np.isfinite(err), axis=0)
         # within the tolerance as a whole (a jump's interval: halved until it is), or out of budget
-        whole = (np.all(done_err + _by_case(err, case, cases) <= tol * scale, axis=0) | (rounds >= max_rounds)
+        whole = (np.all(done_err + by_err <= tol * scale, axis=0) | (rounds >= max_rounds)
                  | (np.bincount(case, minlength=cases) > MAX_INTERVALS // 2))
         fine |= whole[case]
         fine |= hi - lo < 1e-15
+        if fine.all():   # every interval kept (most quadratures after their first round): the sums made above
+            done_k += _by_case(k, case, cases)
+            done_abs += by_abs
+            done_err += by_err
+            break
         done_k += _by_case(k[:, fine], case[fine], cases)
         done_abs += _by_case(absk[:, fine], case[fine], cases)
         done_err += _by_case(err[:, fine], case[fine], cases)
@@ -141,10 +148,48 @@ def _map(u, m):
     return u ** m
 
 
-def _rules(f, case, piece, lo, hi, anchors, lengths, powers):
+def _share(piece, lo, hi, lengths, powers, total, tiled=None):
+    """Each interval's share of the sweep (of ``total``); ``tiled``: the intervals are copies of
+    their first ``tiled`` (:func:`_rules`), whose shares are made and repeated."""
+    if tiled:
+        return np.tile(_share(piece[:tiled], lo[:tiled], hi[:tiled], lengths, powers, total), len(piece) // tiled)
+    return np.abs(lengths[piece]) * (_map(hi, powers[piece]) - _map(lo, powers[piece])) / total
+
+
+def _rules(f, case, piece, lo, hi, anchors, lengths, powers, tiled=None):
     """Kronrod sums, Kronrod sums of |integrand| and |Kronrod - Gauss| on each interval
     (integrands x intervals), each a sum over the nodes in a fixed order (element by element,
-    not a matrix product whose order may depend on an interval's place in the call)."""
+    not a matrix product whose order may depend on an interval's place in the call).
+    ``tiled``: the intervals are copies of their first ``tiled`` (each case's first intervals):
+    the nodes of those are made and repeated (the same numbers: each is the same operation on
+    the same operands)."""
+    if tiled:
+        reps = len(piece) // tiled
+        s, d, jac = (np.tile(x, (reps, 1)) for x in _nodes(piece[:tiled], lo[:tiled], hi[:tiled], anchors,
+                                                              lengths, powers))
+        node_piece = np.tile(np.repeat(piece[:tiled], 15), reps)
+        node_case = np.repeat(case[::tiled], 15 * tiled)
+    else:
+        s, d, jac = _nodes(piece, lo, hi, anchors, lengths, powers)
+        node_piece, node_case = np.repeat(piece, 15), np.repeat(case, 15)
+    values = np.asarray(f(s.ravel(), d.ravel(), node_piece, node_case), float)
+    nodes = np.empty((15, values.shape[0], len(piece)))                   # 15 x integrands x intervals
+    np.multiply(values.reshape(values.shape[0], len(piece), 15).transpose(2, 0, 1), jac.T[:, None, :], out=nodes)
+    if not np.isfinite(np.sum(nodes)):   # (a sum of finite values that overflows: nothing to change)
+        nodes[~np.isfinite(nodes)] = np.nan
+    k, g, absk = (np.zeros(nodes.shape[1:]) for _ in range(3))
+    for j in range(15):
+        k = k + W_KRONROD[j] * nodes[j]
+        absk = absk + W_KRONROD[j] * np.abs(nodes[j])
+        if W_GAUSS[j]:
+            g = g + W_GAUSS[j] * nodes[j]
+    return k, absk, np.abs(k - g)
+
+
+def _nodes(piece, lo, hi, anchors, lengths, powers) -> tuple:
+    """The 15 Kronrod nodes of each interval (intervals x 15): sweep values s, their distances d
+    from their piece's anchor, and ds/du x du per unit node (intervals x 15, or x 1 where it is
+    the same at every node)."""
     half = 0.5 * (hi - lo)
     u = (0.5 * (lo + hi))[:, None] + half[:, None] * NODES[None, :]       # intervals x 15
     m = powers[piece][:, None]
@@ -153,18 +198,7 @@ def _rules(f, case, piece, lo, hi, anchors, lengths, powers):
     d = np.abs(L) * (u if regular else u ** m)                           # distance from the anchor
     s = anchors[piece][:, None] + np.sign(L) * d
     jac = np.abs(L) * m * (1.0 if regular else u ** (m - 1)) * half[:, None]   # ds/du x du per unit node
-    values = np.asarray(f(s.ravel(), d.ravel(), np.repeat(piece, 15), np.repeat(case, 15)), float)
-    values = values.reshape(values.shape[0], len(piece), 15) * jac[None, :, :]   # (a new array)
-    if not np.isfinite(np.sum(values)):   # (a sum of finite values that overflows: nothing to change)
-        values[~np.isfinite(values)] = np.nan
-    nodes = np.ascontiguousarray(values.transpose(2, 0, 1))              # 15 x integrands x intervals
-    k, g, absk = (np.zeros(nodes.shape[1:]) for _ in range(3))
-    for j in range(15):
-        k = k + W_KRONROD[j] * nodes[j]
-        absk = absk + W_KRONROD[j] * np.abs(nodes[j])
-        if W_GAUSS[j]:
-            g = g + W_GAUSS[j] * nodes[j]
-    return k, absk, np.abs(k - g)
+    return s, d, jac
 
 
 def end_power(speed, length, scale) -> float:

@@ -179,12 +179,17 @@ def result_summary(result, catalogue=None) -> str:
 
 
 def _write_results(result, folder, workers, animate=True, catalogue=None, figures=None) -> list:
-    from .design_cases import optimum_analysis
+    from .design_cases import keep_optimum_analysis, optimum_analysis
+    from .drive_train import keep_catalogue_analysis
 
     written = [folder / "result.json", folder / "summary.txt"]
-    # the optimum's analysis made once here (with a catalogue, from the catalogue's at the design),
+    # the optimum's analysis made once (with a catalogue, from the catalogue's at the design), by
+    # the figure process from the build it made while the motors were optimised when it is there,
     # for the JSON, the summary and (sent with the result) the figure process, which draws while
     # this process writes the JSON and the summary
+    made = figures.analysis(result, catalogue) if figures is not None and result.success else None
+    if made is not None:
+        (keep_catalogue_analysis if catalogue is not None else keep_optimum_analysis)(catalogue or result, made)
     optimum = optimum_analysis(result, catalogue)
     sent = figures is not None and result.success and figures.send(result, folder, workers, animate, optimum)
     try:

@@ -10,7 +10,7 @@ import re
 import numpy as np
 
 from .cases import UNITS, inertia_ratio_text, unresolved_lines
-from .drive_train import catalogue_analysis, catalogue_at_optimum, train_summary
+from .drive_train import analyse_at, catalogue_analysis, catalogue_at_optimum, train_summary
 from .units import sweep_scale
 
 _IN_CASE = re.compile(r"^(?P<what>.*?) in cases? '(?P<case>[^']*)'(?P<more>(, '[^']*')*)$")
@@ -36,13 +36,12 @@ def optimum_analysis(result, catalogue=None):
 def _chosen_motor_analysis(result, catalogue):
     import dataclasses
 
-    from ..model.analysis import analyse
     from ..model.case_runs import one_motor
 
     whole = catalogue_analysis(catalogue) if catalogue is not None and catalogue.best is result else None
     motors = result.scene.motors
     if whole is None or whole.cases is None or len(motors) != 1 or motors[0].name not in whole.cases.train.get("motors", {}):
-        return analyse(result.scene.with_parameters(**result.design))
+        return analyse_at(result.scene, result.design)
     return dataclasses.replace(whole, scene=dataclasses.replace(whole.scene, motors=motors),
                                cases=one_motor(whole.cases, motors[0].name))
 

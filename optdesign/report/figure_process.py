@@ -29,15 +29,34 @@ class FigureProcess:
     """A forked process, ready to draw the figures of one optimisation result (use as a
     context manager: the process ends with the block, whether it drew or not)."""
 
-    def __init__(self):
+    def __init__(self, scene=None):
+        """``scene``: the scene whose optimum will be analysed for the folder (a motor
+        catalogue's: with every motor, in the order tried), built by the process once it has
+        imported (report/drive_train.prebuild): :meth:`analysis` then runs that build."""
         self._proc = None
         if "fork" not in multiprocessing.get_all_start_methods():
             return
         context = multiprocessing.get_context("fork")
         self._conn, theirs = context.Pipe()
-        self._proc = context.Process(target=_serve, args=(theirs, self._conn))   # not a daemon: it forks
+        self._proc = context.Process(target=_serve, args=(theirs, self._conn, scene))   # not a daemon: it forks
         self._proc.start()
         theirs.close()
+
+    def analysis(self, result, catalogue=None):
+        """The analysis the folder needs, made by the process (from the build it made beforehand
+        when that is of the same scene): with the motor ``catalogue`` whose best ``result`` is,
+        every motor at its design (report/drive_train.catalogue_analysis), else the optimum's
+        (report/design_cases.optimum_analysis); None when the process is not there or the
+        analysis failed there (the caller then makes it, and sees its error)."""
+        if self._proc is None:
+            return None
+        try:
+            self._conn.send(("analysis", None if catalogue is not None else result, catalogue))
+            kind, value = self._conn.recv()
+        except (pickle.PicklingError, TypeError, AttributeError, EOFError, OSError):
+            self.close()
+            return None
+        return value if kind == "ok" else None
 
     def write(self, result, folder, workers, animate, analysis=None) -> list | None:
         """The figures of ``result`` written into ``folder`` by the process (paths), or None
@@ -91,14 +110,20 @@ class FigureProcess:
         self.close()
 
 
-def _serve(conn, parents):
-    """The child: import, wait for one result, draw its figures, send the paths (or the error)."""
+def _serve(conn, parents, scene):
+    """The child: import, build the analysis of ``scene`` (if given), answer the requests for the
+    analysis, wait for one result, draw its figures, send the paths (or the error)."""
     parents.close()                  # so that the parent's exit ends the wait (EOFError)
     try:
         from .design_figures import _import_for_children, write_figures
 
         _import_for_children()
+        if scene is not None:
+            _prebuild(scene)
         job = conn.recv()
+        while isinstance(job[0], str) and job[0] == "analysis":
+            conn.send(_analysis(*job[1:]))
+            job = conn.recv()
         result, folder, workers, animate, analysis = job
         if analysis is not None:
             from .design_cases import keep_optimum_analysis
@@ -120,3 +145,24 @@ def _serve(conn, parents):
         pass
     finally:
         os._exit(0)
+
+
+def _prebuild(scene):
+    from .drive_train import prebuild
+
+    try:
+        prebuild(scene)
+    except Exception:   # noqa: BLE001 - the analysis is then built when asked (its error raised by the command)
+        pass
+
+
+def _analysis(result, catalogue):
+    """("ok", the analysis :meth:`FigureProcess.analysis` asks for), or ("none", None) when it
+    failed here: the command makes it then (and reports its error)."""
+    from .design_cases import optimum_analysis
+    from .drive_train import catalogue_analysis
+
+    try:
+        return ("ok", catalogue_analysis(catalogue) if catalogue is not None else optimum_analysis(result))
+    except Exception:   # noqa: BLE001
+        return ("none", None)

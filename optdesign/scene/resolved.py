@@ -27,6 +27,8 @@ class ResolvedScene:
         design_names: the design variables (parameters with min/max), in file order.
         variable:     other parameters whose value changes between runs of one build (a
                       study's axes): :meth:`fixed_value` folds none of them, nor a design variable.
+        axes:         of them the study's axes alone (``variable`` as given, without the
+                      parameters the load cases override).
         sweep_name, start, stop, samples: the stroke ([sweep] name, from, to as numbers, samples).
     """
 
@@ -43,6 +45,7 @@ class ResolvedScene:
         # a payload or a wind force that is 0 in the scene must not be folded away as absent
         overridden = [n for c in getattr(scene, "cases", ()) for n in c.overrides]
         self.variable = tuple(dict.fromkeys((*variable, *overridden)))
+        self.axes = tuple(dict.fromkeys(variable))   # (the study's axes alone)
         self._uses = {p.name: p.value.names() for p in scene.parameters}
         sweep = scene.sweep
         self.sweep_name = sweep.name

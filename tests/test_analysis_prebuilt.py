@@ -1,0 +1,95 @@
+"""The optimum's analysis run on a build made before the design was known (issue 31: the motor
+catalogue's results folder analysed the 4-motor scene at the chosen design after the solve,
+~1.3 s on the command's critical path, half of it the build).  The figure process builds the
+analysis while the command builds its first problem (report/drive_train.prebuild) and runs it at
+the design when asked (FigureProcess.analysis, report/drive_train.analyse_at).
+
+The reference is what the command did before: ``analyse(scene.with_parameters(**design))``, made
+apart; every number the same (timings aside), over a family of designs.  The scene is
+tests/test_cases_optimise.py's crank with a gearbox and its catalogue of three motors."""
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+
+from optdesign.design.catalogue import catalogue_scene, motor_order
+from optdesign.model import analysis as analysis_module
+from optdesign.report import design_cases, drive_train
+from optdesign.report.figure_process import FigureProcess
+
+from test_catalogue_analysis import _catalogue, same
+from test_catalogue_retries import crank
+
+
+@pytest.fixture
+def clean():
+    drive_train._BUILT[:], drive_train._LAST[:], design_cases._LAST[:] = [], [None, None], [None, None]
+    yield
+    drive_train._BUILT[:], drive_train._LAST[:], design_cases._LAST[:] = [], [None, None], [None, None]
+
+
+def _not_analysed_again(monkeypatch):
+    monkeypatch.setattr(analysis_module, "analyse", lambda *a, **k: pytest.fail("analysed from scratch"))
+
+
+def test_the_catalogue_scene_has_every_motor_in_the_order_tried():
+    scene = crank()
+    whole = catalogue_scene(scene)
+    assert [m.name for m in whole.motors] == [m.name for m in motor_order(scene)] == ["tiny", "small", "large"]
+    assert dataclasses.replace(whole, motors=scene.motors) == scene
+
+
+def _prebuilt_against_apart(ratios, monkeypatch):
+    scene = catalogue_scene(crank())
+    apart = [analysis_module.analyse(scene.with_parameters(i=float(i))) for i in ratios]
+    drive_train.prebuild(scene)
+    _not_analysed_again(monkeypatch)
+    for i, reference in zip(ratios, apart):
+        made = drive_train.analyse_at(scene, {"i": float(i)})
+        assert made.scene == reference.scene
+        assert same(made, reference) == []
+
+
+def test_the_prebuilt_analysis_is_the_one_made_apart(clean, monkeypatch):
+    """At the upper bound of the ratio, after the build's own run at the scene's values: the
+    run of the build equals the scene analysed at that ratio from scratch."""
+    _prebuilt_against_apart([200.0], monkeypatch)
+
+
+@pytest.mark.slow   # three analyses from scratch; the test above is the fast sibling
+def test_the_prebuilt_analysis_is_the_one_made_apart_over_the_box(clean, monkeypatch):
+    """Ratios over the design box (its bounds and one between), one after the other on one build."""
+    _prebuilt_against_apart([2.0, 23.7, 200.0], monkeypatch)
+
+
+def test_a_build_of_another_scene_is_not_used(clean, monkeypatch):
+    """The scene with the small motor alone is not the catalogue's (every motor), whose build is there."""
+    result, _ = _catalogue(40.0)
+    scene = result.scene
+    drive_train.prebuild(catalogue_scene(crank()))
+    made = []
+    monkeypatch.setattr(analysis_module, "analyse", lambda s: made.append(s) or "made apart")
+    assert drive_train.analyse_at(scene, {"i": 40.0}) == "made apart"
+    assert made == [scene.with_parameters(i=40.0)]
+
+
+def test_the_figure_process_answers_with_its_build(clean, monkeypatch):
+    """The catalogue's analysis at the chosen design, made in the figure process from the build
+    it made on start, is the one made apart, and the command keeps it for the JSON."""
+    result, catalogue = _catalogue(40.0)
+    scene = catalogue_scene(crank())
+    whole = analysis_module.analyse(scene.with_parameters(i=40.0))
+    _not_analysed_again(monkeypatch)   # (inherited by the fork: the process must use its build)
+    with FigureProcess(scene) as figures:
+        made = figures.analysis(result, catalogue)
+    assert made is not None and same(made, whole) == []
+    drive_train.keep_catalogue_analysis(catalogue, made)
+    assert drive_train.catalogue_analysis(catalogue) is made
+
+
+def test_without_the_figure_process_the_analysis_is_made_here(clean):
+    figures = FigureProcess()
+    figures.close()
+    result, catalogue = _catalogue(40.0)
+    assert figures.analysis(result, catalogue) is None
