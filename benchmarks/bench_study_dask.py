@@ -4,7 +4,7 @@ single-threaded workers on loopback, the scheduler and the workers each a proces
 (``dask scheduler``, ``dask worker``), started afresh for every Dask run so that the scheduler's
 peak memory is that run's.
 
-    python benchmarks/bench_study_dask.py [--sizes 2000,20000] [--optimise 24] [--repeats 1] [--base REV]
+    python benchmarks/bench_study_dask.py [--sizes 2000,20000] [--optimise 24] [--repeats 1] [--base REV] [--section NAME]
 
 Each study runs in a fresh client process (``Study.run``) that reports its wall time, its CPU
 time and its peak resident memory (``VmHWM``, imports included); the scheduler's is read from
@@ -30,7 +30,7 @@ its own cluster with Dask's defaults, its workers and helpers importing that cod
 with this code's runs, against the same pool runs (this code): Dask / pool before and after in
 one run.
 
-Writes its section (study_dask) of results/scaling.md (benchmarks/benchfile.py)."""
+Writes its section (study_dask, or ``--section``) of results/scaling.md (benchmarks/benchfile.py)."""
 from __future__ import annotations
 
 import argparse
@@ -209,6 +209,8 @@ def main():
     ap.add_argument("--optimise", type=int, default=24, help="cases of the optimise study (0: none)")
     ap.add_argument("--repeats", type=int, default=1, help="runs of each (medians)")
     ap.add_argument("--base", default=None, help="a commit whose Dask runs are measured in the same run")
+    ap.add_argument("--section", default="study_dask", help="the section of results/scaling.md written (letters, "
+                    "digits, _): another run's figures kept beside")
     args = ap.parse_args()
     load0 = os.getloadavg()
     runs = [("analyse", int(s)) for s in args.sizes.split(",") if s] + ([("optimise", args.optimise)] if args.optimise else [])
@@ -286,7 +288,7 @@ def report(args, got, load0, rounds, labels):
     lines.append("Every run's cases all finished; successful cases (pool / " + " / ".join(labels) + "): "
                  + ", ".join(f"{kind} {n:,}: " + " / ".join(f"{r['ok']:,}" for r in rs[-1] if r) for (kind, n), rs in got.items())
                  + ".")
-    write_section("study_dask", "\n".join(lines) + "\n", SCALING_MD)
+    write_section(args.section, "\n".join(lines) + "\n", SCALING_MD)
     print("\n".join(lines), flush=True)
 
 

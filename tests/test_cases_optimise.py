@@ -334,6 +334,41 @@ def test_the_next_motor_is_built_ahead_only_while_no_start_fits(monkeypatch):
         broken.result()
 
 
+def test_the_next_motor_is_built_after_one_start_when_no_start_point_was_screened_feasible(monkeypatch):
+    """Issue 31: a motor none of whose planned start points was screened feasible at the sample
+    points (its plan's ``fitting`` 0: crane_luffing_drive's 4 and 5.5 kW motors) has the next
+    motor built once its first start has finished without a design, not its third; a plan
+    with a feasible point keeps AFTER; optimise says the plan to ``planned`` before the starts."""
+    from types import SimpleNamespace
+
+    from optdesign.design import catalogue as catalogue_module, multistart
+
+    made = []
+    monkeypatch.setattr(multistart, "prepare", lambda *args, **kw: made.append(args) or "prepared")
+    failed = SimpleNamespace(success=False)
+    unfit = catalogue_module.Ahead("after an unfit plan", {"starts": 20})
+    unfit.planned(SimpleNamespace(plan=SimpleNamespace(fitting=0)))
+    assert not unfit.started
+    unfit.finished(failed)
+    assert unfit.started and unfit.result() == "prepared"
+    fitting = catalogue_module.Ahead("after a plan with a feasible point", {"starts": 20})
+    fitting.planned(SimpleNamespace(plan=SimpleNamespace(fitting=2)))
+    for _ in range(catalogue_module.Ahead.AFTER - 1):
+        fitting.finished(failed)
+    assert not fitting.started
+    fitting.finished(failed)
+    assert fitting.started
+    monkeypatch.undo()
+    seen = []
+    sc = _only_ratio(scene("rms_time(motor_torque)", extra=CATALOGUE), 2.0, 200.0)
+    tiny = next(m for m in sc.motors if m.name == "tiny")
+    from optdesign.design.catalogue import with_motor
+
+    result = multistart.optimise(with_motor(sc, tiny), starts=2, planned=lambda prepared: seen.append(
+        (prepared.plan.fitting, len(prepared.plan.points))), finished=lambda report: seen.append(report.index))
+    assert seen[0] == (0, 2) and sorted(seen[1:]) == [0, 1] and not result.success   # tiny cannot fit
+
+
 def test_a_constraint_that_holds_in_one_case():
     """The empty lowering's drive torque kept above -L (its braking torque limited), in that case
     alone: the counterweight that balances the two cases would exceed it, so the optimum moves

@@ -77,6 +77,7 @@ def optimise_catalogue(scene, progress=None, **options) -> CatalogueResult:
             try:
                 results[motor.name] = optimise(one, progress=step, prepared=prepared,
                                                finished=None if look_ahead is None else look_ahead.finished,
+                                               planned=None if look_ahead is None else look_ahead.planned,
                                                retry_if_fits=True, **options)
                 ahead = look_ahead if look_ahead is not None and look_ahead.started else None
             except KeyboardInterrupt as stop:
@@ -102,15 +103,25 @@ class Ahead:
     longer stand between two motors' starts).  Begun once ``AFTER`` starts of this motor have
     finished and none found a design: a motor that fits is the last one optimised, and the next
     would be built for nothing (of crane_luffing_drive's 7.5 kW motor, which fits, every start
-    finds a design).  The same problem and plan as made in turn (the same code on
-    the same scene)."""
+    finds a design).  When none of this motor's planned start points was screened feasible at
+    the sample points (the plan's ``fitting`` 0: crane_luffing_drive's 4 and 5.5 kW motors; its
+    7.5 kW motor has 19), once the first start has finished without a design: the next motor's
+    build then ends before this one's starts rather than after (begun after the first start,
+    not before it: the workers are forked by then, not while the thread runs).  The same problem
+    and plan as made in turn (the same code on the same scene)."""
 
     def __init__(self, scene, options):
         self.scene, self.options, self.started = scene, options, False
         self.seen_fit, self.seen = False, 0
+        self.after = min(self.AFTER, options.get("starts", 20))
         self._done, self._thread = None, None
 
     AFTER = 3
+
+    def planned(self, prepared):
+        """This motor's problem is built and its starts planned (:class:`~.multistart.Prepared`)."""
+        if prepared.plan.fitting == 0:
+            self.after = 1
 
     def finished(self, report):
         """A start of this motor finished (called in the command's thread, the workers forked)."""
@@ -118,7 +129,7 @@ class Ahead:
 
         self.seen += 1
         self.seen_fit = self.seen_fit or report.success
-        if self.started or self.seen_fit or self.seen < min(self.AFTER, self.options.get("starts", 20)):
+        if self.started or self.seen_fit or self.seen < self.after:
             return
         self.started = True
         self._thread = threading.Thread(target=self._run, name="optdesign next motor", daemon=True)

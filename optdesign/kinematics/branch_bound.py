@@ -47,7 +47,7 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
     tol = CERTIFY_TOL if tol is None else tol
     best = found.best(tasks.code)[1].copy()   # (updated in place as better maxima are located)
     with np.errstate(invalid="ignore"):
-        scale = np.nanmax(np.abs(T), axis=1, initial=0.0) if T.size else np.zeros(n)
+        scale = np.fmax.reduce(np.abs(T), axis=1, initial=0.0) if T.size else np.zeros(n)   # (np.nanmax's)
     tol_abs = np.where(np.isnan(tasks.tol), tol * np.maximum(np.abs(best), scale), tasks.tol) + 1e-300
     bound = np.full(n, -np.inf)
     span = abs(float(s_grid[-1] - s_grid[0])) if len(s_grid) > 1 else 0.0
@@ -61,10 +61,10 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
         case = tasks.case[task]
         if pass_:   # the distinct intervals of each case (the tasks of a case share them)
             order = np.lexsort((hi, lo, case))
-            first = _starts((np.diff(case[order]) != 0) | (np.diff(lo[order]) != 0) | (np.diff(hi[order]) != 0),
-                            len(order))
+            c, a, b = case[order], lo[order], hi[order]
+            first = _starts((c[1:] != c[:-1]) | (a[1:] - a[:-1] != 0) | (b[1:] - b[:-1] != 0), len(order))
             where = np.empty(len(task), int)
-            where[order] = np.cumsum(first) - 1
+            where[order] = first.cumsum() - 1
             pick = order[first]
         # each distinct interval expanded at a located maximum inside it or at its end (its tasks'
         # best; the largest such s where several are), else at its midpoint
@@ -72,10 +72,12 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
         centre = found.s[top[task]]
         with np.errstate(invalid="ignore"):
             centre = np.where((lo <= centre) & (centre <= hi), centre, np.nan)
-        at = np.full(len(pick), np.nan)
+        at = np.empty(len(pick))
+        at.fill(np.nan)
         np.fmax.at(at, where, centre)
-        L, U, vm_lo, vm_hi = enclosure.bounds(lo[pick], hi[pick], np.unique(tasks.row[task]), case[pick], at)
         r_of, code = tasks.row[task], tasks.code[task]
+        rows = np.bincount(r_of).nonzero()[0]   # (the rows asked for, ascending: np.unique's)
+        L, U, vm_lo, vm_hi = enclosure.bounds(lo[pick], hi[pick], rows, case[pick], at)
         ub = target_bound(L[r_of, where], U[r_of, where], code, upper=True)
         vm_lo, vm_hi = vm_lo[r_of, where], vm_hi[r_of, where]
         at_mid = target_bound(vm_lo, vm_hi, code, upper=False)
@@ -87,15 +89,17 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
             noise = 4.0 * np.where(np.isfinite(width_m), width_m, 0.0)
             threshold = np.maximum(best[task] + np.maximum(tol_abs[task], noise), tasks.only_above[task])
             keep = ~(ub <= threshold)   # NaN: not bounded, split again
-        if np.any(~keep):
-            np.maximum.at(bound, task[~keep], ub[~keep])
-        task, lo, hi, left_ub = task[keep], lo[keep], hi[keep], np.where(np.isnan(ub[keep]), np.inf, ub[keep])
-        width = hi - lo
-        case = tasks.case[task]
-        stop = np.bincount(case, minlength=tasks.n_cases) > MAX_INTERVALS
-        stop[case[width <= max(span, 1e-300) * 1e-13]] = True
-        stopping = stop[case] | (pass_ == MAX_PASSES - 1)
-        if np.any(stopping):
+            closed = ~keep
+            if closed.any():
+                np.maximum.at(bound, task[closed], ub[closed])
+            task, lo, hi, left_ub = task[keep], lo[keep], hi[keep], ub[keep]
+            left_ub[left_ub != left_ub] = np.inf
+            width = hi - lo
+            case = tasks.case[task]
+            stop = np.bincount(case, minlength=tasks.n_cases) > MAX_INTERVALS
+            stop[case[width <= max(span, 1e-300) * 1e-13]] = True
+            stopping = stop[case] | (pass_ == MAX_PASSES - 1)
+        if stopping.any():
             left.append((task[stopping], lo[stopping], hi[stopping], left_ub[stopping]))
             task, lo, hi, left_ub = task[~stopping], lo[~stopping], hi[~stopping], left_ub[~stopping]
             width = hi - lo
@@ -128,19 +132,20 @@ def split(task, lo, hi, left_ub, cuts, around=None, middle=None):
         halved = (middle > lo) & (middle < hi) & ~around
     inside[:, 1:] &= cuts[:, 1:] != cuts[:, :-1]   # each cut once
     pieces = 1 + halved.astype(int)
-    pieces[around] = 1 + np.count_nonzero(inside, axis=1)
-    start = np.cumsum(pieces) - pieces   # each interval's first piece
-    owner = np.repeat(np.arange(len(lo)), pieces)
+    pieces[around] = 1 + inside.sum(axis=1)
+    start = pieces.cumsum() - pieces   # each interval's first piece
+    owner = np.arange(len(lo)).repeat(pieces)
     new_lo, new_hi = lo[owner], hi[owner]
-    h = np.flatnonzero(halved)   # the halves: [lo, middle], [middle, hi]
+    h = halved.nonzero()[0]   # the halves: [lo, middle], [middle, hi]
     new_hi[start[h]], new_lo[start[h] + 1] = middle[h], middle[h]
     if len(cuts):   # the cuts' pieces, as consecutive edges of one interval
-        a = np.flatnonzero(around)
+        a = around.nonzero()[0]
         edges = np.concatenate((lo[a, None], cuts, hi[a, None]), axis=1)
-        keep = np.concatenate((np.ones((len(a), 1), bool), inside, np.ones((len(a), 1), bool)), axis=1)
-        flat, row = edges[keep], np.nonzero(keep)[0]
-        piece = np.flatnonzero(row[:-1] == row[1:])
-        at = start[a][row[piece]] + (piece - np.searchsorted(row, row[piece]))
+        keep = np.ones(edges.shape, bool)
+        keep[:, 1:-1] = inside
+        flat, row = edges[keep], keep.nonzero()[0]
+        piece = (row[:-1] == row[1:]).nonzero()[0]
+        at = start[a][row[piece]] + (piece - row.searchsorted(row[piece]))
         new_lo[at], new_hi[at] = flat[piece], flat[piece + 1]
     return task[owner], new_lo, new_hi, left_ub[owner]
 
@@ -155,16 +160,20 @@ def first_intervals(tasks, s_grid, found, best):
     :class:`~optdesign.model.intervals_compiled.CompiledProgram`); every task of the case gets
     all its case's intervals.  Returns (task, lo, hi) arrays, the index of each entry's interval among the
     distinct ones and, per distinct interval, the index of its first entry."""
-    grid = np.unique(s_grid)
+    increasing = len(s_grid) > 1 and bool((s_grid[1:] > s_grid[:-1]).all())
+    grid = s_grid if increasing else np.unique(s_grid)   # (np.unique's values: sorted, each once)
     n_cases, k = tasks.n_cases, len(tasks.requests)
     if len(grid) < 2:
         return np.zeros(0, int), np.zeros(0), np.zeros(0), np.zeros(0, int), np.zeros(0, int)
     a, b = grid[0], grid[-1]
-    blocks = grid[np.unique(np.r_[np.arange(0, len(grid), BLOCK), len(grid) - 1])]
-    cut_case = [np.repeat(np.arange(n_cases), len(blocks))]
-    cut_s = [np.tile(blocks, n_cases)]
+    every = np.arange(0, len(grid), BLOCK)   # (and the last sample)
+    if every[-1] != len(grid) - 1:
+        every = np.concatenate((every, [len(grid) - 1]))
+    blocks = grid[every]
+    cut_case = [np.arange(n_cases).repeat(len(blocks))]
+    cut_s = [blocks[None, :].repeat(n_cases, axis=0).ravel()]
     if PRESPLIT:
-        h = float(np.max(np.diff(grid)))
+        h = float((grid[1:] - grid[:-1]).max())
         # h 2^k, k = -(PRESPLIT - 1) .. log2(BLOCK): inwards as the Taylor form needs, outwards to
         # the blocks' size (the monotone form proves pieces of ratio 2 where it does not prove
         # a whole block next to the maximum)
@@ -175,25 +184,28 @@ def first_intervals(tasks, s_grid, found, best):
         # the cuts about the lattice point nearest each maximum (a + j g: the same bits for every
         # case whose maximum is near it, so that cases share these intervals), and at the maximum
         g = h * 2.0 ** -LATTICE
-        units = np.r_[-steps, steps[::-1]] / g
-        around = np.c_[a + (np.round((centres - a) / g)[:, None] + units[None, :]) * g, centres]
+        units = np.concatenate((-steps, steps[::-1])) / g
+        around = np.concatenate(
+            (a + (((centres - a) / g).round()[:, None] + units[None, :]) * g, centres[:, None]), axis=1)
         inside = (around > a) & (around < b)
-        cut_case.append(np.broadcast_to(owner[:, None], around.shape)[inside])
+        cut_case.append(owner[inside.nonzero()[0]])
         cut_s.append(around[inside])
     case, s = np.concatenate(cut_case), np.concatenate(cut_s)
     order = np.lexsort((s, case))
     case, s = case[order], s[order]
-    distinct = _starts((np.diff(case) != 0) | (np.diff(s) != 0), len(s))
+    distinct = _starts((case[1:] != case[:-1]) | (s[1:] - s[:-1] != 0), len(s))
     case, s = case[distinct], s[distinct]
-    pair = np.flatnonzero(case[:-1] == case[1:])   # consecutive cuts of one case: an interval
+    pair = (case[:-1] == case[1:]).nonzero()[0]   # consecutive cuts of one case: an interval
     i_case, i_lo, i_hi = case[pair], s[pair], s[pair + 1]
     counts = np.bincount(i_case, minlength=n_cases)
     # each task of a case: all its case's intervals (tasks case-major: case * k + request)
-    starts = np.r_[0, np.cumsum(counts)[:-1]]
-    task = np.repeat(np.arange(n_cases * k), np.repeat(counts, k))
-    within = np.arange(len(task)) - np.repeat(np.r_[0, np.cumsum(np.repeat(counts, k))[:-1]], np.repeat(counts, k))
+    starts = np.concatenate(([0], counts.cumsum()[:-1]))
+    per_task = counts.repeat(k)
+    task = np.arange(n_cases * k).repeat(per_task)
+    within = np.arange(len(task)) - np.concatenate(([0], per_task.cumsum()[:-1])).repeat(per_task)
     index = starts[tasks.case[task]] + within
-    first = np.full(len(i_lo), -1)
+    first = np.empty(len(i_lo), int)
+    first.fill(-1)
     first[index[::-1]] = np.arange(len(index))[::-1]   # (the smallest entry of each interval)
     return task, i_lo[index], i_hi[index], index, first
 
@@ -202,9 +214,10 @@ def target_bound(L, U, code, upper):
     """Per interval, an upper (``upper``) or lower bound of its task's target from v's bounds
     [L, U]; ``code``: the sense, an index into SENSES (abs, max, min)."""
     high, low = (U, L) if upper else (L, U)
-    out = np.maximum(high, -low)
-    is_max, is_min = code == 1, code == 2
-    out[is_max], out[is_min] = high[is_max], -low[is_min]
+    minus = -low
+    out = np.maximum(high, minus)
+    np.copyto(out, high, where=code == 1)
+    np.copyto(out, minus, where=code == 2)
     return out
 
 
@@ -212,7 +225,7 @@ def locate_better(evaluate, tasks, found, best, task, lo, hi, at_mid, v_mid, s_t
     """Where an interval's midpoint beats its task's best located target, locate the maximum
     near the best such midpoint of each task (Newton on dv/ds = 0 in the interval widened by its
     width each side, from the midpoint) and add it to ``found``; ``best`` is updated in place."""
-    better = np.flatnonzero(at_mid > best[task])
+    better = (at_mid > best[task]).nonzero()[0]
     if not len(better):
         return
     order = np.lexsort((better, -at_mid[better], task[better]))   # per task: largest midpoint, then first

@@ -293,8 +293,10 @@ class Enclosure:
         if centre is not None:
             with np.errstate(invalid="ignore"):
                 m = np.where((lo <= centre) & (centre <= hi), centre, m)
-        r_above, r_below = _up(hi - m), _up(m - lo)
-        r = np.maximum(r_above, r_below)
+        radii = np.empty((2, n))   # (r_above, r_below: one rounding of both)
+        np.subtract(hi, m, out=radii[0])
+        np.subtract(m, lo, out=radii[1])
+        r_above, r_below = _up(radii)
         # the ends, each (case, value) once: neighbouring intervals share them
         if self.p.ndim == 1:
             ends, where_end = np.unique(np.concatenate((lo, hi)), return_inverse=True)
@@ -331,6 +333,7 @@ class Enclosure:
             L, U = self.program.forms(rows, (L, U, v_jump, d_lo, d_hi, d_jump, e_lo, e_hi), (vm_lo, vm_hi, dm_lo, dm_hi),
                                       (at_lo, at_hi), where_end[:n], where_end[n:], r_above, r_below)
             return L, U, vm_lo, vm_hi
+        r = np.maximum(r_above, r_below)
         smooth0 = ~v_jump
         smooth1 = smooth0 & ~d_jump
         with np.errstate(all="ignore"):

@@ -27,14 +27,17 @@ def distinct(s, cases):
     s, cases = np.asarray(s, float), np.asarray(cases, np.int64)
     bits = s.view(np.int64)
     order = np.lexsort((bits, cases))
-    first = _starts((np.diff(cases[order]) != 0) | (np.diff(bits[order]) != 0), len(s))
+    c, b = cases[order], bits[order]
+    first = _starts((c[1:] != c[:-1]) | (b[1:] != b[:-1]), len(s))
     group = np.empty(len(s), int)
-    group[order] = np.cumsum(first) - 1
-    # the groups in the order of their first appearance (a stable sort: order[first] is each
-    # group's first index)
-    rank = np.empty(int(np.sum(first)), int)
-    rank[np.argsort(order[first], kind="stable")] = np.arange(len(rank))
-    firsts = np.sort(order[first])
+    group[order] = first.cumsum() - 1
+    # the groups in the order of their first appearance (order[first] is each group's first
+    # index, all distinct: sorted by their argsort)
+    heads = order[first]
+    by_place = heads.argsort(kind="stable")
+    rank = np.empty(len(heads), int)
+    rank[by_place] = np.arange(len(heads))
+    firsts = heads[by_place]
     return s[firsts], cases[firsts], rank[group]
 
 
@@ -59,35 +62,37 @@ def newton(evaluate, cases, rows, lo, hi, s0, sign, s_tol=1e-13):
     s_out, v_out = s0.copy(), V[rows, i_0]
     with np.errstate(invalid="ignore"):
         going = ~((sign * D1[rows, i_lo] <= 0) | (sign * D1[rows, i_hi] >= 0))
-    k = np.flatnonzero(going)
-    s, d1, d2 = s0[k], D1[rows[k], i_0[k]], D2[rows[k], i_0[k]]
-    lo, hi = lo[k], hi[k]
+    k = going.nonzero()[0]
+    sign, rows, cases = sign[k], rows[k], cases[k]   # (the unfinished brackets', filtered as k is)
+    s, lo, hi = s0[k], lo[k], hi[k]
+    d1, d2 = sign * D1[rows, i_0[k]], sign * D2[rows, i_0[k]]
     steps = 0
-    while len(k):
-        d1, d2 = sign[k] * d1, sign[k] * d2
-        rising = d1 > 0
-        lo, hi = np.where(rising, s, lo), np.where(rising, hi, s)
-        with np.errstate(all="ignore"):
+    with np.errstate(all="ignore"):
+        while len(k):
+            rising = d1 > 0
+            lo, hi = np.where(rising, s, lo), np.where(rising, hi, s)
             step = s - d1 / d2
-        s_new = np.where((d2 < 0) & (lo <= step) & (step <= hi), step, 0.5 * (lo + hi))
-        small = s_tol * np.fmax(1.0, np.abs(s))
-        done = (np.abs(s_new - s) <= small) | (hi - lo <= small)
-        V, D1, D2 = (np.asarray(a, float) for a in evaluate(s_new, cases[k]))
-        at = np.arange(len(k))
-        v_new = V[rows[k], at]
-        steps += 1
-        if steps >= MAX_STEPS:   # the last point evaluated, converged or not
-            done[:] = True
-        s_out[k[done]], v_out[k[done]] = s_new[done], v_new[done]
-        keep = ~done
-        k, s, lo, hi = k[keep], s_new[keep], lo[keep], hi[keep]
-        d1, d2 = D1[rows[k], at[keep]], D2[rows[k], at[keep]]
+            s_new = np.where((d2 < 0) & (lo <= step) & (step <= hi), step, 0.5 * (lo + hi))
+            small = s_tol * np.fmax(1.0, np.abs(s))
+            done = (np.abs(s_new - s) <= small) | (hi - lo <= small)
+            V, D1, D2 = (np.asarray(a, float) for a in evaluate(s_new, cases))
+            at = np.arange(len(k))
+            v_new = V[rows, at]
+            steps += 1
+            if steps >= MAX_STEPS:   # the last point evaluated, converged or not
+                done[:] = True
+            s_out[k[done]], v_out[k[done]] = s_new[done], v_new[done]
+            keep = ~done
+            k, s, lo, hi, sign, rows, cases, at = k[keep], s_new[keep], lo[keep], hi[keep], sign[keep], rows[keep], \
+                cases[keep], at[keep]
+            d1, d2 = sign * D1[rows, at], sign * D2[rows, at]
     return s_out, v_out
 
 
 def _starts(changes, n):
     """Where a run of equal sorted keys starts: True, then ``changes`` (n - 1 of them; n = 0: none)."""
-    out = np.ones(n, bool)
+    out = np.empty(n, bool)
+    out[:1] = True
     out[1:] = changes
     return out
 
@@ -101,8 +106,8 @@ class Tasks:
     def __init__(self, requests, n_cases):
         k = len(requests)
         self.requests, self.n_cases = requests, n_cases
-        self.case = np.repeat(np.arange(n_cases), k)
-        self.request = np.tile(np.arange(k), n_cases)
+        self.case = np.arange(n_cases).repeat(k)
+        self.request = np.arange(n_cases * k) % max(k, 1)
         self.row = np.array([r.row for r in requests], int)[self.request]
         self.code = np.array([SENSES.index(r.sense) for r in requests], int)[self.request]
         self.only_above = np.array([-np.inf if r.only_above is None else r.only_above for r in requests])[self.request]
@@ -153,7 +158,7 @@ class Found:
         best = np.full(n, -np.inf)
         np.fmax.at(best, self.task, t)   # (NaN left out)
         top = np.full(n, none)
-        hit = np.flatnonzero(t == best[self.task])
+        hit = (t == best[self.task]).nonzero()[0]
         np.minimum.at(top, self.task[hit], hit)   # the first among equals
         if np.any(top == none):   # a task with NaN targets only: its first; a task with none: -1
             first = np.full(n, none)
@@ -175,24 +180,29 @@ def grid_brackets(tasks, s_grid, V, found):
     sign = tasks.sign(T)
     tgt = sign * T
     n = len(tasks)
-    found.add(np.repeat(np.arange(n), 2), np.tile([s_grid[0], s_grid[-1]], n), T[:, [0, -1]].ravel())
+    ends = np.empty((n, 2))
+    ends[:, 0], ends[:, 1] = s_grid[0], s_grid[-1]
+    found.add(np.arange(n).repeat(2), ends.ravel(), T[:, [0, -1]].ravel())
     with np.errstate(invalid="ignore"):
-        flat = np.ptp(T, axis=1) <= 1e-14 * np.maximum(np.max(np.abs(T), axis=1), 1e-300)
+        flat = T.max(axis=1) - T.min(axis=1) <= 1e-14 * np.maximum(np.abs(T).max(axis=1), 1e-300)   # (np.ptp's)
         inner = tgt[:, 1:-1]
         is_max = (inner >= tgt[:, :-2]) & (inner >= tgt[:, 2:]) & ~(inner < tasks.only_above[:, None]) & ~flat[:, None]
-    top = np.argmax(tgt[flat], axis=1)
-    found.add(np.flatnonzero(flat), s_grid[top], T[flat][np.arange(len(top)), top])
-    t, i = np.nonzero(is_max)
+    if flat.any():
+        top = tgt[flat].argmax(axis=1)
+        found.add(flat.nonzero()[0], s_grid[top], T[flat][np.arange(len(top)), top])
+    t, i = is_max.nonzero()
     i = i + 1
     parts = [(t, np.minimum(s_grid[i - 1], s_grid[i + 1]), np.maximum(s_grid[i - 1], s_grid[i + 1]), s_grid[i], i)]
     if S >= 2:   # the end intervals, refined from their end sample, after the interior ones (per task)
-        for end, other in ((0, 1), (S - 1, S - 2)):
-            te = np.flatnonzero(tasks.ends & np.isfinite(T[:, end]))
-            parts.append((te, np.full(len(te), min(s_grid[end], s_grid[other])),
-                          np.full(len(te), max(s_grid[end], s_grid[other])), np.full(len(te), s_grid[end]),
-                          np.full(len(te), end)))
+        te = [(tasks.ends & np.isfinite(T[:, end])).nonzero()[0] for end in (0, S - 1)]
+        which = np.zeros(len(te[0]) + len(te[1]), int)
+        which[len(te[0]):] = 1   # (0: the first sample's interval, 1: the last's)
+        end, other = np.array([0, S - 1]), np.array([1, S - 2])
+        at, by = s_grid[end], s_grid[other]   # (min and max as Python's: by where by < at, else at)
+        parts.append((np.concatenate(te), np.where(by < at, by, at)[which], np.where(by > at, by, at)[which],
+                      at[which], end[which]))
     bt, blo, bhi, bs0, bi = (np.concatenate(a) for a in zip(*parts))
-    order = np.argsort(bt, kind="stable")
+    order = bt.argsort(kind="stable")
     bt, blo, bhi, bs0, bi = bt[order], blo[order], bhi[order], bs0[order], bi[order]
     return bt, blo, bhi, bs0, sign[bt, bi], bi, T
 
@@ -203,9 +213,9 @@ def check_invariant(tasks, T, found, top, best):
     check is an error, never a result."""
     if not T.size:
         return
-    sampled = np.max(tasks.sign(T) * T, axis=1)
-    checked = np.all(np.isfinite(T), axis=1) & ~(sampled < tasks.only_above)
-    bad = np.flatnonzero(checked & ~(best >= sampled))
+    sampled = (tasks.sign(T) * T).max(axis=1)
+    checked = np.isfinite(T).all(axis=1) & ~(sampled < tasks.only_above)
+    bad = (checked & ~(best >= sampled)).nonzero()[0]
     if len(bad):
         from ..errors import ResultError
 

@@ -32,6 +32,17 @@ RETRY_S = 2.0   # while the library is being compiled, looked for again at most 
 SHARED = 0.75   # the two phases where the distinct intervals are at most this fraction of them
 _loaded = {}     # cache key -> the C function (one dlopen per library and process)
 _generator = []  # the hash of the code that writes the C (part of every entry's key)
+_addressof, _view = ctypes.addressof, ctypes.c_char.from_buffer
+
+
+def address(a: np.ndarray) -> int:
+    """The address of the first element of ``a`` (C-contiguous) for a C call: through ctypes'
+    view of its buffer, about 4 times cheaper than ``a.ctypes.data`` (the glue of a one-case
+    certification takes ~80 of them), which an array the view refuses (read-only, empty) takes."""
+    try:
+        return _addressof(_view(a))
+    except (TypeError, ValueError, BufferError):
+        return a.ctypes.data
 
 
 def generator() -> str:
@@ -69,7 +80,7 @@ class CompiledProgram:
         self.shapes, self.rows = program.shapes, program.rows
         self._function, self._forms, self._tried = None, None, -np.inf
         self._offsets, self._total = stacked_rows(program)
-        self._need, self._phases, self._written = {}, {}, {}
+        self._need, self._phases, self._written, self._plans, self._nan = {}, {}, {}, {}, None
         self.n_p = program.func.nnz_in(1) if program.func.n_in() > 1 else 0
         self._reads, self._params, self._selects = dependencies(program)
         self._outputs = np.array([entry[0] == interval_c.ca.OP_OUTPUT for entry in program.varying], bool)
@@ -120,7 +131,7 @@ class CompiledProgram:
         return self._function is not None or self._library() is not None
 
     def __getstate__(self):   # (pickled, e.g. to a figure process: the library is looked up again there)
-        return {**self.__dict__, "_function": None, "_forms": None, "_tried": -np.inf}
+        return {**self.__dict__, "_function": None, "_forms": None, "_tried": -np.inf, "_plans": {}, "_nan": None}
 
     def forms(self, rows, whole, mid, ends, end_a, end_b, r_above, r_below):
         """:meth:`~optdesign.kinematics.enclosure.Enclosure.bounds`'s forms in C (the same
@@ -131,13 +142,13 @@ class CompiledProgram:
         the others NaN.  Returns (L, U)."""
         m, n = whole[0].shape
         rows = np.arange(m) if rows is None else np.asarray(rows)
-        arrays = [np.ascontiguousarray(a) for a in (*whole, *mid, *ends)]
-        index = [np.ascontiguousarray(a, np.int64) for a in (rows, end_a, end_b)]
-        radii = [np.ascontiguousarray(a, float) for a in (r_above, r_below)]
-        out_lo, out_hi = np.full((m, n), np.nan), np.full((m, n), np.nan)
-        self._forms(len(rows), index[0].ctypes.data, n, arrays[-1].shape[1], *(a.ctypes.data for a in arrays),
-                    index[1].ctypes.data, index[2].ctypes.data, *(a.ctypes.data for a in radii), out_lo.ctypes.data,
-                    out_hi.ctypes.data)
+        kept = [np.ascontiguousarray(a) for a in (*whole, *mid, *ends)]   # (alive through the call)
+        kept += [np.ascontiguousarray(a, np.int64) for a in (rows, end_a, end_b)]
+        kept += [np.ascontiguousarray(a, float) for a in (r_above, r_below)]
+        out = np.full((2, m, n), np.nan)   # (out_lo, out_hi)
+        at = [address(a) for a in kept] + [address(out)]
+        self._forms(len(rows), at[14], n, kept[13].shape[1], *at[:14], *at[15:19], at[19], at[19] + 8 * m * n)
+        out_lo, out_hi = out
         return out_lo, out_hi
 
     def need(self, rows, outputs=None):
@@ -205,36 +216,60 @@ class CompiledProgram:
                              f"{p.shape}")
         if p.size == 0:
             p = np.zeros(1)
-        offsets, total = self._offsets, self._total
-        if outputs is not None:   # (the stacked rows up to the last output asked for: C writes no others)
-            total = max((offsets[j] + self.shapes[j] for j in outputs), default=0)
-        need = self.need(rows, outputs)
-        out_lo, out_hi = np.empty((total, n)), np.empty((total, n))
-        unwritten = self._unwritten(need)[:total]   # (NaN: the rows C does not write)
-        if unwritten.any():
-            out_lo[unwritten], out_hi[unwritten] = np.nan, np.nan
+        need, need_at, total, unwritten = self._plan(rows, outputs)
+        out = np.empty((2, total, n))   # (out_lo, out_hi)
+        if unwritten is not None:   # (NaN: the rows C does not write)
+            out[:, unwritten] = np.nan
+        out_lo, out_hi = out
         out_jump = np.zeros((total, n), np.bool_)
-        out = (out_lo.ctypes.data, out_hi.ctypes.data, out_jump.ctypes.data)
+        at = address(out)
+        out_at = (at, at + 8 * total * n, address(out_jump))
         two = self._shared(lo, hi, p, need, point, varied) if p.ndim == 2 and n > 1 else None
         if two is not None:   # the work shared by the rows once per distinct interval, then each row's
             (first, second, col), (lo_1, hi_1, src) = two
             k, m = int(np.count_nonzero(first == 2)), len(lo_1)
             sh_lo, sh_hi, sh_jump = np.empty((k, m)), np.empty((k, m)), np.zeros((k, m), np.bool_)
-            shared = (col.ctypes.data, sh_lo.ctypes.data, sh_hi.ctypes.data, sh_jump.ctypes.data)
-            if function(m, lo_1.ctypes.data, hi_1.ctypes.data, p.ctypes.data, 0, first.ctypes.data, *out, *shared,
-                        src.ctypes.data, 0) != 0 or \
-                    function(n, lo.ctypes.data, hi.ctypes.data, p.ctypes.data, stride, second.ctypes.data, *out,
-                             *shared, src.ctypes.data, m) != 0:
+            shared = (address(col), address(sh_lo), address(sh_hi), address(sh_jump))
+            p_at, src_at = address(p), address(src)
+            if function(m, address(lo_1), address(hi_1), p_at, 0, address(first), *out_at, *shared, src_at, 0) != 0 or \
+                    function(n, address(lo), address(hi), p_at, stride, address(second), *out_at, *shared, src_at,
+                             m) != 0:
                 raise MemoryError("the compiled interval program could not allocate its work arrays")
-        elif n and function(n, lo.ctypes.data, hi.ctypes.data, p.ctypes.data, stride, need.ctypes.data, *out,
-                            None, None, None, None, None, 0) != 0:
-            raise MemoryError("the compiled interval program could not allocate its work arrays")
+        elif n:
+            lo_at = address(lo)
+            if function(n, lo_at, lo_at if point else address(hi), address(p), stride, need_at, *out_at,
+                        None, None, None, None, None, 0) != 0:
+                raise MemoryError("the compiled interval program could not allocate its work arrays")
         if total == self._total:
-            return [(out_lo[o:o + m], out_hi[o:o + m], out_jump[o:o + m]) for o, m in zip(offsets, self.shapes)]
-        nan, no = np.full((max(self.shapes), n), np.nan), np.zeros((max(self.shapes), n), np.bool_)
-        nan.flags.writeable, no.flags.writeable = False, False   # (outputs not asked for: NaN, read-only)
+            return [(out_lo[o:o + m], out_hi[o:o + m], out_jump[o:o + m]) for o, m in zip(self._offsets, self.shapes)]
+        nan, no = self._placeholders(n)
         return [(out_lo[o:o + m], out_hi[o:o + m], out_jump[o:o + m]) if o + m <= total else (nan[:m], nan[:m], no[:m])
-                for o, m in zip(offsets, self.shapes)]
+                for o, m in zip(self._offsets, self.shapes)]
+
+    def _plan(self, rows, outputs):
+        """(the instructions a call of the outputs ``outputs`` of ``rows`` needs (:meth:`need`),
+        that mask's address, the stacked rows C writes up to, the rows below that it leaves
+        unwritten: an index, or None), found once per rows and outputs."""
+        key = (None if rows is None else np.asarray(rows).tobytes(), outputs)
+        plan = self._plans.get(key)
+        if plan is None:
+            need = self.need(rows, outputs)
+            total = self._total
+            if outputs is not None:   # (the stacked rows up to the last output asked for: C writes no others)
+                total = max((self._offsets[j] + self.shapes[j] for j in outputs), default=0)
+            unwritten = np.flatnonzero(self._unwritten(need)[:total])
+            plan = self._plans[key] = (need, address(need), total, unwritten if len(unwritten) else None)
+        return plan
+
+    def _placeholders(self, n):
+        """Read-only NaN values and False flags (output rows x n) for the outputs a call was not
+        asked for: views of one buffer, grown as calls grow."""
+        if self._nan is None or self._nan[0].shape[1] < n:
+            width = max(n, 2 * (0 if self._nan is None else self._nan[0].shape[1]), 64)
+            nan, no = np.full((max(self.shapes), width), np.nan), np.zeros((max(self.shapes), width), np.bool_)
+            nan.flags.writeable, no.flags.writeable = False, False
+            self._nan = nan, no
+        return self._nan[0][:, :n], self._nan[1][:, :n]
 
     def _unwritten(self, need):
         """The stacked output rows that a call of the instructions ``need`` leaves unwritten."""

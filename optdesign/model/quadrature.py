@@ -110,14 +110,20 @@ def integrate_arrays(f, pieces, starts=None, tol=1e-10, max_rounds=48, cases=1) 
         count += np.bincount(case, minlength=cases)
         if done_k is None:
             done_k, done_abs, done_err = (np.zeros((k.shape[0], cases)) for _ in range(3))
-        scale = np.maximum(done_abs + _by_case(absk, case, cases), 1e-300)
-        share = np.abs(lengths[piece]) * (_map(hi, powers[piece]) - _map(lo, powers[piece])) / total
+        by_abs, by_err = _by_case(absk, case, cases), _by_case(err, case, cases)
+        scale = np.maximum(done_abs + by_abs, 1e-300)
+        share = _share(piece, lo, hi, lengths, powers, total, first if rounds == 0 else None)
         fine = np.all(err <= tol * scale[:, case] * share[None, :], axis=0) | ~np.all(np.isfinite(err), axis=0)
         # within the tolerance as a whole (a jump's interval: halved until it is), or out of budget
-        whole = (np.all(done_err + _by_case(err, case, cases) <= tol * scale, axis=0) | (rounds >= max_rounds)
+        whole = (np.all(done_err + by_err <= tol * scale, axis=0) | (rounds >= max_rounds)
                  | (np.bincount(case, minlength=cases) > MAX_INTERVALS // 2))
         fine |= whole[case]
         fine |= hi - lo < 1e-15
+        if fine.all():   # every interval kept (most quadratures after their first round): the sums made above
+            done_k += _by_case(k, case, cases)
+            done_abs += by_abs
+            done_err += by_err
+            break
         done_k += _by_case(k[:, fine], case[fine], cases)
         done_abs += _by_case(absk[:, fine], case[fine], cases)
         done_err += _by_case(err[:, fine], case[fine], cases)
@@ -142,6 +148,14 @@ def _map(u, m):
     return u ** m
 
 
+def _share(piece, lo, hi, lengths, powers, total, tiled=None):
+    """Each interval's share of the sweep (of ``total``); ``tiled``: the intervals are copies of
+    their first ``tiled`` (:func:`_rules`), whose shares are made and repeated."""
+    if tiled:
+        return np.tile(_share(piece[:tiled], lo[:tiled], hi[:tiled], lengths, powers, total), len(piece) // tiled)
+    return np.abs(lengths[piece]) * (_map(hi, powers[piece]) - _map(lo, powers[piece])) / total
+
+
 def _rules(f, case, piece, lo, hi, anchors, lengths, powers, tiled=None):
     """Kronrod sums, Kronrod sums of |integrand| and |Kronrod - Gauss| on each interval
     (integrands x intervals), each a sum over the nodes in a fixed order (element by element,
@@ -159,10 +173,10 @@ def _rules(f, case, piece, lo, hi, anchors, lengths, powers, tiled=None):
         s, d, jac = _nodes(piece, lo, hi, anchors, lengths, powers)
         node_piece, node_case = np.repeat(piece, 15), np.repeat(case, 15)
     values = np.asarray(f(s.ravel(), d.ravel(), node_piece, node_case), float)
-    values = values.reshape(values.shape[0], len(piece), 15) * jac[None, :, :]   # (a new array)
-    if not np.isfinite(np.sum(values)):   # (a sum of finite values that overflows: nothing to change)
-        values[~np.isfinite(values)] = np.nan
-    nodes = np.ascontiguousarray(values.transpose(2, 0, 1))              # 15 x integrands x intervals
+    nodes = np.empty((15, values.shape[0], len(piece)))                   # 15 x integrands x intervals
+    np.multiply(values.reshape(values.shape[0], len(piece), 15).transpose(2, 0, 1), jac.T[:, None, :], out=nodes)
+    if not np.isfinite(np.sum(nodes)):   # (a sum of finite values that overflows: nothing to change)
+        nodes[~np.isfinite(nodes)] = np.nan
     k, g, absk = (np.zeros(nodes.shape[1:]) for _ in range(3))
     for j in range(15):
         k = k + W_KRONROD[j] * nodes[j]
