@@ -36,7 +36,7 @@ from .starts import RETRIES, StartPlan, plan_starts
 
 def optimise(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSettings | None = None,
              progress=None, x_starts=None, workers: int = 1, prepared=None, finished=None,
-             retry_if_fits: bool = False, planned=None) -> OptimisationResult:
+             retry_if_fits: bool = False, planned=None, polished=None) -> OptimisationResult:
     """Minimise the scene's objective over its design variables (front door).
 
     ``starts`` local solves from reproducible starts (the scene's start, then the best of a
@@ -46,9 +46,9 @@ def optimise(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSett
     start; ``workers`` > 1 solves the starts in that many forked processes (where the platform
     can fork; the result does not depend on the number of workers).  ``prepared``: the
     :class:`Prepared` problem and plan of these arguments, made beforehand (the motor
-    catalogue makes the next motor's while this one's starts run); ``planned(prepared)`` is
-    called with it once made (or given), before the starts; ``finished(report)`` is
-    called with each start's :class:`StartReport` as it finishes.
+    catalogue makes the next motor's while this one's starts run); ``planned(prepared)`` before
+    the starts, ``finished(report)`` as each one finishes (its :class:`StartReport`) and
+    ``polished(design)`` once the best start is polished (:func:`summarise`) are called.
 
     ``retry_if_fits`` (the motor catalogue's rule, :mod:`.catalogue`): each start first tries
     its own point alone; only when one of them found a design feasible at the sample points are
@@ -79,7 +79,7 @@ def optimise(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSett
                 else:
                     runs = solve_starts(solver, repair, plan, workers, progress, finished)
                 reports, solutions = [r for r, _ in runs], [s for _, s in runs]
-                return summarise(problem, solver, reports, solutions, spent(), plan)
+                return summarise(problem, solver, reports, solutions, spent(), plan, polished=polished)
             except KeyboardInterrupt as exc:   # during the starts, or while all of them are summarised
                 raise interrupted(problem, solver, plan, getattr(exc, "finished", runs), len(plan.points),
                                   spent()) from None
@@ -355,14 +355,16 @@ def _phase1_iterations(tried) -> int:
     return sum(e.get("phase1_iterations", 0) for e in tried)
 
 
-def summarise(problem, solver, reports, solutions, timings, plan=None, fixed=None) -> OptimisationResult:
+def summarise(problem, solver, reports, solutions, timings, plan=None, fixed=None,
+              polished=None) -> OptimisationResult:
     """The result of the starts: the best certified optimum (and how many starts reached it
-    within 1e-3), the distinct local optima, its constraints and sensitivities; or why none
-    converged (with the least-violating design when phase 1 failed from every start)."""
+    within 1e-3; ``polished(design)`` is told its design first), the distinct local optima, its
+    constraints and sensitivities; or why none converged (with the least-violating design when
+    phase 1 failed from every start)."""
     pb = problem
     optima = local_optima(pb, reports, solutions)
     index_of = {s: j for j, o in enumerate(optima) for s in o.starts}
-    reports = [_with_optimum(r, index_of.get(r.index)) for r in reports]
+    reports = [replace(r, optimum=index_of.get(r.index)) for r in reports]
     starts_info = plan.as_dict() if plan is not None else {"method": "given", "screened": 0, "reserve": None}
     good = [(r.objective, i) for i, r in enumerate(reports) if r.success and r.objective is not None]
     if not good:
@@ -372,6 +374,8 @@ def summarise(problem, solver, reports, solutions, timings, plan=None, fixed=Non
     # the best start's solution with its sample points on the continuous extrema (its
     # multipliers are then the continuous problem's); the same optimum to the tolerances
     sol = solver.polish(solutions[best], fixed)
+    if polished is not None:   # (the result's design, as below)
+        polished(dict(zip(pb.design_names, map(float, np.clip(sol.x, pb.lower, pb.upper)))))
     best_value, refused, cycle = certify_cycle(pb, sol, objective_value(pb, sol),
                                               objective_value(pb, sol, certified=False), fixed)
     factor = objective_gradient_factor(pb, sol)
@@ -411,10 +415,6 @@ def _certified_cycle(constraints, cycle):
             constraints[name] = dict(constraints[name], value=c["value"], value_error=c["error"],
                                      value_sampled=constraints[name].get("value"))
     return constraints
-
-
-def _with_optimum(report, j):
-    return replace(report, optimum=j)
 
 
 def _no_optimum(pb, reports, timings, starts_info) -> OptimisationResult:
