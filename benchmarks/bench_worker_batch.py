@@ -12,6 +12,9 @@ code from the disk cache: ``OPTDESIGN_COMPILE=wait``, after a warm-up batch), me
 rest" what the batch costs besides the stages named.  The certification of extremes is shown
 apart and left out of the total "without certification" (another line of work).
 
+The process keeps freed memory as the code's pool process does (``errors.keep_freed_memory``,
+where the code has it).
+
 ``--base REV``: the same measurement with the code at REV (exported with ``git archive``) in a
 child process, the two codes' rounds interleaved, and the batch's journal lines (their time_s
 apart) and CSV cells compared byte for byte.
@@ -57,6 +60,10 @@ def child(n, repeats):
 
     import optdesign
     from benchfile import wrap_stages
+    from optdesign import errors
+
+    if hasattr(errors, "keep_freed_memory"):   # the memory settings of the code's pool process (since 8a9da6d)
+        errors.keep_freed_memory()
     from optdesign.study import Study, executors, grid
     from optdesign.study.tasks import scene_digest
 

@@ -29,6 +29,21 @@ def clean():
     drive_train._BUILT[:], drive_train._LAST[:], design_cases._LAST[:] = [], [None, None], [None, None]
 
 
+@pytest.fixture(scope="module")
+def built():
+    """The catalogue scene's build (report/drive_train.prebuild), made once for the tests that run it."""
+    scene = catalogue_scene(crank())
+    drive_train.prebuild(scene)
+    build, drive_train._BUILT[:] = drive_train._BUILT[0], []
+    return scene, build
+
+
+def _use(built):
+    scene, build = built
+    drive_train._BUILT[:], drive_train._RAN[:] = [build], []
+    return scene
+
+
 def _not_analysed_again(monkeypatch):
     monkeypatch.setattr(analysis_module, "analyse", lambda *a, **k: pytest.fail("analysed from scratch"))
 
@@ -40,10 +55,9 @@ def test_the_catalogue_scene_has_every_motor_in_the_order_tried():
     assert dataclasses.replace(whole, motors=scene.motors) == scene
 
 
-def _prebuilt_against_apart(ratios, monkeypatch):
-    scene = catalogue_scene(crank())
+def _prebuilt_against_apart(ratios, built, monkeypatch):
+    scene = _use(built)
     apart = [analysis_module.analyse(scene.with_parameters(i=float(i))) for i in ratios]
-    drive_train.prebuild(scene)
     _not_analysed_again(monkeypatch)
     for i, reference in zip(ratios, apart):
         made = drive_train.analyse_at(scene, {"i": float(i)})
@@ -51,23 +65,23 @@ def _prebuilt_against_apart(ratios, monkeypatch):
         assert same(made, reference) == []
 
 
-def test_the_prebuilt_analysis_is_the_one_made_apart(clean, monkeypatch):
+def test_the_prebuilt_analysis_is_the_one_made_apart(clean, built, monkeypatch):
     """At the upper bound of the ratio, after the build's own run at the scene's values: the
     run of the build equals the scene analysed at that ratio from scratch."""
-    _prebuilt_against_apart([200.0], monkeypatch)
+    _prebuilt_against_apart([200.0], built, monkeypatch)
 
 
 @pytest.mark.slow   # three analyses from scratch; the test above is the fast sibling
-def test_the_prebuilt_analysis_is_the_one_made_apart_over_the_box(clean, monkeypatch):
+def test_the_prebuilt_analysis_is_the_one_made_apart_over_the_box(clean, built, monkeypatch):
     """Ratios over the design box (its bounds and one between), one after the other on one build."""
-    _prebuilt_against_apart([2.0, 23.7, 200.0], monkeypatch)
+    _prebuilt_against_apart([2.0, 23.7, 200.0], built, monkeypatch)
 
 
-def test_a_build_of_another_scene_is_not_used(clean, monkeypatch):
+def test_a_build_of_another_scene_is_not_used(clean, built, monkeypatch):
     """The scene with the small motor alone is not the catalogue's (every motor), whose build is there."""
     result, _ = _catalogue(40.0)
     scene = result.scene
-    drive_train.prebuild(catalogue_scene(crank()))
+    _use(built)   # the catalogue scene's: every motor
     made = []
     monkeypatch.setattr(analysis_module, "analyse", lambda s: made.append(s) or "made apart")
     assert drive_train.analyse_at(scene, {"i": 40.0}) == "made apart"
@@ -76,12 +90,14 @@ def test_a_build_of_another_scene_is_not_used(clean, monkeypatch):
 
 def test_the_figure_process_answers_with_its_build(clean, monkeypatch):
     """The catalogue's analysis at the chosen design, made in the figure process from the build
-    it made on start, is the one made apart, and the command keeps it for the JSON."""
+    it made on start (begun when the design was told), is the one made apart, and the command
+    keeps it for the JSON."""
     result, catalogue = _catalogue(40.0)
     scene = catalogue_scene(crank())
     whole = analysis_module.analyse(scene.with_parameters(i=40.0))
     _not_analysed_again(monkeypatch)   # (inherited by the fork: the process must use its build)
     with FigureProcess(scene) as figures:
+        figures.begin({"i": 40.0})   # (the design once polished: made ahead there)
         made = figures.analysis(result, catalogue)
     assert made is not None and same(made, whole) == []
     drive_train.keep_catalogue_analysis(catalogue, made)
@@ -93,3 +109,32 @@ def test_without_the_figure_process_the_analysis_is_made_here(clean):
     figures.close()
     result, catalogue = _catalogue(40.0)
     assert figures.analysis(result, catalogue) is None
+
+
+def test_the_analysis_made_ahead_is_the_one_asked_for(clean, built, monkeypatch):
+    """analyse_ahead at the optimum's design (told by optimise's ``polished`` while the command
+    still certifies the optimum): the later analyse_at of that design is that analysis, not run
+    again; another design is run anew."""
+    scene = _use(built)
+    drive_train.analyse_ahead({"i": 40.0})
+    made = drive_train._RAN[2]
+    build = drive_train._BUILT[0]
+    monkeypatch.setattr(build, "run", lambda *a: pytest.fail("run again"))
+    assert drive_train.analyse_at(scene, {"i": 40.0}) is made
+    monkeypatch.undo()
+    _not_analysed_again(monkeypatch)
+    other = drive_train.analyse_at(scene, {"i": 41.0})
+    assert other is not made and other.scene == scene.with_parameters(i=41.0)
+
+
+def test_optimise_tells_the_polished_design():
+    """optimise's ``polished`` is told the result's design, once, before the result is made (the
+    command sends it to the figure process: FigureProcess.begin)."""
+    from optdesign.design.catalogue import with_motor
+    from optdesign.design.multistart import optimise
+
+    sc = crank()
+    small = with_motor(sc, next(m for m in sc.motors if m.name == "small"))
+    told = []
+    result = optimise(small, starts=1, polished=told.append)
+    assert result.success and told == [result.design]

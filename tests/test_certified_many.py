@@ -114,6 +114,19 @@ def test_rows_no_axis_moves_are_certified_once_per_batch_and_each_case_keeps_its
     assert together == alone   # bit-identical, certificates included
     assert c.many(s, P[::-1], {k: v[::-1] for k, v in columns.items()},
                   {k: v[::-1] for k, v in constraints.items()}) == alone[::-1]
+    # cases that differ in a parameter those rows read (not a study's batch: an axis of another
+    # study): one branch and bound of them per group of equal values, each case still its own
+    mixed = P.copy()
+    mixed[::2, analysis.mech.parameter_names.index("xD")] += 0.05
+    m_columns, m_constraints = stacked(analysis, mixed)
+    monkeypatch.setattr(certified_module, "maxima_of_cases", lambda f, grid, V, requests, **kw: calls.append(
+        (len(V), sorted({r.row for r in requests}))) or keep(f, grid, V, requests, **kw))
+    calls.clear()
+    got = c.many(s, mixed, m_columns, m_constraints)
+    monkeypatch.setattr(certified_module, "maxima_of_cases", keep)
+    assert calls == [(8, sorted(c.peak_rows.values())), (2, sorted(c.fixed_rows))]
+    assert got == [c(s, mixed[i], {k: v[i] for k, v in m_columns.items()}, {k: v[i] for k, v in m_constraints.items()})
+                   for i in range(len(P))]
     joint = crane.certified.many(s, P, columns, constraints)   # (the same scene's rows, one branch and bound)
     for i, (f, g) in enumerate(zip(together, joint)):
         assert f["peaks"] == g["peaks"] and f["peak_at"] == g["peak_at"]

@@ -53,6 +53,16 @@ def test_rows_read_back_as_appended_and_columns_as_before(rows):
     for name in ("case", "id", "status", "success", "peak:drive", "x", "y", "absent"):
         np.testing.assert_array_equal(held.column(name), old_column(rows, name))
         assert held.has(name) == any(name in r for r in rows)
+        # a column's values as the rows hold them (None where a row has none), and as doubles where
+        # every row holds a float: the very same ones, bit for bit
+        start = len(rows) // 3
+        values = held.values(name, start)
+        assert same(dict(enumerate(values)), {j: r.get(name) for j, r in enumerate(rows[start:])})
+        floats = held.floats(name, start)
+        pure = bool(rows) and all(type(r.get(name)) is float for r in rows)
+        assert (floats is not None) == pure
+        if pure:
+            assert floats.tobytes() == np.array(values, dtype=float).tobytes()
     got = held[0] if rows else None
     if got:   # a row read is a new dict: changing it leaves the rows alone
         got.clear()

@@ -62,6 +62,8 @@ def solve_and_write(args, scene, folder, figures):
             bar(done, total)
 
     catalogue = None
+    # the figure process analyses the optimum as soon as its design is known (report/figure_process.py)
+    polished = None if figures is None else figures.begin
     try:
         if len(scene.motors) > 1:  # a motor catalogue: each motor in turn, the smallest that fits
             from ..design.catalogue import optimise_catalogue
@@ -74,10 +76,11 @@ def solve_and_write(args, scene, folder, figures):
                 if bars[label] is not None:
                     bars[label](done, total)
             catalogue = optimise_catalogue(scene, starts=args.starts, seed=args.seed, workers=args.workers,
-                                           progress=motor_progress)
+                                           progress=motor_progress, polished=polished)
             result = catalogue.best
         else:
-            result = optimise(scene, starts=args.starts, seed=args.seed, progress=progress, workers=args.workers)
+            result = optimise(scene, starts=args.starts, seed=args.seed, progress=progress, workers=args.workers,
+                              polished=polished)
     except OptimisationInterrupted as stop:   # Ctrl-C: save what finished
         save_interrupted(stop, folder, args)
         raise

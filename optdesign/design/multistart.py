@@ -36,7 +36,7 @@ from .starts import RETRIES, StartPlan, plan_starts
 
 def optimise(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSettings | None = None,
              progress=None, x_starts=None, workers: int = 1, prepared=None, finished=None,
-             retry_if_fits: bool = False, planned=None) -> OptimisationResult:
+             retry_if_fits: bool = False, planned=None, polished=None) -> OptimisationResult:
     """Minimise the scene's objective over its design variables (front door).
 
     ``starts`` local solves from reproducible starts (the scene's start, then the best of a
@@ -46,9 +46,9 @@ def optimise(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSett
     start; ``workers`` > 1 solves the starts in that many forked processes (where the platform
     can fork; the result does not depend on the number of workers).  ``prepared``: the
     :class:`Prepared` problem and plan of these arguments, made beforehand (the motor
-    catalogue makes the next motor's while this one's starts run); ``planned(prepared)`` is
-    called with it once made (or given), before the starts; ``finished(report)`` is
-    called with each start's :class:`StartReport` as it finishes.
+    catalogue makes the next motor's while this one's starts run); ``planned(prepared)`` before
+    the starts, ``finished(report)`` as each one finishes (its :class:`StartReport`) and
+    ``polished(design)`` once the best start is polished (:func:`summarise`) are called.
 
     ``retry_if_fits`` (the motor catalogue's rule, :mod:`.catalogue`): each start first tries
     its own point alone; only when one of them found a design feasible at the sample points are
@@ -61,7 +61,7 @@ def optimise(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSett
     t0 = time.perf_counter()
     with interruptible():   # Ctrl-C: stop at once, keep the finished starts
         if prepared is None:
-            prepared = prepare(scene, starts, seed, settings, x_starts)
+            prepared = prepare(scene, starts, seed, settings, x_starts, processes=workers)
         if planned is not None:
             planned(prepared)
         problem, solver, repair, plan = prepared.problem, prepared.solver, prepared.repair, prepared.plan
@@ -79,7 +79,7 @@ def optimise(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSett
                 else:
                     runs = solve_starts(solver, repair, plan, workers, progress, finished)
                 reports, solutions = [r for r, _ in runs], [s for _, s in runs]
-                return summarise(problem, solver, reports, solutions, spent(), plan)
+                return summarise(problem, solver, reports, solutions, spent(), plan, polished=polished)
             except KeyboardInterrupt as exc:   # during the starts, or while all of them are summarised
                 raise interrupted(problem, solver, plan, getattr(exc, "finished", runs), len(plan.points),
                                   spent()) from None
@@ -100,16 +100,16 @@ class Prepared:
 
 
 def prepare(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSettings | None = None,
-            x_starts=None, ahead: bool = False) -> Prepared:
-    """The problem of ``scene`` built and its starts planned, as :func:`optimise` would with
-    these arguments (``ahead``: made beforehand, in another thread than the one that will
+            x_starts=None, ahead: bool = False, processes: int = 1) -> Prepared:
+    """The problem of ``scene`` built and its starts planned (``processes``: draw_plan's), as
+    :func:`optimise` would (``ahead``: made beforehand, in another thread than the one that will
     optimise: CasADi's messages are then left alone, the starts' optimise hides them)."""
     t0 = time.perf_counter()
     problem = DesignProblem(scene, settings)
     solver, repair = Solver(problem), Repair(problem)
     t_build = time.perf_counter() - t0
     with contextlib.nullcontext() if ahead else casadi_messages_hidden():
-        plan = draw_plan(problem, starts, seed, x_starts=x_starts)
+        plan = draw_plan(problem, starts, seed, x_starts=x_starts, processes=processes)
     if plan.fitting:   # an objective phase will run: what it builds on first use, built once (before workers fork)
         solver.warm()
     t_all = time.perf_counter() - t0
@@ -132,12 +132,12 @@ def interrupted(problem, solver, plan, runs, total, timings) -> OptimisationInte
                                    len(runs), total)
 
 
-def draw_plan(problem: DesignProblem, starts: int, seed: int, fixed=None, x_starts=None) -> StartPlan:
-    """The starts (and their reserve for retries): planned from the seed, or the given ones
-    (then the reserve is screened only if a start needs a retry).  A single start is the
-    scene's own, with the reserve screened on demand too."""
+def draw_plan(problem: DesignProblem, starts: int, seed: int, fixed=None, x_starts=None, processes=1) -> StartPlan:
+    """The starts (and their reserve for retries): planned from the seed (the screenings shared among
+    ``processes``: :func:`~.starts.plan_starts`), or the given ones (then the reserve is screened
+    only if a start needs a retry).  A single start is the scene's own, its reserve screened on demand."""
     if x_starts is None and starts > 1:
-        return plan_starts(problem, starts, seed, fixed)
+        return plan_starts(problem, starts, seed, fixed, processes=processes)
     points = problem.start[None, :] if x_starts is None else np.atleast_2d(np.asarray(x_starts, float))
     return StartPlan(points, method="sobol" if x_starts is None else "given",
                      plan_reserve=lambda: plan_starts(problem, len(points), seed, fixed))
@@ -355,14 +355,16 @@ def _phase1_iterations(tried) -> int:
     return sum(e.get("phase1_iterations", 0) for e in tried)
 
 
-def summarise(problem, solver, reports, solutions, timings, plan=None, fixed=None) -> OptimisationResult:
+def summarise(problem, solver, reports, solutions, timings, plan=None, fixed=None,
+              polished=None) -> OptimisationResult:
     """The result of the starts: the best certified optimum (and how many starts reached it
-    within 1e-3), the distinct local optima, its constraints and sensitivities; or why none
-    converged (with the least-violating design when phase 1 failed from every start)."""
+    within 1e-3; ``polished(design)`` is told its design first), the distinct local optima, its
+    constraints and sensitivities; or why none converged (with the least-violating design when
+    phase 1 failed from every start)."""
     pb = problem
     optima = local_optima(pb, reports, solutions)
     index_of = {s: j for j, o in enumerate(optima) for s in o.starts}
-    reports = [_with_optimum(r, index_of.get(r.index)) for r in reports]
+    reports = [replace(r, optimum=index_of.get(r.index)) for r in reports]
     starts_info = plan.as_dict() if plan is not None else {"method": "given", "screened": 0, "reserve": None}
     good = [(r.objective, i) for i, r in enumerate(reports) if r.success and r.objective is not None]
     if not good:
@@ -372,6 +374,8 @@ def summarise(problem, solver, reports, solutions, timings, plan=None, fixed=Non
     # the best start's solution with its sample points on the continuous extrema (its
     # multipliers are then the continuous problem's); the same optimum to the tolerances
     sol = solver.polish(solutions[best], fixed)
+    if polished is not None:   # (the result's design, as below)
+        polished(dict(zip(pb.design_names, map(float, np.clip(sol.x, pb.lower, pb.upper)))))
     best_value, refused, cycle = certify_cycle(pb, sol, objective_value(pb, sol),
                                               objective_value(pb, sol, certified=False), fixed)
     factor = objective_gradient_factor(pb, sol)
@@ -411,10 +415,6 @@ def _certified_cycle(constraints, cycle):
             constraints[name] = dict(constraints[name], value=c["value"], value_error=c["error"],
                                      value_sampled=constraints[name].get("value"))
     return constraints
-
-
-def _with_optimum(report, j):
-    return replace(report, optimum=j)
 
 
 def _no_optimum(pb, reports, timings, starts_info) -> OptimisationResult:

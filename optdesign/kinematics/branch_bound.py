@@ -55,36 +55,36 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
     task, lo, hi, where, pick = first_intervals(tasks, s_grid, found, best)
     left_ub = np.full(len(task), np.inf)   # bounds of the intervals still open (inf: not bounded yet)
     left = []   # (task, lo, hi, bound) of the intervals of the cases that stopped
-    for pass_ in range(MAX_PASSES):
-        if not len(task):
-            break
-        case = tasks.case[task]
-        if pass_:   # the distinct intervals of each case (the tasks of a case share them)
-            order = np.lexsort((hi, lo, case))
-            c, a, b = case[order], lo[order], hi[order]
-            first = _starts((c[1:] != c[:-1]) | (a[1:] - a[:-1] != 0) | (b[1:] - b[:-1] != 0), len(order))
-            where = np.empty(len(task), int)
-            where[order] = first.cumsum() - 1
-            pick = order[first]
-        # each distinct interval expanded at a located maximum inside it or at its end (its tasks'
-        # best; the largest such s where several are), else at its midpoint
-        top, _ = found.best(tasks.code)
-        centre = found.s[top[task]]
-        with np.errstate(invalid="ignore"):
+    halves = 2.0 ** -np.arange(1, PRESPLIT + 1)[None, :]   # (cuts towards a maximum: the width times these)
+    with np.errstate(invalid="ignore"):   # (NaN compared: False, as meant)
+        for pass_ in range(MAX_PASSES):
+            if not len(task):
+                break
+            case = tasks.case[task]
+            if pass_:   # the distinct intervals of each case (the tasks of a case share them)
+                order = np.lexsort((hi, lo, case))
+                c, a, b = case[order], lo[order], hi[order]
+                first = _starts((c[1:] != c[:-1]) | (a[1:] - a[:-1] != 0) | (b[1:] - b[:-1] != 0), len(order))
+                where = np.empty(len(task), int)
+                where[order] = first.cumsum() - 1
+                pick = order[first]
+            # each distinct interval expanded at a located maximum inside it or at its end (its
+            # tasks' best; the largest such s where several are), else at its midpoint
+            top, _ = found.best(tasks.code)
+            centre = found.s[top[task]]
             centre = np.where((lo <= centre) & (centre <= hi), centre, np.nan)
-        at = np.empty(len(pick))
-        at.fill(np.nan)
-        np.fmax.at(at, where, centre)
-        r_of, code = tasks.row[task], tasks.code[task]
-        rows = np.bincount(r_of).nonzero()[0]   # (the rows asked for, ascending: np.unique's)
-        L, U, vm_lo, vm_hi = enclosure.bounds(lo[pick], hi[pick], rows, case[pick], at)
-        ub = target_bound(L[r_of, where], U[r_of, where], code, upper=True)
-        vm_lo, vm_hi = vm_lo[r_of, where], vm_hi[r_of, where]
-        at_mid = target_bound(vm_lo, vm_hi, code, upper=False)
-        locate_better(evaluate, tasks, found, best, task, lo, hi, at_mid, vm_lo + vm_hi, s_tol, limits)
-        # the tolerance, or where rounding is larger, four times the width of the midpoint's own
-        # enclosure (a row that cancels to ~0: its floating-point evaluation cannot say more)
-        with np.errstate(invalid="ignore"):
+            at = np.empty(len(pick))
+            at.fill(np.nan)
+            np.fmax.at(at, where, centre)
+            r_of, code = tasks.row[task], tasks.code[task]
+            rows = np.bincount(r_of).nonzero()[0]   # (the rows asked for, ascending: np.unique's)
+            L, U, vm_lo, vm_hi = enclosure.bounds(lo[pick], hi[pick], rows, case[pick], at)
+            ub = target_bound(L[r_of, where], U[r_of, where], code, upper=True)
+            vm_lo, vm_hi = vm_lo[r_of, where], vm_hi[r_of, where]
+            at_mid = target_bound(vm_lo, vm_hi, code, upper=False)
+            locate_better(evaluate, tasks, found, best, task, lo, hi, at_mid, vm_lo + vm_hi, s_tol, limits)
+            # the tolerance, or where rounding is larger, four times the width of the midpoint's
+            # own enclosure (a row that cancels to ~0: its floating-point evaluation cannot say more)
             width_m = vm_hi - vm_lo
             noise = 4.0 * np.where(np.isfinite(width_m), width_m, 0.0)
             threshold = np.maximum(best[task] + np.maximum(tol_abs[task], noise), tasks.only_above[task])
@@ -99,17 +99,17 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
             stop = np.bincount(case, minlength=tasks.n_cases) > MAX_INTERVALS
             stop[case[width <= max(span, 1e-300) * 1e-13]] = True
             stopping = stop[case] | (pass_ == MAX_PASSES - 1)
-        if stopping.any():
-            left.append((task[stopping], lo[stopping], hi[stopping], left_ub[stopping]))
-            task, lo, hi, left_ub = task[~stopping], lo[~stopping], hi[~stopping], left_ub[~stopping]
-            width = hi - lo
-        # halved; one that holds its task's best located maximum cut towards it as in the first pass
-        top, _ = found.best(tasks.code)
-        centre = found.s[top[task]]
-        around = (lo < centre) & (centre < hi)
-        steps = width[around, None] * 2.0 ** -np.arange(1, PRESPLIT + 1)[None, :]
-        cuts = centre[around, None] + np.concatenate((-steps, np.zeros((len(steps), 1)), steps[:, ::-1]), axis=1)
-        task, lo, hi, left_ub = split(task, lo, hi, left_ub, cuts, around, lo + width * 0.5)
+            if stopping.any():
+                left.append((task[stopping], lo[stopping], hi[stopping], left_ub[stopping]))
+                task, lo, hi, left_ub = task[~stopping], lo[~stopping], hi[~stopping], left_ub[~stopping]
+                width = hi - lo
+            # halved; one that holds its task's best located maximum cut towards it as in the first pass
+            top, _ = found.best(tasks.code)
+            centre = found.s[top[task]]
+            around = (lo < centre) & (centre < hi)
+            steps = width[around, None] * halves
+            cuts = centre[around, None] + np.concatenate((-steps, np.zeros((len(steps), 1)), steps[:, ::-1]), axis=1)
+            task, lo, hi, left_ub = split(task, lo, hi, left_ub, cuts, around, lo + width * 0.5)
     if left:
         task, lo, hi, left_ub = (np.concatenate(a) for a in zip(*left))
         np.maximum.at(bound, task, left_ub)

@@ -303,20 +303,30 @@ class Enclosure:
             p = self.p
         else:
             one = len(self.p) == 1   # one case: its parameter vector (the same bits, without a row per interval)
-            cases = np.asarray(cases, int)
-            key_case, key_s = np.concatenate((cases, cases)), np.concatenate((lo, hi))
-            order = np.argsort(key_s, kind="stable") if one else np.lexsort((key_s, key_case))
-            changes = np.diff(key_s[order]) != 0
-            first = np.concatenate(([True], changes if one else (np.diff(key_case[order]) != 0) | changes))
+            key_s = np.concatenate((lo, hi))
+            if one:
+                order = key_s.argsort(kind="stable")
+            else:
+                cases = np.asarray(cases, int)
+                key_case = np.concatenate((cases, cases))
+                order = np.lexsort((key_s, key_case))
+            by_s = key_s[order]
+            first = np.empty(2 * n, bool)   # (an end that differs from the one before: by s - s' != 0)
+            first[:1] = True
+            np.not_equal(by_s[1:] - by_s[:-1], 0, out=first[1:])
+            if not one:
+                by_case = key_case[order]
+                first[1:] |= by_case[1:] != by_case[:-1]
             where_end = np.empty(2 * n, int)
-            where_end[order] = np.cumsum(first) - 1
-            ends, end_case = key_s[order][first], key_case[order][first]
-            p = self.p[0] if one else self.p[np.concatenate((cases, cases, end_case))]
+            where_end[order] = first.cumsum() - 1
+            ends = by_s[first]
+            p = self.p[0] if one else self.p[np.concatenate((cases, cases, by_case[first]))]
         # over [lo, hi] everything; at the midpoints v and v' (the Taylor form's); at the ends v
         # (the monotone form's): each call runs only the instructions its outputs need
         # (numpy runs a program instruction by instruction, at a fixed cost per instruction and
         # call: there all of them in one call)
-        if getattr(self.program, "subsets_pay", False):
+        compiled = getattr(self.program, "subsets_pay", False)
+        if compiled:
             p_whole, p_mid, p_ends = (p[:n], p[n:2 * n], p[2 * n:]) if p.ndim == 2 else (p, p, p)
             varied = self._varied() if p.ndim == 2 else None   # (the parameters that differ between the cases)
             (L, U, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(lo, hi, p_whole, rows, varied=varied)
@@ -329,7 +339,7 @@ class Enclosure:
                                                 v_lo[:, 2 * n:], v_hi[:, 2 * n:])
             dm_lo, dm_hi = d_lo[:, n:2 * n], d_hi[:, n:2 * n]
             v_jump, d_lo, d_hi, d_jump, e_lo, e_hi = (a[:, :n] for a in (v_jump, d_lo, d_hi, d_jump, e_lo, e_hi))
-        if getattr(self.program, "subsets_pay", False) and hasattr(self.program, "forms"):   # (compiled: the same bits)
+        if compiled and hasattr(self.program, "forms"):   # (compiled: the same bits)
             L, U = self.program.forms(rows, (L, U, v_jump, d_lo, d_hi, d_jump, e_lo, e_hi), (vm_lo, vm_hi, dm_lo, dm_hi),
                                       (at_lo, at_hi), where_end[:n], where_end[n:], r_above, r_below)
             return L, U, vm_lo, vm_hi

@@ -52,7 +52,7 @@ def newton(evaluate, cases, rows, lo, hi, s0, sign, s_tol=1e-13):
     the step or the bracket is below s_tol (relative to max(1, |s|)) with the value at the new
     point, or after MAX_STEPS steps.  Returns (s, v(s)) arrays."""
     cases, rows = np.asarray(cases, int), np.asarray(rows, int)
-    lo, hi, s0, sign = (np.array(a, float) for a in (lo, hi, s0, sign))
+    lo, hi, s0, sign = (np.asarray(a, float) for a in (lo, hi, s0, sign))   # (read only: s_out is s0's copy)
     n = len(s0)
     if not n:
         return np.zeros(0), np.zeros(0)
@@ -155,12 +155,14 @@ class Found:
             return self._best[1]
         t = target(self.v, code[self.task])
         n, none = self.n_tasks, len(t)
-        best = np.full(n, -np.inf)
+        best = np.empty(n)
+        best.fill(-np.inf)
         np.fmax.at(best, self.task, t)   # (NaN left out)
-        top = np.full(n, none)
+        top = np.empty(n, int)
+        top.fill(none)
         hit = (t == best[self.task]).nonzero()[0]
         np.minimum.at(top, self.task[hit], hit)   # the first among equals
-        if np.any(top == none):   # a task with NaN targets only: its first; a task with none: -1
+        if (top == none).any():   # a task with NaN targets only: its first; a task with none: -1
             first = np.full(n, none)
             np.minimum.at(first, self.task, np.arange(none))
             nan_only = (top == none) & (first < none)

@@ -34,6 +34,7 @@ class MappedFunction:
         # the buffers hold an output's structural nonzeros only: where they go in the dense
         # output (column-major), per output
         self._dense = [(func.size1_out(j), func.sparsity_out(j).find()) for j in range(func.n_out())]
+        self._n_p = func.nnz_in(1) if func.n_in() > 1 else 0
         self._buffered = (all(func.sparsity_in(j).is_dense() for j in range(func.n_in()))
                           and all(func.size2_out(j) == 1 for j in range(func.n_out())))
 
@@ -63,8 +64,8 @@ class MappedFunction:
         """As __call__ with a parameter row per value: mapped over both inputs, in calls of a
         power of two values (padded with the last value: one mapped Function per size)."""
         n = len(s)
-        if p.shape != (n, self.func.nnz_in(1)):
-            raise ValueError(f"p: one row of {self.func.nnz_in(1)} parameters per value ({n}); got {p.shape}")
+        if p.shape != (n, self._n_p):
+            raise ValueError(f"p: one row of {self._n_p} parameters per value ({n}); got {p.shape}")
         if not n:
             return [np.zeros((self.func.size1_out(j), 0)) for j in range(self.func.n_out())]
         if n > PER_POINT_CHUNK:   # in pieces: less padding (each value on its own)
@@ -82,20 +83,20 @@ class MappedFunction:
             buffer.set_arg(1, memoryview(p_in))
             for j, out in enumerate(outs):
                 buffer.set_res(j, memoryview(out))
-            self._maps[key] = (mapped, buffer, run, s_in, p_in, outs)
-        mapped, buffer, run, s_in, p_in, outs = self._maps[key]
+            self._maps[key] = (mapped, buffer, run, s_in, p_in.reshape(size, -1), outs)
+        mapped, buffer, run, s_in, p_rows, outs = self._maps[key]
         if not self._buffered:
             return [np.asarray(o)[:, :n] for o in mapped(np.r_[s, np.full(size - n, s[-1])][None, :],
                                                         np.r_[p, np.repeat(p[-1:], size - n, axis=0)].T)]
         s_in[:n], s_in[n:] = s, s[-1]
-        p_in.reshape(size, -1)[:n], p_in.reshape(size, -1)[n:] = p, p[-1]
+        p_rows[:n], p_rows[n:] = p, p[-1]
         try:
             run()
             if buffer.ret() == 0:
                 return [self._densify(o, j, size)[:, :n] for j, o in enumerate(outs)]
         except RuntimeError as exc:
             check_interrupt(exc)
-        return [np.asarray(o)[:, :n] for o in mapped(s_in[None, :], p_in.reshape(size, -1).T)]
+        return [np.asarray(o)[:, :n] for o in mapped(s_in[None, :], p_rows.T)]
 
     def _densify(self, nonzeros, j, n):
         """Output j (rows x n, dense) from the n evaluations' structural nonzeros."""

@@ -61,7 +61,7 @@ def prebuild(scene):
         build.run()
     except OptdesignError:   # the start does not assemble, say: the design may
         pass
-    _BUILT[:] = [build]
+    _BUILT[:], _RAN[:] = [build], []
 
 
 def analyse_at(scene, design: dict):
@@ -77,13 +77,28 @@ def analyse_at(scene, design: dict):
     names = [] if build is None else list(build.mech.parameter_names)
     if build is None or not all(k in names and isinstance(v, (int, float)) for k, v in design.items()):
         return analyse(scene.with_parameters(**design))
+    if _RAN and _RAN[0] is build and _RAN[1] == design:   # made ahead (analyse_ahead)
+        return _RAN[2]
     p = build.mech.parameter_values.copy()
     for k, v in design.items():
         p[names.index(k)] = v
-    return dataclasses.replace(build.run(p), scene=scene.with_parameters(**design))
+    _RAN[:] = [build, dict(design), dataclasses.replace(build.run(p), scene=scene.with_parameters(**design))]
+    return _RAN[2]
+
+
+def analyse_ahead(design: dict):
+    """:func:`analyse_at` of the prebuilt scene at ``design`` made now (the optimum's design once
+    polished, while the command still certifies and reports it), kept for when it is asked for;
+    nothing when there is no build or it fails (it is then made, or its error met, when asked)."""
+    if _BUILT:
+        try:
+            analyse_at(_BUILT[0].scene, design)
+        except Exception:   # noqa: BLE001
+            pass
 
 
 _BUILT = []   # the analysis built beforehand (prebuild), in the process that made it
+_RAN = []     # its last run: (build, design, AnalysisResult)
 
 
 def _speed(v) -> str:

@@ -42,6 +42,17 @@ class FigureProcess:
         self._proc.start()
         theirs.close()
 
+    def begin(self, design):
+        """Have the process analyse the optimum at ``design`` now, before :meth:`analysis` asks
+        for it (design/multistart.optimise's ``polished``: the best start's design once polished,
+        while this process certifies and reports it: report/drive_train.analyse_ahead)."""
+        if self._proc is None:
+            return
+        try:
+            self._conn.send(("begin", design))
+        except (pickle.PicklingError, TypeError, AttributeError, OSError):
+            self.close()
+
     def analysis(self, result, catalogue=None):
         """The analysis the folder needs, made by the process (from the build it made beforehand
         when that is of the same scene): with the motor ``catalogue`` whose best ``result`` is,
@@ -121,8 +132,13 @@ def _serve(conn, parents, scene):
         if scene is not None:
             _prebuild(scene)
         job = conn.recv()
-        while isinstance(job[0], str) and job[0] == "analysis":
-            conn.send(_analysis(*job[1:]))
+        while isinstance(job[0], str) and job[0] in ("begin", "analysis"):
+            if job[0] == "begin":
+                from .drive_train import analyse_ahead
+
+                analyse_ahead(job[1])
+            else:
+                conn.send(_analysis(*job[1:]))
             job = conn.recv()
         result, folder, workers, animate, analysis = job
         if analysis is not None:

@@ -113,6 +113,11 @@ class ParquetWriter:
         cols = list(self.cols_now)
         arrays, kinds = [], {}
         for k in cols:   # one column's values at a time, made an Arrow array at once
+            floats = self.rows.floats(k, start, stop)   # (a column of floats: its doubles as they are)
+            if floats is not None and _merge(self.kinds.get(k, "null"), "float") == "float":
+                kinds[k] = "float"
+                arrays.append(pa.array(floats, type=pa.float64()))
+                continue
             values = self.rows.values(k, start, stop)
             kinds[k] = _merge(self.kinds.get(k, "null"), _kind(values))
             arrays.append(_array(values, kinds[k]))

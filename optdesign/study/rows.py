@@ -205,10 +205,28 @@ class Rows(collections.abc.Sequence):
             return [None] * (stop - start)
         has = [name in keys for keys in self._keys]
         col.pad(stop)
-        if all(has) and not col.other and col.kind in ("d", "q", "O"):   # the common case, at C speed
-            return list(col.data[start:stop])
+        if all(has) and not col.other:   # the common case, at C speed
+            if col.kind in ("d", "q", "O"):
+                return list(col.data[start:stop])
+            if col.kind == "b":
+                return list(map(bool, col.data[start:stop]))
+            if col.kind == "x":
+                return list(map("{:016x}".format, col.data[start:stop]))
         shape = self._shape
         return [col.get(i) if has[shape[i]] else None for i in range(start, stop)]
+
+    def floats(self, name, start=0, stop=None):
+        """The values of column ``name`` in rows ``start`` to ``stop`` as a float array (a copy:
+        the same doubles :meth:`values` gives as floats) where every row has the column and each
+        value is a float, else None."""
+        import numpy as np
+
+        stop = len(self) if stop is None else stop
+        col = self._cols.get(name)
+        if col is None or col.kind != "d" or col.other or not all(name in keys for keys in self._keys):
+            return None
+        col.pad(stop)
+        return np.frombuffer(col.data, float, stop - start, 8 * start).copy()   # (the view let go: the array grows)
 
     def column(self, name):
         """The column ``name`` as a float array, one value per row (missing, None and values that

@@ -217,12 +217,17 @@ def _give(helper):
 
 
 def _start():
+    from ..errors import KEEP_MEMORY
+
     env = dict(os.environ)
     root = str(Path(__file__).resolve().parents[2])   # this optdesign, installed or not
     env["PYTHONPATH"] = root + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
     # Dask starts its workers with MALLOC_TRIM_THRESHOLD_=65536 (memory back to the system at
-    # once): CasADi's and numpy's many small allocations then cost a case 20-25 % more
+    # once): CasADi's and numpy's many small allocations then cost a case 20-25 % more; the
+    # helper keeps what a batch frees for the next one, as a pool's process (errors.KEEP_MEMORY)
     env.pop("MALLOC_TRIM_THRESHOLD_", None)
+    if not any(name in env for name in KEEP_MEMORY):
+        env.update({name: str(value) for name, value in KEEP_MEMORY.items()})
     return subprocess.Popen([sys.executable, "-m", "optdesign.study.worker"], stdin=subprocess.PIPE,
                             stdout=subprocess.PIPE, env=env)
 
