@@ -33,28 +33,3 @@ def environ(settings: dict = SETTINGS) -> dict:
     dots ``__``, its dashes ``_``, upper case; the value as Python would write it)."""
     return {"DASK_" + key.replace(".", "__").replace("-", "_").upper(): str(value)
             for key, value in settings.items()}
-
-
-def import_distributed():
-    """``import distributed`` for a study's client (``--scheduler ADDRESS``), with Dask's YAML
-    configuration (dask.yaml and distributed.yaml, ~400 lines parsed at import, and any of the
-    user's Dask configuration files) read by libyaml's parser where PyYAML has it
-    (``yaml.CSafeLoader``: the same constructors and resolvers as the pure-Python
-    ``yaml.safe_load`` Dask calls, so the same values).  The import is most of a Dask study's
-    start-up in the client, ~0.42 s of CPU on the 2-core machine of results/scaling.md; Dask's
-    two files take 30-33 ms to parse in pure Python, 2.3-2.6 ms with libyaml.  Dask's own loader is put back when the import ends;
-    a process that imported ``distributed`` already is left as it is."""
-    import sys
-
-    if "distributed" in sys.modules:
-        return sys.modules["distributed"]
-    import yaml
-
-    plain = yaml.safe_load
-    if getattr(yaml, "CSafeLoader", None) is not None:   # PyYAML built with libyaml
-        yaml.safe_load = lambda stream: yaml.load(stream, Loader=yaml.CSafeLoader)
-    try:
-        import distributed
-    finally:
-        yaml.safe_load = plain
-    return distributed

@@ -32,7 +32,6 @@ import time
 from concurrent.futures.process import BrokenProcessPool
 
 from ..errors import OptdesignError, worker_process
-from .cluster import import_distributed
 from .results import ClusterLost
 from .blocks import as_blocks
 from .tasks import died_output, run_batch
@@ -297,7 +296,9 @@ class _Dask(_Futures):
     def __init__(self, scheduler):
         super().__init__()
         self.work_s, self.work_n, self.lost, self.looked = 0.0, 0, False, 0.0
-        self.distributed = distributed = import_distributed()
+        import distributed
+
+        self.distributed = distributed
         if isinstance(scheduler, distributed.Client):
             self.client, self.own = scheduler, False
         else:
