@@ -61,7 +61,7 @@ def optimise(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSett
     t0 = time.perf_counter()
     with interruptible():   # Ctrl-C: stop at once, keep the finished starts
         if prepared is None:
-            prepared = prepare(scene, starts, seed, settings, x_starts, processes=workers)
+            prepared = prepare(scene, starts, seed, settings, x_starts)
         if planned is not None:
             planned(prepared)
         problem, solver, repair, plan = prepared.problem, prepared.solver, prepared.repair, prepared.plan
@@ -100,16 +100,16 @@ class Prepared:
 
 
 def prepare(scene: Scene, starts: int = 20, seed: int = 0, settings: SolverSettings | None = None,
-            x_starts=None, ahead: bool = False, processes: int = 1) -> Prepared:
-    """The problem of ``scene`` built and its starts planned (``processes``: draw_plan's), as
-    :func:`optimise` would (``ahead``: made beforehand, in another thread than the one that will
+            x_starts=None, ahead: bool = False) -> Prepared:
+    """The problem of ``scene`` built and its starts planned, as :func:`optimise` would with
+    these arguments (``ahead``: made beforehand, in another thread than the one that will
     optimise: CasADi's messages are then left alone, the starts' optimise hides them)."""
     t0 = time.perf_counter()
     problem = DesignProblem(scene, settings)
     solver, repair = Solver(problem), Repair(problem)
     t_build = time.perf_counter() - t0
     with contextlib.nullcontext() if ahead else casadi_messages_hidden():
-        plan = draw_plan(problem, starts, seed, x_starts=x_starts, processes=processes)
+        plan = draw_plan(problem, starts, seed, x_starts=x_starts)
     if plan.fitting:   # an objective phase will run: what it builds on first use, built once (before workers fork)
         solver.warm()
     t_all = time.perf_counter() - t0
@@ -132,12 +132,12 @@ def interrupted(problem, solver, plan, runs, total, timings) -> OptimisationInte
                                    len(runs), total)
 
 
-def draw_plan(problem: DesignProblem, starts: int, seed: int, fixed=None, x_starts=None, processes=1) -> StartPlan:
-    """The starts (and their reserve for retries): planned from the seed (the screenings shared among
-    ``processes``: :func:`~.starts.plan_starts`), or the given ones (then the reserve is screened
-    only if a start needs a retry).  A single start is the scene's own, its reserve screened on demand."""
+def draw_plan(problem: DesignProblem, starts: int, seed: int, fixed=None, x_starts=None) -> StartPlan:
+    """The starts (and their reserve for retries): planned from the seed, or the given ones
+    (then the reserve is screened only if a start needs a retry).  A single start is the
+    scene's own, with the reserve screened on demand too."""
     if x_starts is None and starts > 1:
-        return plan_starts(problem, starts, seed, fixed, processes=processes)
+        return plan_starts(problem, starts, seed, fixed)
     points = problem.start[None, :] if x_starts is None else np.atleast_2d(np.asarray(x_starts, float))
     return StartPlan(points, method="sobol" if x_starts is None else "given",
                      plan_reserve=lambda: plan_starts(problem, len(points), seed, fixed))

@@ -11,9 +11,6 @@ the cache folder (:mod:`optdesign.model.programs`).
 """
 from __future__ import annotations
 
-import multiprocessing
-import threading
-
 import casadi as ca
 import numpy as np
 
@@ -54,57 +51,3 @@ class ManyDesigns:
 
         run_program(self.program, self.n_work, lambda i, k: columns[i][k], store)
         return outs
-
-
-SHARE_MIN = 256   # designs per process, at least, when a screening is shared among processes
-
-
-def shared(screen, xs, processes, *args) -> tuple:
-    """``screen(xs, *args)`` (arrays over the designs, the rows of ``xs``) with the designs shared
-    among up to ``processes`` processes: this one and forked ones, each screening a contiguous
-    share.  Every operation is elementwise over the designs (:class:`ManyDesigns`), so a design's
-    numbers do not depend on which others are screened with it: the same bit for bit as one
-    call (tests/test_screening_shared.py).  For the command's first problem, whose screening
-    stands alone before any start can run (crane_luffing_drive's 4 kW motor: 0.9 s of CPU), while
-    the other core is idle.  One process when this is not the only thread (a fork then could
-    copy a lock held by another), when the platform cannot fork, or for few designs; a share
-    whose process fails is screened here."""
-    xs = np.atleast_2d(np.asarray(xs, float))
-    parts = min(int(processes), len(xs) // SHARE_MIN)
-    if parts < 2 or threading.active_count() > 1 or "fork" not in multiprocessing.get_all_start_methods():
-        return screen(xs, *args)
-    context = multiprocessing.get_context("fork")
-    cuts = np.linspace(0, len(xs), parts + 1).astype(int)
-    others = []
-    try:
-        for a, b in zip(cuts[1:-1], cuts[2:]):
-            ours, theirs = context.Pipe(duplex=False)
-            process = context.Process(target=_share, args=(theirs, screen, xs[a:b], args), daemon=True)
-            process.start()
-            theirs.close()
-            others.append((process, ours, slice(a, b)))
-        results = [screen(xs[:cuts[1]], *args)]
-        for _, conn, part in others:
-            try:
-                got = conn.recv()
-            except (EOFError, OSError):
-                got = None
-            results.append(got if got is not None else screen(xs[part], *args))
-    finally:
-        for process, conn, _ in others:
-            conn.close()
-            process.join(timeout=5)
-            if process.is_alive():
-                process.kill()
-                process.join()
-    return tuple(np.concatenate(values) for values in zip(*results))
-
-
-def _share(conn, screen, xs, args):
-    """A forked process's share of :func:`shared` (None sent when it failed: screened again there)."""
-    try:
-        conn.send(screen(xs, *args))
-    except Exception:   # noqa: BLE001 - the parent screens this share itself
-        conn.send(None)
-    finally:
-        conn.close()

@@ -39,7 +39,7 @@ import json
 import casadi as ca
 import numpy as np
 
-from .screening import ManyDesigns, shared
+from .screening import ManyDesigns
 
 CANDIDATES_PER_START = 64   # space-filling candidates screened per start
 MIN_CANDIDATES = 1024
@@ -259,11 +259,9 @@ def _distinct(z, order, k, r):
     return out
 
 
-def plan_starts(pb, starts: int, seed: int, fixed=None, method: str = "sobol", zoom=None,
-                processes: int = 1) -> StartPlan:
+def plan_starts(pb, starts: int, seed: int, fixed=None, method: str = "sobol", zoom=None) -> StartPlan:
     """The scene's own start, then the ``starts - 1`` best screened candidates, and the
-    reserve for retries (see the module's docstring); ``processes`` > 1: each screening shared
-    among that many processes (:func:`.screening.shared`: the same numbers)."""
+    reserve for retries (see the module's docstring)."""
     fixed = pb.mech.parameter_values[pb.fixed_index] if fixed is None else np.asarray(fixed, float)
     d = len(pb.design_names)
     if starts <= 0:
@@ -273,7 +271,7 @@ def plan_starts(pb, starts: int, seed: int, fixed=None, method: str = "sobol", z
     wanted = max(MIN_CANDIDATES, min(CANDIDATES_PER_START * starts, MAX_CANDIDATES), 2 * starts)
     n = 2 ** int(np.ceil(np.log2(wanted)))
     cand = space_filling(pb, n, seed, method)
-    f, viol = shared(screen, cand, processes, fixed, pb.lbg, pb.ubg)
+    f, viol = screen(cand, fixed, pb.lbg, pb.ubg)
     for level, (k, per, h) in enumerate(ZOOM if zoom is None else zoom):
         z = (cand - lo) / (hi - lo)
         seeds = _distinct(z, rank(f, viol), k, 2 * h)
@@ -281,7 +279,7 @@ def plan_starts(pb, starts: int, seed: int, fixed=None, method: str = "sobol", z
         new = np.concatenate([np.clip(z[c] + (2 * u[j * per:(j + 1) * per] - 1) * h, 0.0, 1.0)
                               for j, c in enumerate(seeds)]) if seeds else np.zeros((0, d))
         new = lo + (hi - lo) * new
-        fn, vn = shared(screen, new, processes, fixed, pb.lbg, pb.ubg)
+        fn, vn = screen(new, fixed, pb.lbg, pb.ubg)
         cand, f, viol = np.vstack([cand, new]), np.r_[f, fn], np.r_[viol, vn]
     order = rank(f, viol)
     cand = cand[order]
