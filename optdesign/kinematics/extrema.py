@@ -81,10 +81,12 @@ def newton(evaluate, cases, rows, lo, hi, s0, sign, s_tol=1e-13):
             steps += 1
             if steps >= MAX_STEPS:   # the last point evaluated, converged or not
                 done[:] = True
-            s_out[k[done]], v_out[k[done]] = s_new[done], v_new[done]
-            keep = ~done
-            k, s, lo, hi, sign, rows, cases, at = k[keep], s_new[keep], lo[keep], hi[keep], sign[keep], rows[keep], \
-                cases[keep], at[keep]
+            s = s_new
+            if done.any():   # (no bracket done: none to drop)
+                s_out[k[done]], v_out[k[done]] = s_new[done], v_new[done]
+                keep = ~done
+                k, s, lo, hi, sign, rows, cases, at = k[keep], s[keep], lo[keep], hi[keep], sign[keep], rows[keep], \
+                    cases[keep], at[keep]
             d1, d2 = sign * D1[rows, at], sign * D2[rows, at]
     return s_out, v_out
 
