@@ -238,13 +238,14 @@ def test_design_problem_evaluations_compiled_equal_the_virtual_machine(cache):
     extrema's tracking, compiled (model/mapped.py: compiled_function), give the virtual
     machine's numbers bit for bit (the optimiser's numbers must not depend on the cache)."""
     from optdesign.design.problem import DesignProblem
-    from optdesign.model.mapped import MappedFunction, compiled_function
+    from optdesign.kinematics.mapped import MappedFunction
+    from optdesign.model.mapped import compiled_function
 
     pb = DesignProblem(load(ROOT / "problems" / "lib_pumpjack.toml"))
     p = pb.full_parameters(pb.start)
     s = np.r_[np.linspace(pb.s_grid[0], pb.s_grid[-1], 37), pb.s_grid[0] - 1.0]   # one point off the stroke
     for func in (pb.quantity, pb.quantity_derivatives):
-        fast = MappedFunction(func, compile=True)
+        fast = MappedFunction(func, compile=compiled_function)
         assert fast.func.is_a("External"), func.name()
         for mine, reference in zip(fast(s, p), MappedFunction(func)(s, p)):
             assert np.array_equal(mine, reference, equal_nan=True), func.name()
@@ -468,3 +469,45 @@ def test_a_failed_compile_is_said_once_by_a_command_and_its_workers(cache):
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, start_new_session=True,
                          env={**os.environ, "PYTHONPATH": str(ROOT)}, timeout=60)
     assert out.stdout.strip() == "1", out.stderr
+
+
+@pytest.mark.parametrize("scene", ["seed1_slider_crank", "ventilator_squeeze"])
+def test_assembly_check_compiled_equals_the_virtual_machine(cache, scene):
+    """The assembly check's evaluations at many sweep values (kinematics/mapped.py, compiled by
+    the mechanism's compile_function: model/mapped.py's, as an analysis sets it) give the virtual
+    machine's numbers bit for bit, at the samples and with the margins' derivatives, over
+    geometries of which some do not assemble: the check's decisions do not depend on the cache."""
+    from optdesign.kinematics.assembly import AssemblyCheck
+    from optdesign.kinematics.mechanism import Mechanism
+    from optdesign.model.mapped import compiled_function
+
+    rng = np.random.default_rng(3)
+    fast, plain = (Mechanism(load(ROOT / "problems" / f"{scene}.toml")) for _ in range(2))
+    fast.compile_function = compiled_function
+    p0, s_values = fast.parameter_values, fast.stroke()
+    P = p0 * (1 + 0.15 * rng.uniform(-1, 1, size=(12, len(p0))))
+    checks = [AssemblyCheck(m) for m in (fast, plain)]
+    found = [check.many(s_values, P) for check in checks]
+    assert [str(x) for x in found[0]] == [str(x) for x in found[1]]
+    s, rows = np.tile(s_values, len(P)), np.repeat(P, len(s_values), axis=0)
+    for key in ("sampled", "derivatives"):
+        mine, reference = (check._maps[key] for check in checks)
+        assert mine.func.is_a("External") and not reference.func.is_a("External"), key
+        for a, b in zip(mine(s, rows), reference(s, rows)):
+            assert np.array_equal(a, b, equal_nan=True), key
+
+
+def test_a_loop_scenes_graphs_are_not_compiled_and_nothing_is_said(cache):
+    """A scene with a loop closed by Newton's method (MX graphs calling CasADi's Newton, which
+    it cannot write as C): its analysis evaluates on the virtual machine without trying to
+    compile (which failed, said so once per Function and left failure notes in the cache)."""
+    from test_analysis_many import LOOP
+
+    import optdesign
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", compiled.CompileWarning)
+        analysis = Analysis(optdesign.loads(LOOP, "loop"))
+        analysis.run()
+    assert not analysis.certified.derivatives.func.is_a("External")
+    assert not list(cache.glob("*.failed"))

@@ -22,7 +22,7 @@ import pytest
 from scipy.optimize import brentq
 
 from optdesign.design.problem import DesignProblem
-from optdesign.model.mapped import MappedFunction
+from optdesign.kinematics.mapped import MappedFunction
 from optdesign.design.solver import Solver
 from optdesign.kinematics.peaks import (
     Request,

@@ -15,7 +15,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..model.mapped import MappedFunction
+from ..kinematics.mapped import MappedFunction
+from ..model.mapped import compiled_function
 from ..kinematics.enclosure import Enclosures
 from ..model.intervals_compiled import compile_program
 from ..kinematics.peaks import Request, continuous_maxima_rows
@@ -76,7 +77,7 @@ class ContinuousCheck:
     def __init__(self, problem: DesignProblem):
         self.pb = problem
         # the per-sample quantities' s-derivatives at many sweep values
-        self.derivatives = MappedFunction(problem.quantity_derivatives, compile=True)
+        self.derivatives = MappedFunction(problem.quantity_derivatives, compile=compiled_function)
         # the same program in interval arithmetic: the proof between the samples
         self.enclosures = Enclosures(problem.quantity_derivatives, compile_program)
         self.notes = {}   # of the last certified call: (name, sense) -> why it has no certificate

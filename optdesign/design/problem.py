@@ -87,6 +87,7 @@ class DesignProblem:
             raise SceneError(f"{scene.path}: no design variables: give some parameters bounds, e.g. e = {{ value = 1.6, min = 0.5, max = 3.0 }}")
         self.mech = mech = Mechanism(scene)
         mech.interval_compile = compile_program
+        mech.compile_function = compiled_function
         mech.cse_function = cse_function
         names = list(mech.parameter_names)
         self.design_names = [p.name for p in design]

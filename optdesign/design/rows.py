@@ -22,7 +22,8 @@ import numpy as np
 
 from ..errors import ExpressionError, SceneError
 from ..model.certified import InTime
-from ..model.mapped import MappedFunction
+from ..kinematics.mapped import MappedFunction
+from ..model.mapped import compiled_function
 from ..model.quantities import model_value
 from ..scene.expressions import Call, Expression, Name, parse
 from ..scene.cases import is_case_constraint
@@ -140,7 +141,7 @@ def build_quantities(pb):
     pb.in_time = rows_in_time(pb, rows)
     pb.rows = rows = in_sweep(pb, rows)   # the cases' laws in time through their inverse tau(s)
     pb.quantity = mech.function("quantities", {"v": ca.vertcat(*rows)})
-    pb._quantity_many = MappedFunction(pb.quantity, compile=True)  # at many samples (evaluate_grid)
+    pb._quantity_many = MappedFunction(pb.quantity, compile=compiled_function)  # at many samples (evaluate_grid)
     v = ca.vertcat(*rows)
     dv = mech.ds(v)
     pb.quantity_derivatives = mech.function("quantities_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)})

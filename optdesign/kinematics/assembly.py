@@ -36,6 +36,7 @@ from ..errors import AssemblyError
 from ..scene.written import sweep_unit
 from .batches import parameters_used, same_cases
 from .enclosure import Enclosures, Selected
+from .mapped import MappedFunction
 from .peaks import Request, extrema_of_cases, narrow_minima
 
 # A dyad or slider whose relative margin is below this is at (or numerically at) its limit
@@ -112,9 +113,8 @@ class AssemblyCheck:
             self.rows.append((m, m.expr / m.scale, limit))
         self.varies = [bool(ca.depends_on(rel, mech.s)) for _, rel, _ in self.rows]
         self._sampled = None
-        self._maps = {}
         self._derivatives = None
-        self._derivative_maps = {}
+        self._maps = {}   # the functions' MappedFunction, built on first use
         self.notes = {}   # of the last call: construction -> why its margin has no enclosure's proof
 
     # --- functions ---
@@ -137,17 +137,16 @@ class AssemblyCheck:
             self._derivatives = mech.function("assembly_ds", {"r": r, "dr": dr, "d2r": mech.ds(dr)})
             self._enclosures = Enclosures(self._derivatives, mech.interval_compile)   # the same program, in intervals
 
-    def _derivatives_many(self, s, p):
-        """(R, dR/ds, d2R/ds2) of every relative margin at the sweep values ``s``."""
-        self._build_derivatives()
-        n = len(s)
-        if n not in self._derivative_maps:
-            self._derivative_maps[n] = self._derivatives.map(n)
-        out = self._derivative_maps[n](s=np.asarray(s, float)[None, :], p=p)
-        return tuple(np.asarray(out[k], float).reshape(len(self.rows), n) for k in ("r", "dr", "d2r"))
+    def _mapped(self, key, func):
+        """``func`` at many sweep values (:class:`~.mapped.MappedFunction`, compiled by the
+        mechanism's ``compile_function`` when it has one: the same numbers)."""
+        if key not in self._maps:
+            self._maps[key] = MappedFunction(func, compile=self.mech.compile_function)
+        return self._maps[key]
 
     def _relative(self, s, p, i):
-        return float(self._derivatives_many(np.array([s]), p)[0][i, 0])
+        self._build_derivatives()
+        return float(self._mapped("derivatives", self._derivatives)([s], p)[0][i, 0])
 
     # --- the check ---
     def __call__(self, s_values, p_values):
@@ -187,9 +186,7 @@ class AssemblyCheck:
         result is the same in any batch); the rest (the failures' messages) per case."""
         f, closing = self._sampled
         n, G = len(s_values), len(P)
-        if "points" not in self._maps:   # one parameter row per point (model/mapped.py's way, here by CasADi's map)
-            self._maps["points"] = _PerPoint(f)
-        res = self._maps["points"](np.tile(s_values, G), np.repeat(P, n, axis=0))
+        res = dict(zip(f.name_out(), self._mapped("sampled", f)(np.tile(s_values, G), np.repeat(P, n, axis=0))))
         direction = 1.0 if n < 2 or s_values[-1] >= s_values[0] else -1.0
         staged = []
         for c in range(G):
@@ -262,10 +259,8 @@ class AssemblyCheck:
     def _derivative_points(self, s, P):
         """(R, dR/ds, d2R/ds2) of every relative margin at each sweep value of ``s`` with its own
         parameter row of ``P``."""
-        if "derivative points" not in self._maps:
-            self._maps["derivative points"] = _PerPoint(self._derivatives)
-        found = self._maps["derivative points"](np.asarray(s, float), P)
-        return found["r"], found["dr"], found["d2r"]
+        self._build_derivatives()
+        return tuple(self._mapped("derivatives", self._derivatives)(s, P))
 
     def _continuous(self, s_values, p, sign, first_bad, rows, extrema, direction, failures):
         """One case's ``failures`` (at the samples) with those between the samples, the minima
@@ -424,30 +419,6 @@ class AssemblyCheck:
                         f"{fmt_s(s_values[k + 1], self.mech.scene)}. Give initial guesses that follow the branch (they "
                         "may use the sweep variable), or narrow the sweep.")))
         return failures
-
-
-class _PerPoint:
-    """A Function (s, p) evaluated at many sweep values, each with its own parameter row:
-    CasADi's map over both inputs (the same numbers, point by point, as a map over s with one
-    p), padded to a power of two so that the maps are few, in pieces of at most CHUNK points."""
-
-    CHUNK = 1 << 15
-
-    def __init__(self, func):
-        self.func, self._maps = func, {}
-
-    def __call__(self, s, P) -> dict:
-        s, P = np.asarray(s, float), np.asarray(P, float)
-        n = len(s)
-        if n > self.CHUNK:
-            parts = [self(s[i:i + self.CHUNK], P[i:i + self.CHUNK]) for i in range(0, n, self.CHUNK)]
-            return {k: np.concatenate([part[k] for part in parts], axis=1) for k in parts[0]}
-        size = max(8, 1 << max(n - 1, 0).bit_length())
-        if size not in self._maps:
-            self._maps[size] = self.func.map(size)
-        pad = size - n
-        out = self._maps[size](s=np.r_[s, np.full(pad, s[-1])][None, :], p=np.r_[P, np.repeat(P[-1:], pad, axis=0)].T)
-        return {k: np.asarray(v, float)[:, :n] for k, v in out.items()}
 
 
 def _spacing(s_values):

@@ -58,6 +58,10 @@ class Mechanism:
         # the cache folder when a run eliminated the same graph (set by the model's layer:
         # optdesign.model.cse.cse_function); None: CasADi eliminates them each time
         self.cse_function = None
+        # compiles a Function (s, p) for its evaluations at many sweep values (:class:`.mapped.MappedFunction`:
+        # the assembly check's; set by the model's layer: optdesign.model.mapped.compiled_function);
+        # None: CasADi's virtual machine evaluates them (the same numbers)
+        self.compile_function = None
         sym = ca.MX if self.has_loops else ca.SX
         self.sym = sym
         self.s = sym.sym(scene.sweep.name)

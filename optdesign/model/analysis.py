@@ -13,7 +13,8 @@ from ..kinematics.mechanism import Mechanism
 from ..scene import ResolvedScene, Scene
 from ..scene.arguments import scene_argument
 from .certified import PEAKS, CertifiedExtremes
-from .mapped import MappedFunction
+from ..kinematics.mapped import MappedFunction
+from .mapped import compiled_function
 from .joint_structure import JointStructureError
 from .joints import PEAKED
 from .quantities import joint_forces, model_value
@@ -116,6 +117,7 @@ class Analysis:
         t0 = time.perf_counter()
         self.mech = Mechanism(scene_argument("analyse", scene, ResolvedScene))
         self.mech.interval_compile = compile_program
+        self.mech.compile_function = compiled_function
         self.mech.cse_function = cse_function
         self.resolved = self.mech.resolved
         self.scene = scene = self.mech.scene
@@ -191,7 +193,7 @@ class Analysis:
             # CasADi's map (model/blocked.py): each case's quadrature nodes in blocks of its own
             func = self.mech.function("sweep_squares", self._squares)
             self._squares = (list(self._squares), stroke_evaluator(func, varied=self._varied())
-                             or MappedFunction(func, compile=True))
+                             or MappedFunction(func, compile=compiled_function))
         names, function = self._squares
         s = np.sort(self.s_values)
 

@@ -2,7 +2,7 @@
 an analyse study's batch of cases, :meth:`~.analysis.Analysis.run_many`).
 
 Each load case's columns are evaluated for every parameter vector in one call (a parameter row
-per point: :class:`~.mapped.MappedFunction`, the same numbers point by point as a call per
+per point: :class:`~optdesign.kinematics.mapped.MappedFunction`, the same numbers point by point as a call per
 vector), and its peaks located and certified for all of them in one branch and bound
 (:meth:`~.certified.CertifiedPeaks.many`).  The rest (the law's checks, the times, the integrals
 over time, the duty cycle and the drive train) runs per vector on its own numbers.  Every

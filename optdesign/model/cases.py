@@ -23,7 +23,8 @@ from .case_runs import finish_columns, run_many
 from .certified import CertifiedPeaks
 from .duty import PEAK_KEYS, DutyCycle
 from .joints import PEAKED
-from .mapped import MappedFunction
+from ..kinematics.mapped import MappedFunction
+from .mapped import compiled_function
 from .profiles import constant_motion, case_profile
 from .reduction import ReducedModel
 from .train import cylinder_outputs, gear_outputs, motor_numbers
@@ -126,7 +127,7 @@ class CaseAnalysis:
         """``joints``: each case's joint forces too (columns pin_force(P), ...: model/joints.py),
         their peaks certified over the continuous stroke unless ``certify`` is False;
         ``compile``: the cases' columns from the disk cache of compiled code
-        (:class:`~.mapped.MappedFunction`: the same numbers, several times faster)."""
+        (:func:`~.mapped.compiled_function`: the same numbers, several times faster)."""
         self.mech = mech
         self.s_values = np.asarray(s_values, float)
         self.cases = [CaseModel(mech, c) for c in mech.scene.cases]
@@ -153,7 +154,7 @@ class CaseAnalysis:
             self.quantities = tuple(k for k in mech.quantities if k not in outs)   # [quantities], as columns
             outs.update({k: mech.quantities[k] + 0 * mech.s for k in self.quantities})
             self.functions.append((list(outs), MappedFunction(mech.function(f"case_{len(self.functions)}", outs),
-                                                                    compile=compile)))
+                                                                    compile=compiled_function if compile else None)))
         self.duty = DutyCycle(mech.scene, self.cases)
 
     def _outputs(self, cm, motor, joints) -> dict:

@@ -21,7 +21,8 @@ from ..kinematics.enclosure import Enclosures
 from ..kinematics.peaks import Extremum, Request, continuous_maxima_rows, maxima_of_cases, resolving_points
 from ..scene.expressions import Expression
 from .intervals_compiled import compile_program
-from .mapped import MappedFunction
+from ..kinematics.mapped import MappedFunction
+from .mapped import compiled_function
 from .quantities import model_value
 
 PEAKS = ("drive", "static_load", "reduced_inertia", "power")
@@ -53,16 +54,16 @@ class CertifiedExtremes:
         # compiled from the disk cache where it is there (CasADi's C of the same graph: the same
         # numbers, ~14x faster per point on the truck crane: measured)
         derivatives = mech.function("certified_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)})
-        self.derivatives = MappedFunction(derivatives, compile=True)
+        self.derivatives = MappedFunction(derivatives, compile=compiled_function)
         self.enclosures = Enclosures(derivatives, compile_program)   # the same program, in intervals
-        self.values = MappedFunction(mech.function("certified_v", {"v": v}), compile=True)
+        self.values = MappedFunction(mech.function("certified_v", {"v": v}), compile=compiled_function)
         # the aggregates' rows at the samples (not among the sampled columns), once per distinct
         # value of the parameters they depend on (a batch varying masses: once)
         inner = ca.vertcat(*[rows[i] for _, _, i in self.aggregate_rows]) if self.aggregate_rows else None
         func = None if inner is None else mech.function("certified_aggregates", {"v": inner})
-        self.aggregate_values = None if func is None else MappedFunction(func, compile=True)
+        self.aggregate_values = None if func is None else MappedFunction(func, compile=compiled_function)
         self.aggregate_parameters = None if func is None else parameters_used(mech, inner)
-        self.q = MappedFunction(mech.function("q", {"q": mech.q}), compile=True)
+        self.q = MappedFunction(mech.function("q", {"q": mech.q}), compile=compiled_function)
         self.fixed_rows, self.fixed_parameters = _fixed_rows(mech, rows)
 
     def many(self, s_values, P, columns, constraints, narrow=None) -> list:
@@ -243,7 +244,7 @@ class CertifiedPeaks:
             dv = mech.ds(v)
             func = mech.function("peaks_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)})
             # compiled from the disk cache where it is there (the same numbers, as CertifiedExtremes')
-            self.derivatives = MappedFunction(func, compile=True)
+            self.derivatives = MappedFunction(func, compile=compiled_function)
             self.enclosures = Enclosures(func, compile_program)
 
     def __call__(self, s_values, p, columns, names=None, certify=True) -> dict:
@@ -297,7 +298,7 @@ class InTime:
         dv = ca.jacobian(v, tau)
         opts = {"cse": True} if mech.sym is ca.SX else {}
         func = ca.Function("rows_in_time", [tau, mech.p], [v, dv, ca.jacobian(dv, tau)], ["s", "p"], ["v", "dv", "d2v"], opts)
-        self.derivatives = MappedFunction(func, compile=True)   # (as CertifiedPeaks')
+        self.derivatives = MappedFunction(func, compile=compiled_function)   # (as CertifiedPeaks')
         self.enclosures = Enclosures(func, compile_program)
 
     def grid(self, s_values) -> np.ndarray:

@@ -39,7 +39,7 @@ from ..kinematics.peaks import Request, extrema_of_cases, narrow_minima
 from .forces import ForceLoads
 from .intervals_compiled import compile_program
 from ..kinematics.batches import parameters_used, same_cases
-from .mapped import MappedFunction
+from ..kinematics.mapped import MappedFunction
 
 DEAD_CENTRE_TOL = 1e-9   # the enclosure's tolerance on min |dq/ds|, relative to max |dq/ds| sampled
 DEAD_CENTRES_KEPT = 256  # geometries whose dead-centre check a model keeps (ReducedModel.dead_centres)

@@ -36,7 +36,7 @@ KEYS = ("drive_squared", "energy", "energy_driving", "motor_load_squared", "moto
 
 def columns_at(function, names, P):
     """A function of (sweep values, their cases) -> {name: array} evaluating a load case's
-    outputs (``function``: a :class:`.mapped.MappedFunction`) at each value with its case's
+    outputs (``function``: a :class:`~optdesign.kinematics.mapped.MappedFunction`) at each value with its case's
     parameters (a row of ``P``): one call, a parameter row per value (the same numbers, value by
     value, as a call per case)."""
     P = np.atleast_2d(np.asarray(P, float))
