@@ -32,6 +32,7 @@ MAX_INTERVALS = 16384  # intervals of one case open at once, idem
 PRESPLIT = 4         # cuts each side of a located maximum in the first pass (first_intervals)
 BLOCK = 8            # sample intervals per interval of the first pass away from the maxima
 LATTICE = 3         # the first pass's cuts about a maximum on the lattice of h 2^-LATTICE (first_intervals)
+HALVES = 2.0 ** -np.arange(1, PRESPLIT + 1)[None, :]   # (cuts towards a maximum: the width times these)
 
 
 def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None):
@@ -55,7 +56,6 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
     task, lo, hi, where, pick = first_intervals(tasks, s_grid, found, best)
     left_ub = np.full(len(task), np.inf)   # bounds of the intervals still open (inf: not bounded yet)
     left = []   # (task, lo, hi, bound) of the intervals of the cases that stopped
-    halves = 2.0 ** -np.arange(1, PRESPLIT + 1)[None, :]   # (cuts towards a maximum: the width times these)
     with np.errstate(invalid="ignore"):   # (NaN compared: False, as meant)
         for pass_ in range(MAX_PASSES):
             if not len(task):
@@ -107,7 +107,7 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
             top, _ = found.best(tasks.code)
             centre = found.s[top[task]]
             around = (lo < centre) & (centre < hi)
-            steps = width[around, None] * halves
+            steps = width[around, None] * HALVES
             cuts = centre[around, None] + np.concatenate((-steps, np.zeros((len(steps), 1)), steps[:, ::-1]), axis=1)
             task, lo, hi, left_ub = split(task, lo, hi, left_ub, cuts, around, lo + width * 0.5)
     if left:

@@ -81,10 +81,12 @@ def newton(evaluate, cases, rows, lo, hi, s0, sign, s_tol=1e-13):
             steps += 1
             if steps >= MAX_STEPS:   # the last point evaluated, converged or not
                 done[:] = True
-            s_out[k[done]], v_out[k[done]] = s_new[done], v_new[done]
-            keep = ~done
-            k, s, lo, hi, sign, rows, cases, at = k[keep], s_new[keep], lo[keep], hi[keep], sign[keep], rows[keep], \
-                cases[keep], at[keep]
+            s = s_new
+            if done.any():   # (no bracket done: none to drop)
+                s_out[k[done]], v_out[k[done]] = s_new[done], v_new[done]
+                keep = ~done
+                k, s, lo, hi, sign, rows, cases, at = k[keep], s[keep], lo[keep], hi[keep], sign[keep], rows[keep], \
+                    cases[keep], at[keep]
             d1, d2 = sign * D1[rows, at], sign * D2[rows, at]
     return s_out, v_out
 
@@ -176,7 +178,8 @@ class Found:
 def grid_brackets(tasks, s_grid, V, found):
     """Every task's candidates on the grid: the stroke's two ends (found), its flat row's largest
     sample (found), and brackets (arrays task, lo, hi, s0, sign, i: the grid point's index) of
-    its interior grid maxima and, with ``ends``, of its end intervals refined from the end."""
+    its interior grid maxima and, with ``ends``, of its end intervals refined from the end; then
+    the samples of each task's row T (tasks x samples) and each task's largest sampled target."""
     T = V[tasks.case, tasks.row]   # tasks x samples
     S = T.shape[1]
     sign = tasks.sign(T)
@@ -206,16 +209,18 @@ def grid_brackets(tasks, s_grid, V, found):
     bt, blo, bhi, bs0, bi = (np.concatenate(a) for a in zip(*parts))
     order = bt.argsort(kind="stable")
     bt, blo, bhi, bs0, bi = bt[order], blo[order], bhi[order], bs0[order], bi[order]
-    return bt, blo, bhi, bs0, sign[bt, bi], bi, T
+    return bt, blo, bhi, bs0, sign[bt, bi], bi, T, tgt.max(axis=1)
 
 
-def check_invariant(tasks, T, found, top, best):
+def check_invariant(tasks, T, found, top, best, sampled=None):
     """The largest located target of a task is never below its largest sampled one (those above
     ``only_above``; rows with a NaN sample are not checked): a certification that fails this
-    check is an error, never a result."""
+    check is an error, never a result.  ``sampled``: each task's largest sampled target, where
+    known (:func:`grid_brackets`')."""
     if not T.size:
         return
-    sampled = (tasks.sign(T) * T).max(axis=1)
+    if sampled is None:
+        sampled = (tasks.sign(T) * T).max(axis=1)
     checked = np.isfinite(T).all(axis=1) & ~(sampled < tasks.only_above)
     bad = (checked & ~(best >= sampled)).nonzero()[0]
     if len(bad):

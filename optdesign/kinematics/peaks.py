@@ -166,7 +166,7 @@ def maxima(evaluate, s_grid, V, requests, s_tol=1e-13, enclosure=None, tol=None)
     s_grid = np.asarray(s_grid, float)
     tasks = Tasks(requests, V.shape[0])
     found = Found(len(tasks))
-    bt, blo, bhi, bs0, bsign, bi, T = grid_brackets(tasks, s_grid, V, found)
+    bt, blo, bhi, bs0, bsign, bi, T, sampled = grid_brackets(tasks, s_grid, V, found)
     s_star, v_star = newton(evaluate, tasks.case[bt], tasks.row[bt], blo, bhi, bs0, bsign, s_tol)
     v_i = T[bt, bi]
     worse = bsign * v_star < bsign * v_i   # never less than the grid point itself
@@ -176,7 +176,7 @@ def maxima(evaluate, s_grid, V, requests, s_tol=1e-13, enclosure=None, tol=None)
     if enclosure is not None:
         bound, notes = certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol, tol)
     top, best = found.best(tasks.code)
-    check_invariant(tasks, T, found, top, best)
+    check_invariant(tasks, T, found, top, best, sampled)
     return found, top, bound, notes
 
 

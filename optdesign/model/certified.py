@@ -174,16 +174,16 @@ class CertifiedExtremes:
         or without others, all in one branch and bound as before (an analysis without axes)."""
         fixed = [j for j, r in enumerate(requests) if r.row in self.fixed_rows]
         if not fixed or len(fixed) == len(requests):
-            return maxima_of_cases(lambda x, cases: self.derivatives(x, P[cases]), grid, values, requests,
+            return maxima_of_cases(_per_case(self.derivatives, P), grid, values, requests,
                                    enclosure=self.enclosures.at(P))
         moving = [j for j in range(len(requests)) if j not in fixed]
-        s_m, v_m, b_m, n_m = maxima_of_cases(lambda x, cases: self.derivatives(x, P[cases]), grid, values,
+        s_m, v_m, b_m, n_m = maxima_of_cases(_per_case(self.derivatives, P), grid, values,
                                              [requests[j] for j in moving], enclosure=self.enclosures.at(P))
         rows = sorted({requests[j].row for j in fixed})
         key = np.concatenate((P[:, self.fixed_parameters], values[:, rows].reshape(len(P), -1)), axis=1)
         first, inverse = _groups(np.ascontiguousarray(key).view(np.int64))
         Q = P[first]
-        s_f, v_f, b_f, n_f = maxima_of_cases(lambda x, cases: self.derivatives(x, Q[cases]), grid, values[first],
+        s_f, v_f, b_f, n_f = maxima_of_cases(_per_case(self.derivatives, Q), grid, values[first],
                                              [requests[j] for j in fixed], enclosure=self.enclosures.at(Q))
         n, k = len(P), len(requests)
         s, v, bound = np.empty((n, k)), np.empty((n, k)), np.empty((n, k))
@@ -220,7 +220,7 @@ class CertifiedExtremes:
         """The drive coordinate at each case's sweep values ``s`` (cases x k), on the branch of
         its sampled (unwrapped) q: a list of lists."""
         n, k = s.shape
-        q = self.q(s.ravel(), np.repeat(P, k, axis=0))[0][0].reshape(n, k)
+        q = self.q(s.ravel(), P[0] if n == 1 else np.repeat(P, k, axis=0))[0][0].reshape(n, k)   # (one case: its vector)
         if self.mech.scene.drive.kind == "rotary" and k:
             known = np.isfinite(q_sampled)   # the samples', not the joined sweep values'
             distance = np.where(known[:, None, :], np.abs(s_values[None, None, :] - s[:, :, None]), np.inf)
@@ -273,7 +273,7 @@ class CertifiedPeaks:
             V = np.stack([np.asarray(columns[name], float) for name in self.names], axis=1)   # cases x rows x S
             if len(s_values) > 1 and s_values[-1] < s_values[0]:
                 s_values, V = s_values[::-1], V[:, :, ::-1]
-            s, v, bound, notes = maxima_of_cases(lambda x, cases: self.derivatives(x, P[cases]), s_values, V, requests,
+            s, v, bound, notes = maxima_of_cases(_per_case(self.derivatives, P), s_values, V, requests,
                                                  enclosure=self.enclosures.at(P) if certify else None)
         out = []
         for c in range(len(P)):
@@ -324,7 +324,7 @@ class InTime:
         tau = self.grid(s_values)
         n, m = len(P), len(tau)
         V = self.derivatives(np.tile(tau, n), np.repeat(P, m, axis=0))[0].reshape(-1, n, m).transpose(1, 0, 2)
-        s, v, bound, notes = maxima_of_cases(lambda t, cases: self.derivatives(t, P[cases]), tau, V, requests,
+        s, v, bound, notes = maxima_of_cases(_per_case(self.derivatives, P), tau, V, requests,
                                              enclosure=self.enclosures.at(P) if certify else None)
         s = self.profile.law_sweep(s.ravel()).reshape(s.shape)   # (element by element: each as :meth:`sweep`'s)
         return s, v, bound, [[self._note(x) for x in row] for row in notes]
@@ -340,6 +340,17 @@ class InTime:
         head, tail = note.split(" s = ", 1)
         number, rest = tail.split(" ", 1)
         return f"{head} s = {self.sweep(float(number)):.9g} {rest}"
+
+
+def _per_case(derivatives, P):
+    """``evaluate(s, cases)`` of :func:`~optdesign.kinematics.peaks.maxima_of_cases`: the
+    MappedFunction ``derivatives`` at s with each case's row of ``P``; one case: with its vector
+    (CasADi's map without a parameter row per value, cheaper; the same Function at the same
+    numbers, so the same bits)."""
+    if len(P) == 1:
+        p = P[0]
+        return lambda s, cases: derivatives(s, p)
+    return lambda s, cases: derivatives(s, P[cases])
 
 
 def _fixed_rows(mech, rows) -> tuple:
