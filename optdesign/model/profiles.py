@@ -99,6 +99,7 @@ class MotionProfile:
         self.sigma = 1.0 if s_end > s_begin else -1.0
         self.length = abs(s_end - s_begin)
         self._time_function = None
+        self._speed_function = None   # speed_function's, built on first use
         self.law_speed = None  # a law's V(s) as a numpy function, at the case's parameter values
         if shape.kind == "law":
             s = ca.SX.sym("s")
@@ -294,7 +295,14 @@ def _numpy_of(s, expr):
 def speed_function(profile):
     """V(x, y) of a profile, vectorised with numpy (x, y: arrays of one shape, the distances
     from the motion's beginning and to its end; the smaller one is used exactly, except by a
-    law, a function of the sweep value itself)."""
+    law, a function of the sweep value itself).  Built once per profile (its graph and program
+    took 2-6 ms, asked for by the duty cycle and the integrals in time in every run)."""
+    if profile._speed_function is None:
+        profile._speed_function = _speed_function(profile)
+    return profile._speed_function
+
+
+def _speed_function(profile):
     if profile.law_speed is not None:
         def law(a, b):
             a, b = np.asarray(a, float), np.asarray(b, float)
