@@ -137,13 +137,13 @@ def main(argv=None):
     lines += ["", f"## `Analysis.run()` inside one process (after a warm-up run; CPU time of the process, median of "
               f"{args.runs} runs, certified and certify=False in turn; the ratio the median of the {args.runs} "
               f"pairs' ratios; each figure the median of {args.repeats} processes per tree, the trees in turn)", "",
-              "| scene | before: certify=False [s] | before: certified [s] | after: certify=False [s] | "
-              "after: certified [s] | certified after / before | certified / certify=False, before -> after | "
+              "| scene | before: certify=False [ms] | before: certified [ms] | after: certify=False [ms] | "
+              "after: certified [ms] | certified after / before | certified / certify=False, before -> after | "
               "peak |drive| before -> after |",
               "|---|---|---|---|---|---|---|---|"]
     for s, ins in rows_i:
         b, a = ins["before"], ins["after"]
-        lines.append(f"| {s} | {b['False']:.3f} | {b['True']:.3f} | {a['False']:.3f} | {a['True']:.3f} | "
+        lines.append(f"| {s} | {1e3 * b['False']:.2f} | {1e3 * b['True']:.2f} | {1e3 * a['False']:.2f} | {1e3 * a['True']:.2f} | "
                      f"{a['True'] / b['True']:.2f} | {b['ratio']:.2f} -> {a['ratio']:.2f} | "
                      f"{b['peak_True']:.10g} -> {a['peak_True']:.10g} |")
     lines += ["", f"## `optdesign optimise SCENE --starts {args.starts} --workers 1 --no-animation`", "",

@@ -213,3 +213,21 @@ def test_polynomial_profile_ends_and_reversal():
         bar_case('kind = "polynomial"\ntime = 1.0\nstart_speed = 6.0\nend_speed = 6.0')
     assert "[profiles] move, time: this polynomial reverses: its speed is" in str(info.value)
     assert "along the stroke of 1.5708" in str(info.value)
+
+
+@pytest.mark.parametrize("name", ["cycloidal", "modified-sine"])
+def test_a_laws_kept_function_is_not_pickled_and_gives_the_same_numbers(name):
+    """MotionLaw.evaluate keeps the law's CasADi Function after its first use: a pickle of the
+    law (a scene's, sent to a study's workers) is the same bytes as before the first use, and
+    the law unpickled, which builds its Function again, gives the same numbers bit for bit."""
+    import pickle
+
+    law = standard(name)
+    law.__dict__.pop("_function", None)
+    before = pickle.dumps(law)
+    tau = np.linspace(0.0, 1.0, 41)
+    first = law.evaluate(tau)
+    assert "_function" in law.__dict__ and pickle.dumps(law) == before
+    again = pickle.loads(before).evaluate(tau)
+    assert all(np.array_equal(a, b) for a, b in zip(first, again))
+    assert all(np.array_equal(a, b) for a, b in zip(first, law.evaluate(tau)))

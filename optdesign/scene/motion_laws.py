@@ -111,10 +111,18 @@ class MotionLaw:
         return out
 
     def evaluate(self, tau):
-        """(f, f', f'', f''') at an array of tau (numpy)."""
-        t = ca.SX.sym("t")
-        fn = ca.Function("law", [t], list(self.derivatives(t)))
+        """(f, f', f'', f''') at an array of tau (numpy): the law's Function built on first use
+        and kept (building it takes ~4 ms, and a case in time evaluates its law ~6 times per
+        run: the same Function, the same numbers), CasADi's map over the values."""
+        fn = self.__dict__.get("_function")
+        if fn is None:
+            t = ca.SX.sym("t")
+            fn = self._function = ca.Function("law", [t], list(self.derivatives(t)))
         return [np.asarray(v, float).ravel() for v in fn.map(np.size(tau))(np.asarray(tau, float)[None, :])]
+
+    def __getstate__(self):
+        """The law without :meth:`evaluate`'s Function (not part of a scene's pickle)."""
+        return {k: v for k, v in self.__dict__.items() if k != "_function"}
 
     def _refined(self, tau, speed, acc):
         """C_v and C_a refined by Newton on f'' = 0 and f''' = 0 from the best samples."""
