@@ -93,6 +93,8 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
             if closed.any():
                 np.maximum.at(bound, task[closed], ub[closed])
             task, lo, hi, left_ub = task[keep], lo[keep], hi[keep], ub[keep]
+            if not len(task):   # all closed (the rest of the pass would work on empty arrays)
+                break
             left_ub[left_ub != left_ub] = np.inf
             width = hi - lo
             case = tasks.case[task]
