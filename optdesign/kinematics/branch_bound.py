@@ -3,10 +3,13 @@ the stroke with the enclosure of the rows (:mod:`.enclosure`), for every task (a
 case) of a batch of cases at once.
 
 Each case's stroke is first cut into coarse intervals (blocks of BLOCK sample intervals) and,
-around each located maximum near its task's best, at s* and about it at +- h 2^-k (k < PRESPLIT,
-h the sample spacing; from the point of a fine lattice nearest s*, so that cases whose maxima
-lie close share these intervals): pieces shrinking towards the maximum, as the Taylor form
-needs them to.  An interval
+around each located maximum near its task's best (NEAR), at s* and about it at +- the distances
+CUTS (from the point of a fine lattice nearest s*, so that cases whose maxima lie close share
+these intervals): pieces shrinking towards the maximum, as the Taylor form needs them to, and
+growing away from it by ratios of 1.5 and 4/3 out to two blocks, so that the monotone and
+mean-value forms close them in the same pass (on the slider crank, ratio-2 pieces out to one
+block left 10 intervals near its two largest drive maxima open after the first pass: a second
+pass for them cost ~0.45 ms of its ~1.9 ms of certified extremes).  An interval
 holding (or ending at) its tasks' best located maximum is expanded there instead of at its
 midpoint: v' ~ 0 there, and where v'' is proven negative the form bounds v by v(s*) itself, so
 the pieces next to the maximum close in the first pass (with it, PRESPLIT 4 instead of 8 leaves
@@ -29,10 +32,15 @@ from .extrema import _starts, newton, target
 CERTIFY_TOL = 1e-9   # the certificate's tolerance, relative to the row's scale (its largest |v|)
 MAX_PASSES = 60      # subdivision passes of the branch and bound before a case gives up
 MAX_INTERVALS = 16384  # intervals of one case open at once, idem
-PRESPLIT = 4         # cuts each side of a located maximum in the first pass (first_intervals)
+PRESPLIT = 4         # cuts towards a located maximum in the later passes (HALVES); 0: no cuts about maxima
 BLOCK = 8            # sample intervals per interval of the first pass away from the maxima
 LATTICE = 3         # the first pass's cuts about a maximum on the lattice of h 2^-LATTICE (first_intervals)
 HALVES = 2.0 ** -np.arange(1, PRESPLIT + 1)[None, :]   # (cuts towards a maximum: the width times these)
+# the first pass's cuts each side of a maximum (first_intervals), in units of that lattice's
+# spacing h 2^-LATTICE (h the sample spacing): from h/32 to 4 h by factors of 2, then out to
+# 32 h (two blocks) by 1.5 and 4/3
+CUTS = np.array([0.25, 0.5, 1, 2, 4, 8, 16, 24, 32, 48, 64, 96, 128, 192, 256], float)
+NEAR = 0.05          # maxima within this fraction of their task's best get the first pass's cuts
 
 
 def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None):
@@ -154,11 +162,12 @@ def split(task, lo, hi, left_ub, cuts, around=None, middle=None):
 
 def first_intervals(tasks, s_grid, found, best):
     """The first pass's intervals: per case, its stroke cut every BLOCK samples and, around each
-    located maximum strictly inside the stroke within 1e-3 of its task's best (where the bound
-    must come within the tolerance of the located value), at s* and c +- h 2^-k, k = 0 ..
-    PRESPLIT - 1 (h the largest sample spacing, c the point of the lattice s_0 + j h 2^-LATTICE
-    nearest s*: cases whose maxima lie near one another get the same cuts, to the bit, and share
-    the work of these intervals that does not depend on their parameters:
+    located maximum strictly inside the stroke within NEAR of its task's best (where the bound
+    must come within the tolerance of the located value, or the blocks about a maximum a little
+    lower would not close), at s* and c +- g CUTS (g = h 2^-LATTICE, h the largest sample
+    spacing, c the point of the lattice s_0 + j g nearest s*: cases whose maxima lie near one
+    another get the same cuts, to the bit, and share the work of these intervals that does not
+    depend on their parameters:
     :class:`~optdesign.model.intervals_compiled.CompiledProgram`); every task of the case gets
     all its case's intervals.  Returns (task, lo, hi) arrays, the index of each entry's interval among the
     distinct ones and, per distinct interval, the index of its first entry."""
@@ -176,17 +185,13 @@ def first_intervals(tasks, s_grid, found, best):
     cut_s = [blocks[None, :].repeat(n_cases, axis=0).ravel()]
     if PRESPLIT:
         h = float((grid[1:] - grid[:-1]).max())
-        # h 2^k, k = -(PRESPLIT - 1) .. log2(BLOCK): inwards as the Taylor form needs, outwards to
-        # the blocks' size (the monotone form proves pieces of ratio 2 where it does not prove
-        # a whole block next to the maximum)
-        steps = h * 2.0 ** np.arange(int(np.log2(max(BLOCK, 1))), -PRESPLIT, -1)
         t = found.task
-        near = (target(found.v, tasks.code[t]) >= best[t] - 1e-3 * np.abs(best[t])) & (found.s > a) & (found.s < b)
+        near = (target(found.v, tasks.code[t]) >= best[t] - NEAR * np.abs(best[t])) & (found.s > a) & (found.s < b)
         centres, owner = found.s[near], tasks.case[t[near]]
         # the cuts about the lattice point nearest each maximum (a + j g: the same bits for every
         # case whose maximum is near it, so that cases share these intervals), and at the maximum
         g = h * 2.0 ** -LATTICE
-        units = np.concatenate((-steps, steps[::-1])) / g
+        units = np.concatenate((-CUTS[::-1], CUTS))
         around = np.concatenate(
             (a + (((centres - a) / g).round()[:, None] + units[None, :]) * g, centres[:, None]), axis=1)
         inside = (around > a) & (around < b)
