@@ -24,6 +24,7 @@ helpers, the worker's statistical profiler is paused (:func:`profiler_paused`).
 from __future__ import annotations
 
 import contextlib
+import gc
 import os
 import pickle
 import signal
@@ -46,29 +47,40 @@ def blocks_in_helper(tasks, index: list, ids: list) -> list:
     made, come back in one message (the worker's own process only passes them on); other
     batches case by case (:func:`run_batch_in_helper`).  A helper that dies on a batch of
     analyse cases is replaced and the cases are run one per call, as there."""
-    made = pickled_blocks_in_helper(tasks, index, ids)
+    payload = pickle.dumps((tasks, index, ids), protocol=pickle.HIGHEST_PROTOCOL)
+    made = pickled_blocks_in_helper(payload, together(tasks))
     return pickle.loads(made) if isinstance(made, bytes) else made
 
 
-def pickled_blocks_in_helper(tasks, index: list, ids: list):
-    """:func:`blocks_in_helper`, a batch of analyse cases' blocks left as the helper pickled them
-    (bytes: the client unpickles them; the worker's process neither unpickles nor pickles them
-    again), other batches' blocks as a list."""
+def together(tasks) -> bool:
+    """Whether a batch's cases are analysed together in one message (analyse cases; a batch's
+    tasks share their mode)."""
+    return len(tasks) > 1 and tasks[0].mode == "analyse"
+
+
+def pickled_blocks_in_helper(payload: bytes, together: bool):
+    """:func:`blocks_in_helper` of the batch pickled in ``payload`` (``(tasks, index, ids)``, as
+    the client pickled it: one bytes object, which Dask neither walks nor pickles again), a
+    batch of analyse cases (``together``) handed to the helper as those bytes and its blocks
+    left as the helper pickled them (bytes: the client unpickles them; the worker's process
+    neither unpickles nor pickles the batch or its blocks), other batches' blocks as a list."""
     from .blocks import blocks
 
-    if len(tasks) > 1 and tasks[0].mode == "analyse":   # a batch's tasks share their mode
+    if together:
         helper = _take()
         try:
-            _send(helper.stdin, ("blocks", tasks, index, ids))
+            _send(helper.stdin, ("blocks", payload))
             kind, value = _receive(helper.stdout)
         except (OSError, EOFError, pickle.UnpicklingError):
             helper.kill()
             helper.wait()   # which case died is not known yet: each alone
+            tasks, index, ids = pickle.loads(payload)
             return lines_made(blocks(index, ids, run_batch_in_helper(tasks, alone=True)))
         _give(helper)
         if kind == "error":
             raise RuntimeError(f"a case failed in the study's helper process:\n{value}")
         return value
+    tasks, index, ids = pickle.loads(payload)
     return lines_made(blocks(index, ids, run_batch_in_helper(tasks)))
 
 
@@ -135,9 +147,28 @@ def blocks_made(tasks, index: list, ids: list) -> list:
     pool's process, a Dask worker's helper), which then settles (:func:`.tasks.settle`)."""
     from .tasks import batch_blocks, settle
 
-    made = lines_made(batch_blocks(tasks, index, ids))
+    analyse = len(tasks) > 1 and tasks[0].mode == "analyse"   # (a batch's tasks share their mode)
+    with collector_paused() if analyse else contextlib.nullcontext():
+        made = lines_made(batch_blocks(tasks, index, ids))
     settle()
     return made
+
+
+@contextlib.contextmanager
+def collector_paused():
+    """Python's cyclic garbage collector off while a batch of analyse cases computes (where the
+    batch runs: a pool's process, a Dask worker's helper), as it was after.  Such a batch makes
+    ~20 container objects per case (rows, dicts, lists) that reference counting frees; each 700
+    of them set off a collection (the older generations' now and then), 2-3 % of the
+    batch's processor time (py-spy, truck crane, 1,536 cases).  What a batch leaves in cycles
+    (an exception's traceback) is collected after it, as before."""
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
 
 
 def run_batch_in_helper(tasks: list, alone: bool = False) -> list:
@@ -267,7 +298,7 @@ def serve():
             return
         try:
             if isinstance(tasks, tuple) and tasks[0] == "blocks":   # the batch's blocks in one message,
-                made = blocks_made(*tasks[1:])                              # (executors.computed's) pickled
+                made = blocks_made(*pickle.loads(tasks[1]))                 # (executors.computed's) pickled
                 answer = ("blocks", pickle.dumps(made, protocol=pickle.HIGHEST_PROTOCOL))   # for the client
             else:   # each case's output as it finishes, then the end of the batch
                 run_batch(tasks, each=lambda output: _send(out, ("case", output)))
