@@ -73,3 +73,30 @@ def test_with_the_cache_off_nothing_is_written(cache, monkeypatch):
     f = graph()
     assert programs.cached_program(f)[1] == instruction_program(f.expand())
     assert not cache.exists() or not list(cache.glob("program-*"))
+
+
+def test_arrays_that_do_not_make_a_program_are_not_trusted(cache):
+    """A whole file (its SHA-256 matches) whose arrays name an operation unknown here, an
+    instruction kind out of range, or fewer constants than constant instructions is made
+    again, not read as a program."""
+    f = graph()
+    work, made = programs.cached_program(f)
+    rows, constants = [], []
+    for kind, a, b, c in made:   # the stored form (programs._store)
+        if kind == 2:
+            constants.append(a)
+            a, b = 0, (0, 0)
+        elif kind in (3, 4):
+            a = programs._OPS[a]
+        b = b if isinstance(b, tuple) else (b, 0)
+        rows.append((kind, a, b[0], b[1], c))
+    rows = np.array(rows, np.int64)
+    assert programs._program(rows, constants, work) == (work, made)   # the whole arrays make it
+    binary = np.flatnonzero(rows[:, 0] == 3)[0]
+    unknown = rows.copy()
+    unknown[binary, 1] = 10_000
+    assert programs._program(unknown, constants, work) is None
+    bad_kind = rows.copy()
+    bad_kind[0, 0] = 7
+    assert programs._program(bad_kind, constants, work) is None
+    assert programs._program(rows, constants[:-1], work) is None

@@ -149,19 +149,23 @@ class CertifiedExtremes:
         q = self._q(s[:, :k_peaks], s_values, q_sampled, P)
         peaks = [(j, name, f"peak |{name}|") for j, name in enumerate(self.peak_rows)]
         extremes = [(k_peaks + 2 * i, name, f"{name} max", f"{name} min") for i, name in enumerate(self.constraint_rows)]
+        aggregates = [(k_peaks + 2 * len(extremes) + j, name) for j, (name, _, _) in enumerate(self.aggregate_rows)]
+        # (each case's dicts as _certificate makes them, inlined: a bound of NaN is None, a
+        # min's bound negated; the bounds are floats here)
         for found, sc, vc, bc, nc, qc in zip(out, s.tolist(), v.tolist(), bound.tolist(), notes, q):
+            found_peaks, found_at, certificates = found["peaks"], found["peak_at"], found["certificates"]
             for j, name, key in peaks:
-                found["peaks"][name] = abs(vc[j])
-                found["peak_at"][name] = {"s": sc[j], "q": qc[j], "value": vc[j]}
-                found["certificates"][key] = _certificate(bc[j], nc[j])
+                value, b = vc[j], bc[j]
+                found_peaks[name] = abs(value)
+                found_at[name] = {"s": sc[j], "q": qc[j], "value": value}
+                certificates[key] = {"bound": None if b != b else b, "note": nc[j]}
             for j, name, high, low in extremes:
                 found["constraint_extremes"][name] = {"min": vc[j + 1], "min_s": sc[j + 1], "max": vc[j], "max_s": sc[j]}
-                found["certificates"][high] = _certificate(bc[j], nc[j])
-                found["certificates"][low] = _certificate(bc[j + 1], nc[j + 1], -1.0)
-            j = k_peaks + 2 * len(extremes)
-            for name, _, _ in self.aggregate_rows:
+                b, b_low = bc[j], bc[j + 1]
+                certificates[high] = {"bound": None if b != b else b, "note": nc[j]}
+                certificates[low] = {"bound": None if b_low != b_low else -b_low, "note": nc[j + 1]}
+            for j, name in aggregates:
                 found["aggregates"].setdefault(name, []).append(sc[j])
-                j += 1
         return out
 
     def _maxima(self, grid, values, P, requests):
@@ -180,8 +184,10 @@ class CertifiedExtremes:
         s_m, v_m, b_m, n_m = maxima_of_cases(_per_case(self.derivatives, P), grid, values,
                                              [requests[j] for j in moving], enclosure=self.enclosures.at(P))
         rows = sorted({requests[j].row for j in fixed})
-        key = np.concatenate((P[:, self.fixed_parameters], values[:, rows].reshape(len(P), -1)), axis=1)
-        first, inverse = _groups(np.ascontiguousarray(key).view(np.int64))
+        # by the bits of the parameters those rows read and of each row's samples (views, not
+        # one key made of copies of them: the same groups)
+        first, inverse = _groups([P[:, self.fixed_parameters].view(np.int64)]
+                                 + [values[:, r].view(np.int64) for r in rows])
         Q = P[first]
         s_f, v_f, b_f, n_f = maxima_of_cases(_per_case(self.derivatives, Q), grid, values[first],
                                              [requests[j] for j in fixed], enclosure=self.enclosures.at(Q))
@@ -367,14 +373,18 @@ def _fixed_rows(mech, rows) -> tuple:
     return frozenset(fixed), np.unique(np.concatenate([used[i] for i in fixed] + [np.zeros(0, int)])).astype(int)
 
 
-def _groups(key) -> tuple:
-    """(the first row of each group of equal rows of ``key``, each row's group): the rows
-    compared whole with each group's first (a batch of a study: all in one group)."""
-    inverse = np.full(len(key), -1)
+def _groups(keys) -> tuple:
+    """(the first case of each group of cases equal in every array of ``keys`` (each cases x
+    values), each case's group): a case compared whole with each group's first (a batch of a
+    study: all in one group)."""
+    inverse = np.full(len(keys[0]), -1)
     first = []
     while (inverse < 0).any():
         i = int(np.argmax(inverse < 0))
-        inverse[(inverse < 0) & np.all(key == key[i], axis=1)] = len(first)
+        same = inverse < 0
+        for key in keys:
+            same &= (key == key[i]).all(axis=1)
+        inverse[same] = len(first)
         first.append(i)
     return np.array(first, int), inverse
 

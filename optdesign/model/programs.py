@@ -60,24 +60,29 @@ def _load(folder: Path, name: str):
         if meta.get("sha256") != hashlib.sha256(data).hexdigest() or meta.get("format") != FORMAT:
             return None
         with np.load(io.BytesIO(data), allow_pickle=False) as arrays:
-            rows, constants = arrays["rows"].tolist(), arrays["constants"].tolist()
+            rows, constants = arrays["rows"], arrays["constants"].tolist()
         work = int(meta["work"])
     except (OSError, ValueError, KeyError, TypeError, AttributeError, EOFError):
         return None
-    program, k = [], 0
-    try:
-        for kind, a, b0, b1, c in rows:
-            if kind in (0, 1):
-                program.append((kind, a, b0, c))
-            elif kind == 2:
-                program.append((2, constants[k], None, c))
-                k += 1
-            elif kind == 3:
-                program.append((3, BINARY[a], (b0, b1), c))
-            else:
-                program.append((4, UNARY[a], b0, c))
-    except (KeyError, IndexError):
+    return _program(rows, constants, work)
+
+
+def _program(rows, constants, work):
+    """(work, program) from the stored arrays, or None when they do not make one (an operation
+    unknown here, too few constants).  Built column by column (crane_luffing_drive's screening
+    rows, 143,000 instructions: 0.36 -> 0.24 s of CPU against a loop over the rows, medians of 7)."""
+    if rows.ndim != 2 or rows.shape[1] != 5:
         return None
+    kind, op = rows[:, 0], rows[:, 1]
+    if (np.any((kind < 0) | (kind > 4)) or np.count_nonzero(kind == 2) > len(constants)
+            or not np.all(np.isin(op[kind == 3], list(BINARY))) or not np.all(np.isin(op[kind == 4], list(UNARY)))):
+        return None
+    binary = {a: BINARY[a] for a in np.unique(op[kind == 3]).tolist()}
+    unary = {a: UNARY[a] for a in np.unique(op[kind == 4]).tolist()}
+    values = iter(constants)
+    program = [(k, a, b0, c) if k < 2 else (2, next(values), None, c) if k == 2 else
+               (3, binary[a], (b0, b1), c) if k == 3 else (4, unary[a], b0, c)
+               for k, a, b0, b1, c in zip(*(rows[:, j].tolist() for j in range(5)))]
     return work, program
 
 

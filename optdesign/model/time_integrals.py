@@ -113,12 +113,15 @@ def certified_integrals(cm, columns, nodes, sigma, cases=1, tol=TOLERANCE, quant
 def _rows(c, e, w, quantities):
     """The integrands at the columns ``c``, in the order of KEYS: drive^2 w, the power e (and
     its driving part), with a motor its load torque^2 w, load torque x acceleration w and
-    acceleration^2 w, each quantity^2 w, and the weight w (dt per unit of the variable)."""
-    rows = [c["drive"] ** 2 * w, e, np.maximum(e, 0.0)]
-    if "motor_load_torque" in c:
-        tg, acc = c["motor_load_torque"], c["motor_acceleration"]
-        rows += [tg**2 * w, tg * acc * w, acc**2 * w]
-    return np.vstack(rows + [c[q] ** 2 * w for q in quantities] + [w])
+    acceleration^2 w, each quantity^2 w, and the weight w (dt per unit of the variable).  A
+    square beyond the largest double is inf here, without numpy's warning: the integral that
+    takes it is reported as an error naming the case."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        rows = [c["drive"] ** 2 * w, e, np.maximum(e, 0.0)]
+        if "motor_load_torque" in c:
+            tg, acc = c["motor_load_torque"], c["motor_acceleration"]
+            rows += [tg**2 * w, tg * acc * w, acc**2 * w]
+        return np.vstack(rows + [c[q] ** 2 * w for q in quantities] + [w])
 
 
 def _report(result, motor, duration, exact_time, quantities=()) -> dict:
