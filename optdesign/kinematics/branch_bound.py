@@ -79,8 +79,11 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
             r_of, code = tasks.row[task], tasks.code[task]
             rows = np.bincount(r_of).nonzero()[0]   # (the rows asked for, ascending: np.unique's)
             L, U, vm_lo, vm_hi = enclosure.bounds(lo[pick], hi[pick], rows, case[pick], at)
-            ub = target_bound(L[r_of, where], U[r_of, where], code, upper=True)
-            vm_lo, vm_hi = vm_lo[r_of, where], vm_hi[r_of, where]
+            # each entry's row and interval, as one index into the flattened arrays (np.take:
+            # the same elements as L[r_of, where], without numpy's two-array indexing, ~5x its cost)
+            flat = r_of * L.shape[1] + where
+            ub = target_bound(np.take(L, flat), np.take(U, flat), code, upper=True)
+            vm_lo, vm_hi = np.take(vm_lo, flat), np.take(vm_hi, flat)
             at_mid = target_bound(vm_lo, vm_hi, code, upper=False)
             locate_better(evaluate, tasks, found, best, task, lo, hi, at_mid, vm_lo + vm_hi, s_tol, limits)
             # the tolerance, or where rounding is larger, four times the width of the midpoint's
