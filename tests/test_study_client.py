@@ -314,19 +314,21 @@ def test_the_scheduling_loop_keeps_at_most_the_window_in_flight(tmp_path, monkey
 
 
 def test_dask_takes_analyse_batches_of_its_own_seconds_of_work_with_the_pools_tail():
-    """An analyse batch is the executor's ``group_s`` seconds of work (Dask: 2 s, a task costing
-    milliseconds of CPU in the client, the scheduler and the worker; the pool: GROUP_S, 0.5 s),
-    and near the end both come down to the window's share of what is left, not below a quarter of
-    GROUP_S.  1 ms per case in the last batches; a window of 4 batches."""
+    """An analyse batch is the executor's ``analyse_s`` seconds of work (Dask: 1 s, a task costing
+    milliseconds of CPU in the client, the scheduler and the worker, while larger batches cost
+    the helpers more per case; the pool: GROUP_S, 0.5 s), and near the end both come down to the
+    window's share of what is left, not below a quarter of GROUP_S.  1 ms per case in the last
+    batches; a window of 4 batches."""
     from optdesign.study.executors import _Dask, _Pool
 
     size = study_execute._group_size
     pool = type("PoolLike", (), {"window": 4})()
-    dask = type("DaskLike", (), {"window": 4, "group_s": _Dask.group_s})()
-    assert _Dask.group_s == 2.0 and not hasattr(_Pool, "group_s") and study_execute.GROUP_S == 0.5
+    dask = type("DaskLike", (), {"window": 4, "analyse_s": _Dask.analyse_s})()
+    assert _Dask.analyse_s == 1.0 and not hasattr(_Pool, "analyse_s") and study_execute.GROUP_S == 0.5
     work = [0.001, 0.001, 0.001]
     assert [size(pool, work, left) for left in (100_000, 1_000, 400, 10)] == [500, 250, 125, 125]
-    assert [size(dask, work, left) for left in (100_000, 6_000, 1_000, 400, 10)] == [2000, 1500, 250, 125, 125]
+    assert [size(dask, work, left) for left in (100_000, 6_000, 3_000, 1_000, 400, 10)] == [1000, 1000, 750, 250, 125,
+                                                                                             125]
     assert size(dask, [], 100_000) == size(pool, [], 100_000) == study_execute.GROUP_FIRST
 
 

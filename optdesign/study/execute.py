@@ -206,7 +206,7 @@ BATCH_MAX = 4096    # cases per batch at most (1: each case's analysis alone, ta
 
 
 def _group_size(executor, work, remaining) -> int:
-    """Cases per batch of an analyse study: the executor's ``group_s`` seconds of work (GROUP_S
+    """Cases per batch of an analyse study: the executor's ``analyse_s`` seconds of work (GROUP_S
     unless it says otherwise) at the time per case of the last batches (``work``: their seconds
     per case (:func:`_work`), the median taken: a worker's first batch, which builds the model,
     does not keep the next ones small), or fewer (down to a quarter of GROUP_S) so that every
@@ -217,7 +217,7 @@ def _group_size(executor, work, remaining) -> int:
         floor = per // 4
     else:
         each = max(per_case, 1e-6)
-        per = max(1, min(BATCH_MAX, int(getattr(executor, "group_s", GROUP_S) / each)))
+        per = max(1, min(BATCH_MAX, int(getattr(executor, "analyse_s", GROUP_S) / each)))
         # near the end, smaller batches keep every worker busy; not below a quarter of GROUP_S
         # (a batch's round trip costs milliseconds, tens on Dask)
         floor = max(1, min(BATCH_MAX, int(GROUP_S / each))) // 4
