@@ -147,8 +147,7 @@ def blocks_made(tasks, index: list, ids: list) -> list:
     pool's process, a Dask worker's helper), which then settles (:func:`.tasks.settle`)."""
     from .tasks import batch_blocks, settle
 
-    analyse = len(tasks) > 1 and tasks[0].mode == "analyse"   # (a batch's tasks share their mode)
-    with collector_paused() if analyse else contextlib.nullcontext():
+    with collector_paused() if together(tasks) else contextlib.nullcontext():
         made = lines_made(batch_blocks(tasks, index, ids))
     settle()
     return made
