@@ -153,7 +153,7 @@ def main():
                                                 capture_output=True, text=True).stdout.strip():
             ap.error(f"--old-runs {args.old_runs} was run on {earlier.get('old')}, not on --old's HEAD")
         args.old_runs = {k: v["runs"]["old"] for k, v in earlier["scenes"].items() if "runs" in v}
-    old_when = earlier["when"] if args.old_runs is not None else None
+    old_when = (earlier.get("when") or earlier.get("old_when")) if args.old_runs is not None else None  # a combined table keeps old_when
     refs = references()
     heads = {k: subprocess.run(["git", "-C", str(getattr(args, k)), "rev-parse", "--short", "HEAD"], capture_output=True,
                                text=True).stdout.strip() for k in ("old", "new")}

@@ -78,6 +78,21 @@ class CertifiedExtremes:
         other cases of the batch or on its position in it (a study's serial, pool and Dask rows
         stay byte-identical).  The work is arrays over all cases: one evaluation of the rows per
         Newton step and one of the enclosure per pass of the branch and bound for the batch."""
+        return [found.case(c) for found, c in self.found(s_values, P, columns, constraints, narrow)]
+
+    def found(self, s_values, P, columns, constraints, narrow=None) -> list:
+        """:meth:`many`'s figures as the branch and bound gives them, without a dict per case:
+        per case ``(found, c)``, case c of a :class:`Found` (``found.case(c)`` is the case's
+        dict of :meth:`many`)."""
+        places = [None] * (len(np.atleast_2d(P)) if narrow is None else len(narrow))
+        for index, found in self._by_sweep(s_values, P, columns, constraints, narrow):
+            for c, i in enumerate(index.tolist()):
+                places[i] = (found, c)
+        return places
+
+    def _by_sweep(self, s_values, P, columns, constraints, narrow):
+        """(the cases' numbers, their :class:`Found`) per group of cases of :meth:`many` that
+        share their sweep values."""
         P = np.atleast_2d(np.asarray(P, float))
         n = P.shape[0]
         narrow = [()] * n if narrow is None else list(narrow)
@@ -89,7 +104,6 @@ class CertifiedExtremes:
         for i, near in enumerate(narrow):
             extra = tuple(resolving_points(near, s_values[0], s_values[-1], spacing)) if near else ()
             groups.setdefault(extra, []).append(i)
-        out = [None] * n
         for extra, index in groups.items():
             index = np.array(index)
             if len(index) == n:   # every case (in order): the arrays as they are
@@ -97,9 +111,7 @@ class CertifiedExtremes:
             else:
                 found = self._group(s_values, P[index], {k: np.asarray(v)[index] for k, v in columns.items()},
                                     {k: np.asarray(v)[index] for k, v in constraints.items()}, list(extra))
-            for i, f in zip(index, found):
-                out[i] = f
-        return out
+            yield index, found
 
     def __call__(self, s_values, p, columns, constraints, narrow=()):
         """The continuous extremes at parameters ``p``, given the sampled ``columns`` and
@@ -138,35 +150,18 @@ class CertifiedExtremes:
         for i in self.constraint_rows.values():
             requests += [Request(i, "max", ends=True), Request(i, "min", ends=True)]
         requests += [Request(i, func, ends=True) for _, func, i in self.aggregate_rows]
-        out = [{"peaks": {}, "peak_at": {}, "constraint_extremes": {}, "aggregates": {}, "certificates": {}}
-               for _ in range(n)]
         if not requests:
-            return out
+            return Found(*([[]] * n,) * 5, (), (), ())
         ascending = len(s_values) < 2 or s_values[-1] >= s_values[0]
         grid, values = (s_values, V) if ascending else (s_values[::-1], V[:, :, ::-1])
         s, v, bound, notes = self._maxima(grid, values, P, requests)
         k_peaks = len(self.peak_rows)
         q = self._q(s[:, :k_peaks], s_values, q_sampled, P)
-        peaks = [(j, name, f"peak |{name}|") for j, name in enumerate(self.peak_rows)]
-        extremes = [(k_peaks + 2 * i, name, f"{name} max", f"{name} min") for i, name in enumerate(self.constraint_rows)]
-        aggregates = [(k_peaks + 2 * len(extremes) + j, name) for j, (name, _, _) in enumerate(self.aggregate_rows)]
-        # (each case's dicts as _certificate makes them, inlined: a bound of NaN is None, a
-        # min's bound negated; the bounds are floats here)
-        for found, sc, vc, bc, nc, qc in zip(out, s.tolist(), v.tolist(), bound.tolist(), notes, q):
-            found_peaks, found_at, certificates = found["peaks"], found["peak_at"], found["certificates"]
-            for j, name, key in peaks:
-                value, b = vc[j], bc[j]
-                found_peaks[name] = abs(value)
-                found_at[name] = {"s": sc[j], "q": qc[j], "value": value}
-                certificates[key] = {"bound": None if b != b else b, "note": nc[j]}
-            for j, name, high, low in extremes:
-                found["constraint_extremes"][name] = {"min": vc[j + 1], "min_s": sc[j + 1], "max": vc[j], "max_s": sc[j]}
-                b, b_low = bc[j], bc[j + 1]
-                certificates[high] = {"bound": None if b != b else b, "note": nc[j]}
-                certificates[low] = {"bound": None if b_low != b_low else -b_low, "note": nc[j + 1]}
-            for j, name in aggregates:
-                found["aggregates"].setdefault(name, []).append(sc[j])
-        return out
+        peaks = tuple((j, name, f"peak |{name}|") for j, name in enumerate(self.peak_rows))
+        extremes = tuple((k_peaks + 2 * i, name, f"{name} max", f"{name} min")
+                         for i, name in enumerate(self.constraint_rows))
+        aggregates = tuple((k_peaks + 2 * len(extremes) + j, name) for j, (name, _, _) in enumerate(self.aggregate_rows))
+        return Found(s.tolist(), v.tolist(), bound.tolist(), notes, q, peaks, extremes, aggregates)
 
     def _maxima(self, grid, values, P, requests):
         """:func:`~optdesign.kinematics.peaks.maxima_of_cases` of ``requests`` (s, value, bound,
@@ -234,6 +229,40 @@ class CertifiedExtremes:
             turn = [math.remainder(x, 2 * math.pi) for x in (q - near).ravel().tolist()]   # (np.vectorize's, cheaper)
             q = near + np.array(turn, float).reshape(q.shape)
         return q.tolist()
+
+
+class Found:
+    """The certified extremes of a group of cases (:meth:`CertifiedExtremes.many`) as the branch
+    and bound gives them: per case (lists over the cases) the located s and the value there, the
+    bound and the note of every request, and q at the peaks' s; ``peaks``, ``extremes`` and
+    ``aggregates`` place the requests ((j, name, certificate's name), (j, name, max's, min's),
+    (j, name)).  :meth:`case` is a case's dict."""
+
+    __slots__ = ("s", "v", "bound", "notes", "q", "peaks", "extremes", "aggregates")
+
+    def __init__(self, s, v, bound, notes, q, peaks, extremes, aggregates):
+        self.s, self.v, self.bound, self.notes, self.q = s, v, bound, notes, q
+        self.peaks, self.extremes, self.aggregates = peaks, extremes, aggregates
+
+    def case(self, c) -> dict:
+        """Case ``c``'s dict of :meth:`CertifiedExtremes.many`: a bound of NaN is None, a min's
+        bound negated (the bounds are floats here)."""
+        sc, vc, bc, nc, qc = self.s[c], self.v[c], self.bound[c], self.notes[c], self.q[c]
+        found = {"peaks": {}, "peak_at": {}, "constraint_extremes": {}, "aggregates": {}, "certificates": {}}
+        found_peaks, found_at, certificates = found["peaks"], found["peak_at"], found["certificates"]
+        for j, name, key in self.peaks:
+            value, b = vc[j], bc[j]
+            found_peaks[name] = abs(value)
+            found_at[name] = {"s": sc[j], "q": qc[j], "value": value}
+            certificates[key] = {"bound": None if b != b else b, "note": nc[j]}
+        for j, name, high, low in self.extremes:
+            found["constraint_extremes"][name] = {"min": vc[j + 1], "min_s": sc[j + 1], "max": vc[j], "max_s": sc[j]}
+            b, b_low = bc[j], bc[j + 1]
+            certificates[high] = {"bound": None if b != b else b, "note": nc[j]}
+            certificates[low] = {"bound": None if b_low != b_low else -b_low, "note": nc[j + 1]}
+        for j, name in self.aggregates:
+            found["aggregates"].setdefault(name, []).append(sc[j])
+        return found
 
 
 class CertifiedPeaks:

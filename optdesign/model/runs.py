@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -24,22 +23,71 @@ from ..errors import OptdesignError
 from .finite import check_columns, check_values
 
 
-@dataclass
 class CaseRun:
     """One case of :meth:`~.analysis.Analysis.run_many`: the figures of its
     :class:`~.analysis.AnalysisResult` (the per-stroke constraints' values in ``stroke``, their
-    sampled values in ``stroke_sampled``), or ``error``, the OptdesignError that stopped it."""
+    sampled values in ``stroke_sampled``), or ``error``, the OptdesignError that stopped it.
 
-    peaks: dict = field(default_factory=dict)
-    peak_at: dict = field(default_factory=dict)
-    peaks_sampled: dict = field(default_factory=dict)
-    constraint_extremes: dict = field(default_factory=dict)
-    stroke: dict = field(default_factory=dict)
-    stroke_sampled: dict = field(default_factory=dict)
-    certificates: dict = field(default_factory=dict)
-    cases: object = None
-    timings: dict = field(default_factory=dict)
-    error: OptdesignError | None = None
+    A certified case's figures (``FIGURES``) are made from its batch's numbers when first asked
+    for: ``batch`` is then (the batch's :class:`_Figures`, the case's number in the batch, its
+    :class:`~.certified.Found` and its place there), which a study's rows read as columns
+    (:func:`optdesign.study.analysed._columns`); None otherwise (a figure not set is empty)."""
+
+    FIGURES = ("peaks", "peak_at", "peaks_sampled", "constraint_extremes", "stroke", "stroke_sampled",
+               "certificates", "timings")
+
+    def __init__(self):
+        self.cases, self.error, self.batch = None, None, None
+
+    def __getattr__(self, name):   # (only for an attribute not set: a figure not made yet)
+        if name not in CaseRun.FIGURES:
+            raise AttributeError(name)
+        batch = self.__dict__.get("batch")
+        made = {name: {}} if batch is None else batch[0].made(name, *batch[1:])
+        for k, value in made.items():   # (a figure set or made before is kept)
+            self.__dict__.setdefault(k, value)
+        return self.__dict__[name]
+
+    def __getstate__(self):   # (pickled: its figures, not its batch's)
+        for name in CaseRun.FIGURES:
+            getattr(self, name)
+        return {**self.__dict__, "batch": None}
+
+
+class _Figures:
+    """The figures of a batch's certified cases as :func:`run_cases` computed them (lists over
+    the batch's cases), each case's dicts made when asked for (:meth:`made`)."""
+
+    def __init__(self, keys, by_case, names, sampled, lows, notes, dead):
+        self.keys, self.by_case, self.names, self.sampled = keys, by_case, names, sampled
+        self.stroke = sampled   # the per-stroke constraints' rows (at the located aggregates: set by run_cases)
+        self.lows, self.notes, self.dead, self.timings = lows, notes, dead, {}
+
+    def made(self, name, i, found, c) -> dict:
+        """The figure ``name`` of case ``i`` (case ``c`` of ``found``), with those made with it."""
+        if name == "peaks_sampled":
+            return {name: dict(zip(self.keys, self.by_case[i]))}
+        if name == "stroke_sampled":
+            return {name: dict(zip(self.names, self.sampled[i]))}
+        if name == "stroke":
+            return {name: dict(zip(self.names, self.stroke[i]))}
+        if name == "timings":
+            return {name: dict(self.timings)}
+        got = found.case(c)
+        certificates = got["certificates"]
+        certificates.update({f"assembly of {k}": {"bound": None, "note": note} for k, note in self.notes[i].items()})
+        if self.dead[i]:
+            certificates["dead centre"] = {"bound": None, "note": self.dead[i]}
+        lows = self.lows
+        extremes = {k: dict(e, min_sampled=lows[k][0][i], max_sampled=lows[k][2][i])
+                    for k, e in got["constraint_extremes"].items()}
+        return {"peaks": got["peaks"], "peak_at": got["peak_at"], "certificates": certificates,
+                "constraint_extremes": extremes}
+
+    def peaks(self, found, c) -> list:
+        """Case ``c`` of ``found``: its peaks' values, in order (its ``peaks``' values)."""
+        v = found.v[c]
+        return [abs(v[j]) for j, _, _ in found.peaks]
 
 
 def run_cases(a, P):
@@ -85,43 +133,40 @@ def run_cases(a, P):
     by_case = list(zip(*(f[0] for f in found.values()))) if keys else [()] * n   # |peak| per case
     stroke_rows = sampled.tolist()
     certify = a.certified is not None
-    for i in (i for i in range(n) if runs[i].error is None):
-        r = runs[i]
-        r.peaks_sampled = dict(zip(keys, by_case[i]))
-        r.stroke_sampled = dict(zip(names, stroke_rows[i]))
-        r.peaks, r.stroke = dict(r.peaks_sampled), dict(r.stroke_sampled)
-        if not certify:   # (certified: the certificate's, or the samples' where it fails, below)
-            _sampled_places(r, i, found, lows)
+    figures = _Figures(keys, by_case, names, stroke_rows, lows, notes, dead) if certify else None
+    if not certify:
+        for i in (i for i in range(n) if runs[i].error is None):
+            _sampled_figures(runs[i], i, keys, by_case, names, stroke_rows)
+            _sampled_places(runs[i], i, found, lows)
+        for r in runs:
+            r.constraint_extremes = {k: dict(e, min_sampled=e["min"], max_sampled=e["max"])
+                                     for k, e in r.constraint_extremes.items()}
     extra = [None] * n
-    if certify:
+    if certify:   # each certified case's figures made from the batch's when asked for (CaseRun)
         live = [i for i in range(n) if runs[i].error is None]
         for i, got in zip(live, _certified(a, s, P, columns, constraints, narrow, live)):
             r = runs[i]
             if isinstance(got, OptdesignError):
                 r.error = got
+                _sampled_figures(r, i, keys, by_case, names, stroke_rows)
                 _sampled_places(r, i, found, lows)
                 continue
-            r.peaks, r.peak_at, r.certificates = got["peaks"], got["peak_at"], got["certificates"]
-            located = sorted({x for where in got["aggregates"].values() for x in where})
+            place, c = got
+            r.batch = (figures, i, place, c)
+            located = sorted({place.s[c][j] for j, _ in place.aggregates})
             if located:
                 extra[i] = np.asarray(located, float)
-            r.constraint_extremes = {k: dict(e, min_sampled=lows[k][0][i], max_sampled=lows[k][2][i])
-                                     for k, e in got["constraint_extremes"].items()}
-            r.certificates.update({f"assembly of {name}": {"bound": None, "note": note}
-                                   for name, note in notes[i].items()})
-            if dead[i]:
-                r.certificates["dead centre"] = {"bound": None, "note": dead[i]}
         if any(x is not None for x in extra):
-            certified = a.stroke.values(values, P, _at_extra(a, P, extra)).tolist()
-            for i in (i for i in range(n) if runs[i].error is None):
-                runs[i].stroke = dict(zip(names, certified[i]))
-    else:
-        for r in runs:
-            r.constraint_extremes = {k: dict(e, min_sampled=e["min"], max_sampled=e["max"])
-                                     for k, e in r.constraint_extremes.items()}
+            figures.stroke = a.stroke.values(values, P, _at_extra(a, P, extra)).tolist()
     t2 = time.perf_counter()
     for r in runs:
-        if r.error is None and not _finite_sum(r.stroke, r.peaks):   # (finite sum: every value finite)
+        if r.error is not None:
+            continue
+        if r.batch is not None:   # (its values without making its dicts)
+            finite = _finite_sum(figures.stroke[r.batch[1]], figures.peaks(*r.batch[2:]))
+        else:
+            finite = _finite_sum(r.stroke.values(), r.peaks.values())
+        if not finite:
             try:
                 check_values(a, {**{f"constraint {k!r}": v for k, v in r.stroke.items()},
                                  **{f"peak |{k}|": v for k, v in r.peaks.items()}})
@@ -131,13 +176,25 @@ def run_cases(a, P):
     if a.case_analysis and live:   # the load cases of every case at once (model/case_runs.py)
         for i, found in zip(live, a.case_analysis.run_many(P[live])):
             runs[i].cases, runs[i].error = (None, found) if isinstance(found, OptdesignError) else (found, None)
+    timings = {"build_s": a.build_time, "evaluate_s": (t1 - t0) / n}
+    if certify:
+        timings["certify_s"] = (t2 - t1) / n
+        figures.timings = timings
     for r in runs:
-        if r.error is not None:
-            continue
-        r.timings = {"build_s": a.build_time, "evaluate_s": (t1 - t0) / n}
-        if a.certified is not None:
-            r.timings["certify_s"] = (t2 - t1) / n
+        if r.error is None:
+            if r.batch is None:
+                r.timings = dict(timings)
+        elif r.batch is not None:
+            r.timings = {}   # (a case that failed after its certificate: none, as every failed case)
     return runs, values
+
+
+def _sampled_figures(r, i, keys, by_case, names, stroke_rows):
+    """Case ``i``'s sampled peaks and per-stroke constraints (also its figures, until certified
+    ones replace them)."""
+    r.peaks_sampled = dict(zip(keys, by_case[i]))
+    r.stroke_sampled = dict(zip(names, stroke_rows[i]))
+    r.peaks, r.stroke = dict(r.peaks_sampled), dict(r.stroke_sampled)
 
 
 def _sampled_places(r, i, found, lows):
@@ -148,20 +205,20 @@ def _sampled_places(r, i, found, lows):
                              for k, e in lows.items()}
 
 
-def _finite_sum(first: dict, second: dict) -> bool:
-    """Whether the sum of the values of the dicts ``first`` and ``second`` is finite: then every
+def _finite_sum(first, second) -> bool:
+    """Whether the sum of the values ``first`` and ``second`` (iterables) is finite: then every
     value is (a value that is not finite, or None, makes it not; so may an overflow, which the
     exact check then clears)."""
     try:
-        return math.isfinite(sum(second.values(), sum(first.values())))
+        return math.isfinite(sum(second, sum(first)))
     except TypeError:
         return False
 
 
 def _certified(a, s, P, columns, constraints, narrow, live) -> list:
-    """The certified extremes of the cases ``live`` (:meth:`~.certified.CertifiedExtremes.many`),
-    or per case its OptdesignError: a batch in which one case fails is certified again case by
-    case (each case's result is the same alone)."""
+    """The certified extremes of the cases ``live`` (:meth:`~.certified.CertifiedExtremes.found`:
+    per case its Found and its place there), or per case its OptdesignError: a batch in which
+    one case fails is certified again case by case (each case's result is the same alone)."""
     if not live:
         return []
 
@@ -171,14 +228,14 @@ def _certified(a, s, P, columns, constraints, narrow, live) -> list:
         return ({k: v[which] for k, v in columns.items()}, {k: v[which] for k, v in constraints.items()})
 
     try:
-        return a.certified.many(s, P[live], *rows(live), [narrow[i] for i in live])
+        return a.certified.found(s, P[live], *rows(live), [narrow[i] for i in live])
     except OptdesignError as exc:
         if len(live) == 1:
             return [exc]
     out = []
     for i in live:
         try:
-            out += a.certified.many(s, P[[i]], *rows([i]), [narrow[i]])
+            out += a.certified.found(s, P[[i]], *rows([i]), [narrow[i]])
         except OptdesignError as exc:
             out.append(exc)
     return out

@@ -97,29 +97,53 @@ def _columns(analysis, P) -> list:
             failed.append((i, res.error))
             continue
         extra[i] = _cases_row(res.cases) if res.cases is not None else {}
-        shape = (tuple(res.peaks), tuple(res.peak_at), tuple(res.peaks_sampled), tuple(rms[i]),
-                 tuple(res.constraint_extremes), tuple(res.stroke), tuple(extra[i]))
+        if res.batch is not None:   # a certified case's figures as its batch's columns (the same names)
+            shape = (id(res.batch[0]), id(res.batch[2]), tuple(rms[i]), tuple(extra[i]))
+        else:
+            shape = (tuple(res.peaks), tuple(res.peak_at), tuple(res.peaks_sampled), tuple(rms[i]),
+                     tuple(res.constraint_extremes), tuple(res.stroke), tuple(extra[i]))
         shapes.setdefault(shape, []).append(i)
     pieces = [_failed_piece(failed)] if failed else []
-    for (peaks, at, sampled, rms_names, extremes, stroke, more), where in shapes.items():
+    for shape, where in shapes.items():
         rs = [runs[i] for i in where]
         # the row of the case alone, its keys in this order: a dict (a key made twice keeps its
         # first place and takes its last value)
         named = {"status": ["ok"] * len(rs), "success": [True] * len(rs)}
-        # peaks and constraint extremes over the continuous stroke (certified), with where they
-        # lie and the samples' own values beside them
-        named.update({f"peak:{k}": [r.peaks[k] for r in rs] for k in peaks})
-        named.update({f"peak_at:{k}": [r.peak_at[k]["s"] for r in rs] for k in at})
-        named.update({f"peak_sampled:{k}": [r.peaks_sampled[k] for r in rs] for k in sampled})
-        # rms over the continuous sweep (adaptive quadrature, model/analysis.Analysis.sweep_rms)
-        named.update({f"rms:{k}": [rms[i][k][0] for i in where] for k in rms_names})
-        for name in extremes:
-            named[f"constraint:{name}:min"] = [r.constraint_extremes[name]["min"] for r in rs]
-            named[f"constraint:{name}:max"] = [r.constraint_extremes[name]["max"] for r in rs]
-        named.update({f"constraint:{name}": [float(r.stroke[name]) for r in rs] for name in stroke})
-        named.update({k: [extra[i][k] for i in where] for k in more})
+        if len(shape) == 4:
+            _batch_columns(named, [r.batch for r in rs], rms, where, shape[2])
+        else:
+            peaks, at, sampled, rms_names, extremes, stroke, _ = shape
+            # peaks and constraint extremes over the continuous stroke (certified), with where they
+            # lie and the samples' own values beside them
+            named.update({f"peak:{k}": [r.peaks[k] for r in rs] for k in peaks})
+            named.update({f"peak_at:{k}": [r.peak_at[k]["s"] for r in rs] for k in at})
+            named.update({f"peak_sampled:{k}": [r.peaks_sampled[k] for r in rs] for k in sampled})
+            # rms over the continuous sweep (adaptive quadrature, model/analysis.Analysis.sweep_rms)
+            named.update({f"rms:{k}": [rms[i][k][0] for i in where] for k in rms_names})
+            for name in extremes:
+                named[f"constraint:{name}:min"] = [r.constraint_extremes[name]["min"] for r in rs]
+                named[f"constraint:{name}:max"] = [r.constraint_extremes[name]["max"] for r in rs]
+            named.update({f"constraint:{name}": [float(r.stroke[name]) for r in rs] for name in stroke})
+        named.update({k: [extra[i][k] for i in where] for k in shape[-1]})
         pieces.append((where, tuple(named), list(named.values())))
     return pieces
+
+
+def _batch_columns(named, batch, rms, where, rms_names):
+    """:func:`_columns`'s columns of certified cases of one batch (their ``CaseRun.batch``:
+    the batch's figures, the case's number, its Found and its place there), read from the
+    batch's lists: the values and names the cases' dicts hold (model/runs.py's _Figures.made)."""
+    figures, found = batch[0][0], batch[0][2]
+    named.update({f"peak:{name}": [abs(f.v[c][j]) for _, _, f, c in batch] for j, name, _ in found.peaks})
+    named.update({f"peak_at:{name}": [f.s[c][j] for _, _, f, c in batch] for j, name, _ in found.peaks})
+    named.update({f"peak_sampled:{k}": [figures.by_case[i][m] for _, i, _, _ in batch]
+                  for m, k in enumerate(figures.keys)})
+    named.update({f"rms:{k}": [rms[i][k][0] for i in where] for k in rms_names})
+    for j, name, _, _ in found.extremes:
+        named[f"constraint:{name}:min"] = [f.v[c][j + 1] for _, _, f, c in batch]
+        named[f"constraint:{name}:max"] = [f.v[c][j] for _, _, f, c in batch]
+    rows = figures.stroke
+    named.update({f"constraint:{name}": [float(rows[i][m]) for _, i, _, _ in batch] for m, name in enumerate(figures.names)})
 
 
 def _cases_row(cases) -> dict:

@@ -37,7 +37,7 @@ from pathlib import Path
 
 _IDLE = []                   # this worker's helpers not computing now
 _GUARD = threading.Lock()
-_HEADER = struct.Struct("<Q")
+_HEADER = struct.Struct("<QQ")   # a message's lengths: its pickle, its raw bytes (_send)
 _PAUSED = {"tasks": 0, "stopped": False}   # this worker's batches waiting on helpers; profiler stopped by us
 
 
@@ -49,7 +49,7 @@ def blocks_in_helper(tasks, index: list, ids: list) -> list:
     analyse cases is replaced and the cases are run one per call, as there."""
     payload = pickle.dumps((tasks, index, ids), protocol=pickle.HIGHEST_PROTOCOL)
     made = pickled_blocks_in_helper(payload, together(tasks))
-    return pickle.loads(made) if isinstance(made, bytes) else made
+    return pickle.loads(made) if isinstance(made, (bytes, bytearray)) else made
 
 
 def together(tasks) -> bool:
@@ -62,15 +62,16 @@ def pickled_blocks_in_helper(payload: bytes, together: bool):
     """:func:`blocks_in_helper` of the batch pickled in ``payload`` (``(tasks, index, ids)``, as
     the client pickled it: one bytes object, which Dask neither walks nor pickles again), a
     batch of analyse cases (``together``) handed to the helper as those bytes and its blocks
-    left as the helper pickled them (bytes: the client unpickles them; the worker's process
-    neither unpickles nor pickles the batch or its blocks), other batches' blocks as a list."""
+    left as the helper pickled them (a bytearray, read from the helper's pipe straight into it:
+    the client unpickles them; the worker's process neither unpickles nor pickles the batch or
+    its blocks, and Dask sends a bytearray on without a copy), other batches' blocks as a list."""
     from .blocks import blocks
 
     if together:
         helper = _take()
         try:
-            _send(helper.stdin, ("blocks", payload))
-            kind, value = _receive(helper.stdout)
+            _send(helper.stdin, "blocks", raw=payload)
+            kind, value, made = _receive(helper.stdout)
         except (OSError, EOFError, pickle.UnpicklingError):
             helper.kill()
             helper.wait()   # which case died is not known yet: each alone
@@ -79,7 +80,7 @@ def pickled_blocks_in_helper(payload: bytes, together: bool):
         _give(helper)
         if kind == "error":
             raise RuntimeError(f"a case failed in the study's helper process:\n{value}")
-        return value
+        return made
     tasks, index, ids = pickle.loads(payload)
     return lines_made(blocks(index, ids, run_batch_in_helper(tasks)))
 
@@ -187,11 +188,11 @@ def run_batch_in_helper(tasks: list, alone: bool = False) -> list:
             rest[0] = warm_from(rest[0], outs[-1])
         helper, done = _take(), len(outs)
         try:
-            _send(helper.stdin, rest)
-            kind, value = _receive(helper.stdout)
+            _send(helper.stdin, "batch", rest)
+            kind, value, _ = _receive(helper.stdout)
             while kind == "case":
                 outs.append(value)
-                kind, value = _receive(helper.stdout)
+                kind, value, _ = _receive(helper.stdout)
         except (OSError, EOFError, pickle.UnpicklingError):
             helper.kill()
             code = helper.wait()
@@ -262,21 +263,34 @@ def _start():
                             stdout=subprocess.PIPE, env=env)
 
 
-def _send(stream, value):
-    data = pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL)
-    stream.write(_HEADER.pack(len(data)) + data)
+def _send(stream, kind: str, value=None, raw=b""):
+    """A message on a helper's pipe: the lengths of its two parts, ``(kind, value)`` pickled, and
+    ``raw`` bytes as they are (a batch pickled by the client, a batch's blocks pickled by the
+    helper: ~5 MB for a truck-crane batch of 1 s, written from where they lie, not pickled again
+    into the message nor joined to its header)."""
+    data = pickle.dumps((kind, value), protocol=pickle.HIGHEST_PROTOCOL)
+    stream.write(_HEADER.pack(len(data), len(raw)) + data)
+    if raw:
+        stream.write(raw)
     stream.flush()
 
 
 def _receive(stream):
+    """``(kind, value, raw)`` of a message of :func:`_send`; ``raw`` read into one bytearray
+    (what Dask sends on as it is), None if there was none."""
     header = stream.read(_HEADER.size)
     if len(header) < _HEADER.size:
         raise EOFError("end of stream")
-    size = _HEADER.unpack(header)[0]
+    size, raw_size = _HEADER.unpack(header)
     data = stream.read(size)
     if len(data) < size:
         raise EOFError("end of stream")
-    return pickle.loads(data)
+    raw = None
+    if raw_size:
+        raw = bytearray(raw_size)
+        if stream.readinto(raw) < raw_size:
+            raise EOFError("end of stream")
+    return (*pickle.loads(data), raw)
 
 
 def serve():
@@ -292,19 +306,19 @@ def serve():
     inp = sys.stdin.buffer
     while True:
         try:
-            tasks = _receive(inp)
+            kind, tasks, payload = _receive(inp)
         except EOFError:
             return
         try:
-            if isinstance(tasks, tuple) and tasks[0] == "blocks":   # the batch's blocks in one message,
-                made = blocks_made(*pickle.loads(tasks[1]))                 # (executors.computed's) pickled
-                answer = ("blocks", pickle.dumps(made, protocol=pickle.HIGHEST_PROTOCOL))   # for the client
+            if kind == "blocks":   # the batch's blocks in one message, pickled for the client
+                made = blocks_made(*pickle.loads(payload))   # (executors.computed's)
+                answer = ("blocks", None, pickle.dumps(made, protocol=pickle.HIGHEST_PROTOCOL))
             else:   # each case's output as it finishes, then the end of the batch
-                run_batch(tasks, each=lambda output: _send(out, ("case", output)))
-                answer = ("end", None)
+                run_batch(tasks, each=lambda output: _send(out, "case", output))
+                answer = ("end", None, b"")
         except BaseException:   # noqa: BLE001 - a bug: its traceback goes back to the worker
-            answer = ("error", traceback.format_exc())
-        _send(out, answer)
+            answer = ("error", traceback.format_exc(), b"")
+        _send(out, *answer)
 
 
 if __name__ == "__main__":
