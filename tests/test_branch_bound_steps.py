@@ -105,3 +105,35 @@ def target_of(found, top, tasks, requests):
         v = found.v[i]
         out.append(abs(v) if sense == "abs" else (v if sense == "max" else -v))
     return np.array(out)
+
+
+def test_one_case_first_intervals_are_the_many_case_arrays():
+    """first_intervals of one case (its own branch: no sorting or counting by case) gives, bit
+    for bit, the arrays of case 0 in a batch of two equal cases (the many-case path): the
+    entries' tasks, ends and interval indices and each interval's first entry; random ascending
+    and descending grids, 1-3 requests of each sense, located maxima on and off the samples."""
+    from optdesign.kinematics.branch_bound import first_intervals
+
+    rng = np.random.default_rng(11)
+    for trial in range(100):
+        S = int(rng.integers(2, 60))
+        grid = np.sort(rng.uniform(-3, 3, S)) if trial % 3 else np.linspace(0, 2 * np.pi, S)
+        if trial % 7 == 0:
+            grid = grid[::-1]
+        k = int(rng.integers(1, 4))
+        requests = [Request(j, ("abs", "max", "min")[j % 3]) for j in range(k)]
+        n_found = int(rng.integers(0, 6))
+        t = rng.integers(0, k, n_found)
+        s = rng.choice(grid, n_found) + rng.normal(0, 0.01, n_found) * (rng.random(n_found) < 0.5)
+        v = rng.normal(0, 1, n_found)
+        one, two = Tasks(requests, 1), Tasks(requests, 2)
+        found_one, found_two = Found(len(one)), Found(len(two))
+        found_one.add(t, s, v)
+        found_two.add(np.r_[t, t + k], np.r_[s, s], np.r_[v, v])
+        a = first_intervals(one, grid, found_one, found_one.best(one.code)[1].copy())
+        b = first_intervals(two, grid, found_two, found_two.best(two.code)[1].copy())
+        assert len(a[1]) == len(b[1]) // 2 and len(a[4]) == len(b[4]) // 2
+        for x, y in zip(a, b):
+            y = y[:len(x)]
+            assert x.dtype == y.dtype
+            assert np.array_equal(x.view(np.int64), y.view(np.int64)), trial

@@ -41,6 +41,7 @@ HALVES = 2.0 ** -np.arange(1, PRESPLIT + 1)[None, :]   # (cuts towards a maximum
 # 32 h (two blocks) by 1.5 and 4/3
 CUTS = np.array([0.25, 0.5, 1, 2, 4, 8, 16, 24, 32, 48, 64, 96, 128, 192, 256], float)
 NEAR = 0.05          # maxima within this fraction of their task's best get the first pass's cuts
+UNITS = np.concatenate((-CUTS[::-1], CUTS))   # (the cuts each side of a maximum, ascending)
 
 
 def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None):
@@ -58,11 +59,13 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
     with np.errstate(invalid="ignore"):
         scale = np.fmax.reduce(np.abs(T), axis=1, initial=0.0) if T.size else np.zeros(n)   # (np.nanmax's)
     tol_abs = np.where(np.isnan(tasks.tol), tol * np.maximum(np.abs(best), scale), tasks.tol) + 1e-300
-    bound = np.full(n, -np.inf)
+    bound = np.empty(n)
+    bound.fill(-np.inf)
     span = abs(float(s_grid[-1] - s_grid[0])) if len(s_grid) > 1 else 0.0
-    limits = (float(s_grid.min()), float(s_grid.max())) if len(s_grid) else (0.0, 0.0)
+    limits = (float(np.minimum.reduce(s_grid)), float(np.maximum.reduce(s_grid))) if len(s_grid) else (0.0, 0.0)
     task, lo, hi, where, pick = first_intervals(tasks, s_grid, found, best)
-    left_ub = np.full(len(task), np.inf)   # bounds of the intervals still open (inf: not bounded yet)
+    left_ub = np.empty(len(task))
+    left_ub.fill(np.inf)   # bounds of the intervals still open (inf: not bounded yet)
     left = []   # (task, lo, hi, bound) of the intervals of the cases that stopped
     with np.errstate(invalid="ignore"):   # (NaN compared: False, as meant)
         for pass_ in range(MAX_PASSES):
@@ -80,18 +83,18 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
             # tasks' best; the largest such s where several are), else at its midpoint
             top, _ = found.best(tasks.code)
             centre = found.s[top[task]]
-            centre = np.where((lo <= centre) & (centre <= hi), centre, np.nan)
+            inside = ((lo <= centre) & (centre <= hi)).nonzero()[0]   # (the others leave ``at`` NaN)
             at = np.empty(len(pick))
             at.fill(np.nan)
-            np.fmax.at(at, where, centre)
+            np.fmax.at(at, where[inside], centre[inside])
             r_of, code = tasks.row[task], tasks.code[task]
             rows = np.bincount(r_of).nonzero()[0]   # (the rows asked for, ascending: np.unique's)
             L, U, vm_lo, vm_hi = enclosure.bounds(lo[pick], hi[pick], rows, case[pick], at)
             # each entry's row and interval, as one index into the flattened arrays (np.take:
             # the same elements as L[r_of, where], without numpy's two-array indexing, ~5x its cost)
             flat = r_of * L.shape[1] + where
-            ub = target_bound(np.take(L, flat), np.take(U, flat), code, upper=True)
-            vm_lo, vm_hi = np.take(vm_lo, flat), np.take(vm_hi, flat)
+            ub = target_bound(L.take(flat), U.take(flat), code, upper=True)
+            vm_lo, vm_hi = vm_lo.take(flat), vm_hi.take(flat)
             at_mid = target_bound(vm_lo, vm_hi, code, upper=False)
             locate_better(evaluate, tasks, found, best, task, lo, hi, at_mid, vm_lo + vm_hi, s_tol, limits)
             # the tolerance, or where rounding is larger, four times the width of the midpoint's
@@ -101,7 +104,7 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
             threshold = np.maximum(best[task] + np.maximum(tol_abs[task], noise), tasks.only_above[task])
             keep = ~(ub <= threshold)   # NaN: not bounded, split again
             closed = ~keep
-            if closed.any():
+            if np.count_nonzero(closed):
                 np.maximum.at(bound, task[closed], ub[closed])
             task, lo, hi, left_ub = task[keep], lo[keep], hi[keep], ub[keep]
             if not len(task):   # all closed (the rest of the pass would work on empty arrays)
@@ -112,7 +115,7 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
             stop = np.bincount(case, minlength=tasks.n_cases) > MAX_INTERVALS
             stop[case[width <= max(span, 1e-300) * 1e-13]] = True
             stopping = stop[case] | (pass_ == MAX_PASSES - 1)
-            if stopping.any():
+            if np.count_nonzero(stopping):
                 left.append((task[stopping], lo[stopping], hi[stopping], left_ub[stopping]))
                 task, lo, hi, left_ub = task[~stopping], lo[~stopping], hi[~stopping], left_ub[~stopping]
                 width = hi - lo
@@ -174,7 +177,7 @@ def first_intervals(tasks, s_grid, found, best):
     :class:`~optdesign.model.intervals_compiled.CompiledProgram`); every task of the case gets
     all its case's intervals.  Returns (task, lo, hi) arrays, the index of each entry's interval among the
     distinct ones and, per distinct interval, the index of its first entry."""
-    increasing = len(s_grid) > 1 and bool((s_grid[1:] > s_grid[:-1]).all())
+    increasing = len(s_grid) > 1 and bool(np.logical_and.reduce(s_grid[1:] > s_grid[:-1]))
     grid = s_grid if increasing else np.unique(s_grid)   # (np.unique's values: sorted, each once)
     n_cases, k = tasks.n_cases, len(tasks.requests)
     if len(grid) < 2:
@@ -187,20 +190,26 @@ def first_intervals(tasks, s_grid, found, best):
     cut_case = [np.arange(n_cases).repeat(len(blocks))]
     cut_s = [blocks[None, :].repeat(n_cases, axis=0).ravel()]
     if PRESPLIT:
-        h = float((grid[1:] - grid[:-1]).max())
+        h = float(np.maximum.reduce(grid[1:] - grid[:-1]))
         t = found.task
         near = (target(found.v, tasks.code[t]) >= best[t] - NEAR * np.abs(best[t])) & (found.s > a) & (found.s < b)
         centres, owner = found.s[near], tasks.case[t[near]]
         # the cuts about the lattice point nearest each maximum (a + j g: the same bits for every
         # case whose maximum is near it, so that cases share these intervals), and at the maximum
         g = h * 2.0 ** -LATTICE
-        units = np.concatenate((-CUTS[::-1], CUTS))
         around = np.concatenate(
-            (a + (((centres - a) / g).round()[:, None] + units[None, :]) * g, centres[:, None]), axis=1)
+            (a + (((centres - a) / g).round()[:, None] + UNITS[None, :]) * g, centres[:, None]), axis=1)
         inside = (around > a) & (around < b)
         cut_case.append(owner[inside.nonzero()[0]])
         cut_s.append(around[inside])
     case, s = np.concatenate(cut_case), np.concatenate(cut_s)
+    if n_cases == 1:   # (the arrays below for one case, without sorting and counting by case)
+        s = s[s.argsort(kind="stable")]
+        s = s[_starts(s[1:] - s[:-1] != 0, len(s))]
+        m = max(len(s) - 1, 0)
+        index = np.tile(np.arange(m), k)
+        first = np.arange(m) if k else np.full(m, -1)
+        return np.arange(k).repeat(m), s[:-1][index], s[1:][index], index, first
     order = np.lexsort((s, case))
     case, s = case[order], s[order]
     distinct = _starts((case[1:] != case[:-1]) | (s[1:] - s[:-1] != 0), len(s))

@@ -58,14 +58,14 @@ def newton(evaluate, cases, rows, lo, hi, s0, sign, s_tol=1e-13):
         return np.zeros(0), np.zeros(0)
     points, point_case, index = distinct(np.concatenate((lo, hi, s0)), np.concatenate((cases, cases, cases)))
     V, D1, D2 = (np.asarray(a, float) for a in evaluate(points, point_case))
-    i_lo, i_hi, i_0 = index[:n], index[n:2 * n], index[2 * n:]
-    s_out, v_out = s0.copy(), V[rows, i_0]
+    at = rows * len(points) + index.reshape(3, n)   # (each bracket's row at its lo, hi and s0, flat: V[rows, i])
+    s_out, v_out = s0.copy(), V.take(at[2])
     with np.errstate(invalid="ignore"):
-        going = ~((sign * D1[rows, i_lo] <= 0) | (sign * D1[rows, i_hi] >= 0))
+        going = ~((sign * D1.take(at[0]) <= 0) | (sign * D1.take(at[1]) >= 0))
     k = going.nonzero()[0]
     sign, rows, cases = sign[k], rows[k], cases[k]   # (the unfinished brackets', filtered as k is)
-    s, lo, hi = s0[k], lo[k], hi[k]
-    d1, d2 = sign * D1[rows, i_0[k]], sign * D2[rows, i_0[k]]
+    s, lo, hi, at = s0[k], lo[k], hi[k], at[2, k]
+    d1, d2 = sign * D1.take(at), sign * D2.take(at)
     steps = 0
     with np.errstate(all="ignore"):
         while len(k):
@@ -76,18 +76,18 @@ def newton(evaluate, cases, rows, lo, hi, s0, sign, s_tol=1e-13):
             small = s_tol * np.fmax(1.0, np.abs(s))
             done = (np.abs(s_new - s) <= small) | (hi - lo <= small)
             V, D1, D2 = (np.asarray(a, float) for a in evaluate(s_new, cases))
-            at = np.arange(len(k))
-            v_new = V[rows, at]
+            at = rows * len(s_new) + np.arange(len(k))   # (each bracket's row at its own point, flat: V[rows, j])
+            v_new = V.take(at)
             steps += 1
             if steps >= MAX_STEPS:   # the last point evaluated, converged or not
                 done[:] = True
             s = s_new
-            if done.any():   # (no bracket done: none to drop)
+            if np.count_nonzero(done):   # (no bracket done: none to drop)
                 s_out[k[done]], v_out[k[done]] = s_new[done], v_new[done]
                 keep = ~done
                 k, s, lo, hi, sign, rows, cases, at = k[keep], s[keep], lo[keep], hi[keep], sign[keep], rows[keep], \
                     cases[keep], at[keep]
-            d1, d2 = sign * D1[rows, at], sign * D2[rows, at]
+            d1, d2 = sign * D1.take(at), sign * D2.take(at)
     return s_out, v_out
 
 
@@ -103,7 +103,9 @@ class Tasks:
     """The requests of N cases as flat arrays, one entry per (case, request): ``case``,
     ``request`` (its index), ``row``, ``code`` (the sense, an index into SENSES),
     ``only_above`` (-inf for none), ``ends``, ``tol`` (NaN: the default; a request's may be one
-    per case)."""
+    per case).  Read only: :meth:`of` hands the same Tasks to every call with equal requests."""
+
+    _made = {}   # (requests, cases) -> Tasks, for requests that hash (a tol per case does not)
 
     def __init__(self, requests, n_cases):
         k = len(requests)
@@ -119,6 +121,28 @@ class Tasks:
             if r.tol is not None:
                 tol[:, j] = r.tol
         self.tol = tol.ravel()
+        # (what the calls ask of them again and again: whether any task is a max, a min, has a floor)
+        self.is_max, self.is_min = self.code == 1, self.code == 2
+        self.any_max, self.any_min = bool(self.is_max.any()), bool(self.is_min.any())
+        self.any_above = bool((self.only_above > -np.inf).any())
+        for a in (self.case, self.request, self.row, self.code, self.only_above, self.ends, self.tol, self.is_max,
+                  self.is_min):
+            a.flags.writeable = False
+
+    @classmethod
+    def of(cls, requests, n_cases):
+        """The Tasks of ``requests`` for ``n_cases`` cases, made once per distinct requests (they
+        are read only)."""
+        try:
+            key = (tuple(requests), n_cases)
+            made = cls._made.get(key)
+        except TypeError:   # (a tol given per case: an array)
+            return cls(requests, n_cases)
+        if made is None:
+            if len(cls._made) > 256:
+                cls._made.clear()
+            made = cls._made[key] = cls(requests, n_cases)
+        return made
 
     def __len__(self):
         return len(self.case)
@@ -126,8 +150,10 @@ class Tasks:
     def sign(self, values):
         """+1/-1 per value (tasks x anything) such that sign * v is the task's target."""
         sign = np.where(np.asarray(values) < 0, -1.0, 1.0)
-        sign[self.code == 1] = 1.0   # (whole rows: a max's and a min's sign do not depend on v)
-        sign[self.code == 2] = -1.0
+        if self.any_max:   # (whole rows: a max's and a min's sign do not depend on v)
+            sign[self.is_max] = 1.0
+        if self.any_min:
+            sign[self.is_min] = -1.0
         return sign
 
 
@@ -164,7 +190,7 @@ class Found:
         top.fill(none)
         hit = (t == best[self.task]).nonzero()[0]
         np.minimum.at(top, self.task[hit], hit)   # the first among equals
-        if (top == none).any():   # a task with NaN targets only: its first; a task with none: -1
+        if np.count_nonzero(top == none):   # a task with NaN targets only: its first; a task with none: -1
             first = np.full(n, none)
             np.minimum.at(first, self.task, np.arange(none))
             nan_only = (top == none) & (first < none)
@@ -189,10 +215,15 @@ def grid_brackets(tasks, s_grid, V, found):
     ends[:, 0], ends[:, 1] = s_grid[0], s_grid[-1]
     found.add(np.arange(n).repeat(2), ends.ravel(), T[:, [0, -1]].ravel())
     with np.errstate(invalid="ignore"):
-        flat = T.max(axis=1) - T.min(axis=1) <= 1e-14 * np.maximum(np.abs(T).max(axis=1), 1e-300)   # (np.ptp's)
+        high, low = np.maximum.reduce(T, axis=1), np.minimum.reduce(T, axis=1)   # (max |T|: the larger of theirs)
+        flat = high - low <= 1e-14 * np.maximum(np.maximum(np.abs(high), np.abs(low)), 1e-300)   # (np.ptp's)
         inner = tgt[:, 1:-1]
-        is_max = (inner >= tgt[:, :-2]) & (inner >= tgt[:, 2:]) & ~(inner < tasks.only_above[:, None]) & ~flat[:, None]
-    if flat.any():
+        is_max = (inner >= tgt[:, :-2]) & (inner >= tgt[:, 2:])
+        if tasks.any_above:
+            is_max &= ~(inner < tasks.only_above[:, None])
+    any_flat = np.count_nonzero(flat) > 0
+    if any_flat:
+        is_max &= ~flat[:, None]
         top = tgt[flat].argmax(axis=1)
         found.add(flat.nonzero()[0], s_grid[top], T[flat][np.arange(len(top)), top])
     t, i = is_max.nonzero()
@@ -200,16 +231,16 @@ def grid_brackets(tasks, s_grid, V, found):
     parts = [(t, np.minimum(s_grid[i - 1], s_grid[i + 1]), np.maximum(s_grid[i - 1], s_grid[i + 1]), s_grid[i], i)]
     if S >= 2:   # the end intervals, refined from their end sample, after the interior ones (per task)
         te = [(tasks.ends & np.isfinite(T[:, end])).nonzero()[0] for end in (0, S - 1)]
-        which = np.zeros(len(te[0]) + len(te[1]), int)
-        which[len(te[0]):] = 1   # (0: the first sample's interval, 1: the last's)
-        end, other = np.array([0, S - 1]), np.array([1, S - 2])
-        at, by = s_grid[end], s_grid[other]   # (min and max as Python's: by where by < at, else at)
-        parts.append((np.concatenate(te), np.where(by < at, by, at)[which], np.where(by > at, by, at)[which],
-                      at[which], end[which]))
+        which = [len(x) for x in te]   # (how many of each: the first sample's interval, then the last's)
+        at, by = s_grid[[0, S - 1]].tolist(), s_grid[[1, S - 2]].tolist()   # (each end sample and its neighbour)
+        low = [b if b < a else a for a, b in zip(at, by)]   # (min and max as Python's: by where by < at, else at)
+        high = [b if b > a else a for a, b in zip(at, by)]
+        parts.append((np.concatenate(te), np.repeat(low, which), np.repeat(high, which), np.repeat(at, which),
+                      np.repeat([0, S - 1], which)))
     bt, blo, bhi, bs0, bi = (np.concatenate(a) for a in zip(*parts))
     order = bt.argsort(kind="stable")
     bt, blo, bhi, bs0, bi = bt[order], blo[order], bhi[order], bs0[order], bi[order]
-    return bt, blo, bhi, bs0, sign[bt, bi], bi, T, tgt.max(axis=1)
+    return bt, blo, bhi, bs0, sign[bt, bi], bi, T, np.maximum.reduce(tgt, axis=1)
 
 
 def check_invariant(tasks, T, found, top, best, sampled=None):
@@ -221,7 +252,7 @@ def check_invariant(tasks, T, found, top, best, sampled=None):
         return
     if sampled is None:
         sampled = (tasks.sign(T) * T).max(axis=1)
-    checked = np.isfinite(T).all(axis=1) & ~(sampled < tasks.only_above)
+    checked = np.logical_and.reduce(np.isfinite(T), axis=1) & ~(sampled < tasks.only_above)
     bad = (checked & ~(best >= sampled)).nonzero()[0]
     if len(bad):
         from ..errors import ResultError

@@ -164,7 +164,7 @@ def maxima(evaluate, s_grid, V, requests, s_tol=1e-13, enclosure=None, tol=None)
     target is below the largest sampled one."""
     V = np.asarray(V, float)
     s_grid = np.asarray(s_grid, float)
-    tasks = Tasks(requests, V.shape[0])
+    tasks = Tasks.of(requests, V.shape[0])
     found = Found(len(tasks))
     bt, blo, bhi, bs0, bsign, bi, T, sampled = grid_brackets(tasks, s_grid, V, found)
     s_star, v_star = newton(evaluate, tasks.case[bt], tasks.row[bt], blo, bhi, bs0, bsign, s_tol)

@@ -49,6 +49,18 @@ class CertifiedExtremes:
                 self.aggregate_rows.append((c.name, func, len(rows)))
                 rows.append(model_value(analysis.model, inner, f"[[constraints]] {c.name}"))
         self.n_rows = len(rows)
+        # the requests (every peak |v|, each constraint's max and min, each aggregate) and where
+        # each figure's is among them, the same for every call
+        requests = [Request(i, "abs", ends=True) for i in self.peak_rows.values()]
+        for i in self.constraint_rows.values():
+            requests += [Request(i, "max", ends=True), Request(i, "min", ends=True)]
+        self.requests = tuple(requests + [Request(i, func, ends=True) for _, func, i in self.aggregate_rows])
+        k_peaks, k_extremes = len(self.peak_rows), len(self.constraint_rows)
+        self._figures = (tuple((j, name, f"peak |{name}|") for j, name in enumerate(self.peak_rows)),
+                         tuple((k_peaks + 2 * i, name, f"{name} max", f"{name} min")
+                               for i, name in enumerate(self.constraint_rows)),
+                         tuple((k_peaks + 2 * k_extremes + j, name)
+                               for j, (name, _, _) in enumerate(self.aggregate_rows)))
         v = ca.vertcat(*rows) if rows else ca.DM.zeros(0, 1)
         dv = mech.ds(v)
         # compiled from the disk cache where it is there (CasADi's C of the same graph: the same
@@ -146,10 +158,7 @@ class CertifiedExtremes:
             V = np.concatenate([V, self._values(np.array(extra), P)], axis=2)[:, :, order]
             q_sampled = np.c_[q_sampled, np.full((n, len(extra)), np.nan)][:, order]
             s_values = s_all[order]
-        requests = [Request(i, "abs", ends=True) for i in self.peak_rows.values()]
-        for i in self.constraint_rows.values():
-            requests += [Request(i, "max", ends=True), Request(i, "min", ends=True)]
-        requests += [Request(i, func, ends=True) for _, func, i in self.aggregate_rows]
+        requests = list(self.requests)
         if not requests:
             return Found(*([[]] * n,) * 5, (), (), ())
         ascending = len(s_values) < 2 or s_values[-1] >= s_values[0]
@@ -157,10 +166,7 @@ class CertifiedExtremes:
         s, v, bound, notes = self._maxima(grid, values, P, requests)
         k_peaks = len(self.peak_rows)
         q = self._q(s[:, :k_peaks], s_values, q_sampled, P)
-        peaks = tuple((j, name, f"peak |{name}|") for j, name in enumerate(self.peak_rows))
-        extremes = tuple((k_peaks + 2 * i, name, f"{name} max", f"{name} min")
-                         for i, name in enumerate(self.constraint_rows))
-        aggregates = tuple((k_peaks + 2 * len(extremes) + j, name) for j, (name, _, _) in enumerate(self.aggregate_rows))
+        peaks, extremes, aggregates = self._figures
         return Found(s.tolist(), v.tolist(), bound.tolist(), notes, q, peaks, extremes, aggregates)
 
     def _maxima(self, grid, values, P, requests):
@@ -223,9 +229,11 @@ class CertifiedExtremes:
         n, k = s.shape
         q = self.q(s.ravel(), P[0] if n == 1 else np.repeat(P, k, axis=0))[0][0].reshape(n, k)   # (one case: its vector)
         if self.mech.scene.drive.kind == "rotary" and k:
+            distance = np.abs(s_values[None, None, :] - s[:, :, None])
             known = np.isfinite(q_sampled)   # the samples', not the joined sweep values'
-            distance = np.where(known[:, None, :], np.abs(s_values[None, None, :] - s[:, :, None]), np.inf)
-            near = np.take_along_axis(q_sampled, np.argmin(distance, axis=2), axis=1)
+            if np.count_nonzero(known) < known.size:
+                distance = np.where(known[:, None, :], distance, np.inf)
+            near = q_sampled[np.arange(n)[:, None], np.argmin(distance, axis=2)]   # (np.take_along_axis's, cheaper)
             turn = [math.remainder(x, 2 * math.pi) for x in (q - near).ravel().tolist()]   # (np.vectorize's, cheaper)
             q = near + np.array(turn, float).reshape(q.shape)
         return q.tolist()
