@@ -107,3 +107,17 @@ def test_a_study_client_on_a_loopback_cluster_gathers_from_its_workers():
             dask.close()
         finally:
             given.close()
+
+
+def test_idle_helpers_end_with_their_worker():
+    # at exit (atexit), every idle helper gets the end of its input, ends by itself, and its
+    # pipes are closed: no process left behind, no "subprocess is still running" warning
+    from optdesign.study import worker
+
+    assert worker.prestart(1) >= 1
+    helpers = list(worker._IDLE)
+    worker._close_idle()
+    assert worker._IDLE == []
+    for helper in helpers:
+        assert helper.returncode == 0   # it ended at the end of its input, not killed
+        assert helper.stdin.closed and helper.stdout.closed

@@ -23,6 +23,7 @@ helpers, the worker's statistical profiler is paused (:func:`profiler_paused`).
 """
 from __future__ import annotations
 
+import atexit
 import contextlib
 import gc
 import os
@@ -245,6 +246,24 @@ def _take():
 def _give(helper):
     with _GUARD:
         _IDLE.append(helper)
+
+
+@atexit.register
+def _close_idle(timeout: float = 2.0):
+    """At the worker's exit: each idle helper's pipes closed (it ends at the end of its input)
+    and the helper waited for, killed if it has not ended within ``timeout`` s; none left
+    running behind the worker, nor its pipes left to the garbage collector."""
+    with _GUARD:
+        helpers, _IDLE[:] = list(_IDLE), []
+    for helper in helpers:
+        for stream in (helper.stdin, helper.stdout):
+            with contextlib.suppress(OSError):
+                stream.close()
+        try:
+            helper.wait(timeout)
+        except subprocess.TimeoutExpired:
+            helper.kill()
+            helper.wait()
 
 
 def _start():
