@@ -294,7 +294,7 @@ class _Dask(_Futures):
     group_s = 2.0
     # an analyse batch's seconds of work (execute._group_size): 1 s, not group_s: a truck-crane
     # batch of 4,096 cases (2 s) cost its helper ~7 % more CPU per case than one of 1,024 or
-    # 2,048 (its arrays of cases x samples larger than the caches; /tmp/dask8/bsize.py, 20
+    # 2,048 (its arrays of cases x samples larger than the caches; 20
     # interleaved rounds in one process, load ~8: medians 491 / 459 / 457 us per case), while
     # a task's own cost (milliseconds of the client's, scheduler's and worker's CPU) stays small
     analyse_s = 1.0
@@ -358,7 +358,7 @@ class _Dask(_Futures):
         scheduler, Dask's default for a client outside the cluster, where the scheduler receives
         and sends on every result (a truck-crane batch's ~5 MB: 25 such results cost the
         scheduler 0.23 s of CPU relayed, 0.10 s not; a worker process ~0.2 s either way;
-        /tmp/dask9/sch3.py, 2 interleaved pairs, load ~8).  A worker the client cannot reach (a
+        2 interleaved pairs at load ~8, 2026-11-29).  A worker the client cannot reach (a
         cluster behind NAT or a firewall) keeps Dask's relay for all."""
         import socket
 
