@@ -199,15 +199,15 @@ class Journal:
     def add_blocks(self, blocks):
         """Append the finished cases of ``blocks`` (:class:`~optdesign.study.blocks.Block`), a line
         each as :meth:`add` writes it, in one write; durable at the next :meth:`sync`."""
-        spans, end, text = self.records.spans, self._end, []
+        spans, end, data = self.records.spans, self._end, []
         for block in blocks:
-            lines = block.lines()
-            for case_id, line in zip(block.ids, lines):
-                spans[case_id] = _span(end, len(line))   # ASCII: as many bytes as characters
-                end += len(line)
-            text += lines
-        if text:
-            self._fh.write("".join(text).encode())
+            text, lengths = block.journal()
+            for case_id, length in zip(block.ids, lengths):
+                spans[case_id] = end << 32 | length   # (_span's)
+                end += length
+            data.append(text)
+        if data:
+            self._fh.write(b"".join(data))
             self._end = end
             self._unsynced = self._unflushed = True
 

@@ -77,7 +77,15 @@ class _Column:
             self.data.append(0)
 
     def extend(self, values: list):
-        """:meth:`append` of each value, in one call where they all fit the column's array."""
+        """:meth:`append` of each value, in one call where they all fit the column's array
+        (``values``: a list, or an array of doubles: floats, copied as they are)."""
+        if type(values) is array:
+            if self.kind == "n" and len(values):
+                self._choose(values[0])
+            if self.kind == "d":
+                self.data.extend(values)
+                return
+            values = values.tolist()
         if self.kind == "n":
             self._choose(next((v for v in values if v is not None), None))
         kind, types = self.kind, set(map(type, values))

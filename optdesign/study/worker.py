@@ -140,7 +140,7 @@ def _resume(profile):
 
 def lines_made(made: list) -> list:
     for block in made:
-        block.lines()
+        block.journal()
     return made
 
 
