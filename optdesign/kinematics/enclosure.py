@@ -300,7 +300,7 @@ class Enclosure:
         # the ends, each (case, value) once: neighbouring intervals share them
         if self.p.ndim == 1:
             ends, where_end = np.unique(np.concatenate((lo, hi)), return_inverse=True)
-            p = self.p
+            p = p_cases = p_ends = self.p
         else:
             one = len(self.p) == 1   # one case: its parameter vector (the same bits, without a row per interval)
             key_s = np.concatenate((lo, hi))
@@ -320,19 +320,23 @@ class Enclosure:
             where_end = np.empty(2 * n, int)
             where_end[order] = first.cumsum() - 1
             ends = by_s[first]
-            p = self.p[0] if one else self.p[np.concatenate((cases, cases, by_case[first]))]
+            # each interval's parameters (over [lo, hi] and at its midpoint: the same rows), each end's
+            p_cases, p_ends = (self.p[0], self.p[0]) if one else (self.p.take(cases, axis=0),
+                                                                   self.p.take(by_case[first], axis=0))
+            p = p_cases if one else None
         # over [lo, hi] everything; at the midpoints v and v' (the Taylor form's); at the ends v
         # (the monotone form's): each call runs only the instructions its outputs need
         # (numpy runs a program instruction by instruction, at a fixed cost per instruction and
         # call: there all of them in one call)
         compiled = getattr(self.program, "subsets_pay", False)
         if compiled:
-            p_whole, p_mid, p_ends = (p[:n], p[n:2 * n], p[2 * n:]) if p.ndim == 2 else (p, p, p)
-            varied = self._varied() if p.ndim == 2 else None   # (the parameters that differ between the cases)
-            (L, U, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(lo, hi, p_whole, rows, varied=varied)
-            (vm_lo, vm_hi, _), (dm_lo, dm_hi, _), _ = self.program(m, m, p_mid, rows, (0, 1), varied=varied)
+            varied = self._varied() if p_cases.ndim == 2 else None   # (the parameters that differ between the cases)
+            (L, U, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(lo, hi, p_cases, rows, varied=varied)
+            (vm_lo, vm_hi, _), (dm_lo, dm_hi, _), _ = self.program(m, m, p_cases, rows, (0, 1), varied=varied)
             (at_lo, at_hi, _), _, _ = self.program(ends, ends, p_ends, rows, (0,), varied=varied)
         else:
+            if p is None:   # (a row of parameters per interval, midpoint and end)
+                p = np.concatenate((p_cases, p_cases, p_ends))
             (v_lo, v_hi, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(
                 np.concatenate((lo, m, ends)), np.concatenate((hi, m, ends)), p, rows)
             L, U, vm_lo, vm_hi, at_lo, at_hi = (v_lo[:, :n], v_hi[:, :n], v_lo[:, n:2 * n], v_hi[:, n:2 * n],
