@@ -45,6 +45,7 @@ STAGES = (
     ("optdesign.model.runs", None, "_certified", "certification"),
     ("optdesign.model.analysis", "Analysis", "sweep_rms_many", "sweep_rms_many"),
     ("optdesign.study.blocks", "Block", "lines", "journal text and CSV cells"),
+    ("optdesign.study.blocks", "Block", "journal", "journal text and CSV cells"),   # (since it ships its lines as bytes)
 )
 SHOWN = ("prepare the cases", "run_many without certification", "of which model columns (compiled)",
          "sweep_rms_many", "rows and blocks, the rest", "journal text and CSV cells", "pickle out (worker)",
