@@ -93,16 +93,15 @@ class Cases(collections.abc.Sequence):
     def batch(self, indices) -> tuple:
         """(refs, overrides, bounds) of the cases ``indices``: a :class:`Ref` (index and id), the
         overrides and the bounds of each (a batch's tasks need no more)."""
-        refs, overrides, bounds = [], [], []
-        at = [self.column(k, indices) for k in range(len(self.axes))]
-        for j, i in enumerate(indices):
-            refs.append(Ref(i, f"{self.ids[i]:016x}"))
-            ov, bd = (), ()
-            for k in range(len(at)):
-                ov += self._overrides[k][at[k][j]]
-                bd += self._bounds[k][at[k][j]]
-            overrides.append(ov)
-            bounds.append(bd)
+        indices = list(indices)
+        refs = list(map(Ref, indices, map("{:016x}".format, map(self.ids.__getitem__, indices))))
+        # each case's tuples: its axes' points' tuples joined, axis after axis (a column at a time)
+        overrides, bounds = [()] * len(indices), [()] * len(indices)
+        for k in range(len(self.axes)):
+            at = self.column(k, indices)
+            overrides = list(map(tuple.__add__, overrides, map(self._overrides[k].__getitem__, at)))
+            if any(self._bounds[k]):
+                bounds = list(map(tuple.__add__, bounds, map(self._bounds[k].__getitem__, at)))
         return refs, overrides, bounds
 
     def id(self, i) -> str:
