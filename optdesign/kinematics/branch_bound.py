@@ -71,7 +71,7 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
         for pass_ in range(MAX_PASSES):
             if not len(task):
                 break
-            case = tasks.case[task]
+            case = tasks.case.take(task)
             if pass_:   # the distinct intervals of each case (the tasks of a case share them)
                 order = np.lexsort((hi, lo, case))
                 c, a, b = case[order], lo[order], hi[order]
@@ -82,12 +82,12 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
             # each distinct interval expanded at a located maximum inside it or at its end (its
             # tasks' best; the largest such s where several are), else at its midpoint
             top, _ = found.best(tasks.code)
-            centre = found.s[top[task]]
+            centre = found.s[top].take(task)   # (per task, then per interval: one gather of each)
             inside = ((lo <= centre) & (centre <= hi)).nonzero()[0]   # (the others leave ``at`` NaN)
             at = np.empty(len(pick))
             at.fill(np.nan)
             np.fmax.at(at, where[inside], centre[inside])
-            r_of, code = tasks.row[task], tasks.code[task]
+            r_of, code = tasks.row.take(task), tasks.code.take(task)
             rows = np.bincount(r_of).nonzero()[0]   # (the rows asked for, ascending: np.unique's)
             L, U, vm_lo, vm_hi = enclosure.bounds(lo[pick], hi[pick], rows, case[pick], at)
             # each entry's row and interval, as one index into the flattened arrays (np.take:
@@ -101,7 +101,7 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
             # own enclosure (a row that cancels to ~0: its floating-point evaluation cannot say more)
             width_m = vm_hi - vm_lo
             noise = 4.0 * np.where(np.isfinite(width_m), width_m, 0.0)
-            threshold = np.maximum(best[task] + np.maximum(tol_abs[task], noise), tasks.only_above[task])
+            threshold = np.maximum(best.take(task) + np.maximum(tol_abs.take(task), noise), tasks.only_above.take(task))
             keep = ~(ub <= threshold)   # NaN: not bounded, split again
             closed = ~keep
             if np.count_nonzero(closed):
@@ -111,7 +111,7 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
                 break
             left_ub[left_ub != left_ub] = np.inf
             width = hi - lo
-            case = tasks.case[task]
+            case = tasks.case.take(task)
             stop = np.bincount(case, minlength=tasks.n_cases) > MAX_INTERVALS
             stop[case[width <= max(span, 1e-300) * 1e-13]] = True
             stopping = stop[case] | (pass_ == MAX_PASSES - 1)
@@ -121,7 +121,7 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
                 width = hi - lo
             # halved; one that holds its task's best located maximum cut towards it as in the first pass
             top, _ = found.best(tasks.code)
-            centre = found.s[top[task]]
+            centre = found.s[top].take(task)   # (per task, then per interval: one gather of each)
             around = (lo < centre) & (centre < hi)
             steps = width[around, None] * HALVES
             cuts = centre[around, None] + np.concatenate((-steps, np.zeros((len(steps), 1)), steps[:, ::-1]), axis=1)
