@@ -84,6 +84,13 @@ class _Figures:
         return {"peaks": got["peaks"], "peak_at": got["peak_at"], "certificates": certificates,
                 "constraint_extremes": extremes}
 
+    def columns(self, cases) -> tuple:
+        """:meth:`made`'s sampled peaks and per-stroke constraints of the batch's cases ``cases``,
+        column by column (a study's rows): (key, values) pairs of each, the latter as floats."""
+        by_case, stroke = self.by_case, self.stroke
+        return ([(k, [by_case[i][m] for i in cases]) for m, k in enumerate(self.keys)],
+                [(name, [float(stroke[i][m]) for i in cases]) for m, name in enumerate(self.names)])
+
     def peaks(self, found, c) -> list:
         """Case ``c`` of ``found``: its peaks' values, in order (its ``peaks``' values)."""
         v = found.v[c]

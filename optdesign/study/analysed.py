@@ -130,20 +130,21 @@ def _columns(analysis, P) -> list:
 
 
 def _batch_columns(named, batch, rms, where, rms_names):
-    """:func:`_columns`'s columns of certified cases of one batch (their ``CaseRun.batch``:
-    the batch's figures, the case's number, its Found and its place there), read from the
-    batch's lists: the values and names the cases' dicts hold (model/runs.py's _Figures.made)."""
+    """:func:`_columns`'s columns of certified cases of one batch (their ``CaseRun.batch``: the
+    batch's figures, the case's number, its Found and its place there; the same figures and
+    Found for all), as those give them column by column (``Found.columns``, ``_Figures.columns``
+    in model/: the values of the cases' dicts)."""
     figures, found = batch[0][0], batch[0][2]
-    named.update({f"peak:{name}": [abs(f.v[c][j]) for _, _, f, c in batch] for j, name, _ in found.peaks})
-    named.update({f"peak_at:{name}": [f.s[c][j] for _, _, f, c in batch] for j, name, _ in found.peaks})
-    named.update({f"peak_sampled:{k}": [figures.by_case[i][m] for _, i, _, _ in batch]
-                  for m, k in enumerate(figures.keys)})
+    peaks, extremes = found.columns([c for _, _, _, c in batch])
+    sampled, stroke = figures.columns([i for _, i, _, _ in batch])
+    named.update({f"peak:{name}": values for name, values, _ in peaks})
+    named.update({f"peak_at:{name}": at for name, _, at in peaks})
+    named.update({f"peak_sampled:{k}": values for k, values in sampled})
     named.update({f"rms:{k}": [rms[i][k][0] for i in where] for k in rms_names})
-    for j, name, _, _ in found.extremes:
-        named[f"constraint:{name}:min"] = [f.v[c][j + 1] for _, _, f, c in batch]
-        named[f"constraint:{name}:max"] = [f.v[c][j] for _, _, f, c in batch]
-    rows = figures.stroke
-    named.update({f"constraint:{name}": [float(rows[i][m]) for _, i, _, _ in batch] for m, name in enumerate(figures.names)})
+    for name, low, high in extremes:
+        named[f"constraint:{name}:min"] = low
+        named[f"constraint:{name}:max"] = high
+    named.update({f"constraint:{name}": values for name, values in stroke})
 
 
 def _cases_row(cases) -> dict:
