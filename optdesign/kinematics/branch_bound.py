@@ -222,10 +222,9 @@ def first_intervals(tasks, s_grid, found, best):
     per_task = counts.repeat(k)
     task = np.arange(n_cases * k).repeat(per_task)
     within = np.arange(len(task)) - np.concatenate(([0], per_task.cumsum()[:-1])).repeat(per_task)
-    index = starts[tasks.case[task]] + within
-    first = np.empty(len(i_lo), int)
-    first.fill(-1)
-    first[index[::-1]] = np.arange(len(index))[::-1]   # (the smallest entry of each interval)
+    index = starts.repeat(k * counts) + within   # (starts[tasks.case[task]]: case c's k tasks in a row)
+    # each interval's smallest entry, its case's first task's: case c's entries start at k starts[c]
+    first = np.arange(len(i_lo)) + (k - 1) * starts.repeat(counts) if k else np.full(len(i_lo), -1)
     return task, i_lo[index], i_hi[index], index, first
 
 
