@@ -149,7 +149,20 @@ class Tasks:
         """The Tasks of several calls' Tasks in one (:func:`~.joint.maxima_together`): part q's
         cases numbered after the earlier parts' (cases of different parts are never one case),
         its rows after theirs (``parts``: (tasks, rows) each, rows the number of its rows); each
-        task's request an index into the requests of all parts, in order."""
+        task's request an index into the requests of all parts, in order.  Read only: made once
+        per parts (the key holds the Tasks themselves, so that their ids stay theirs)."""
+        key = tuple(parts)
+        made = cls._joined.get(key)
+        if made is None:
+            if len(cls._joined) > 256:
+                cls._joined.clear()
+            made = cls._joined[key] = cls._join(parts)
+        return made
+
+    _joined = {}
+
+    @classmethod
+    def _join(cls, parts):
         out = cls.__new__(cls)
         cases = rows = requests = 0
         pieces = []
@@ -163,6 +176,8 @@ class Tasks:
             setattr(out, name, np.concatenate([getattr(tasks, name) for tasks, _ in parts]))
         out.any_max, out.any_min = bool(out.is_max.any()), bool(out.is_min.any())
         out.any_above = bool((out.only_above > -np.inf).any())
+        for a in (out.case, out.request, out.row, out.code, out.only_above, out.ends, out.tol, out.is_max, out.is_min):
+            a.flags.writeable = False
         return out
 
     def __len__(self):

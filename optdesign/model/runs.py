@@ -277,8 +277,8 @@ def _together(a, s, P):
     plan = None
     if not isinstance(dead[0], OptdesignError) and not dead[0][0] and not bad.any():
         plan = a.certified.begin(s, P, columns, constraints)
-    if plan is None or len(plan[0]) != 1 or len(pending.parts) != 1 or np.any(pending.parts[0][3].sign != 1.0) \
-            or not np.array_equal(plan[1], pending.grid):
+    # (both grids the samples, ascending: the same numbers)
+    if plan is None or len(plan[0]) != 1 or len(pending.parts) != 1 or np.any(pending.parts[0][3].sign != 1.0):
         return alone(), values, dead, None, split
     joint = a.certified.with_margins(a.assembly)
     enclosure = None if joint is None else joint[1].at(P)
