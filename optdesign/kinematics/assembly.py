@@ -90,9 +90,8 @@ def _is_term(node, name) -> bool:
 
 
 class Pending:
-    """:meth:`AssemblyCheck.begin`'s check of the cases ``P`` on ``s_values``, waiting for the
-    continuous minima of its ``parts`` (calls of the one certification on ``grid``, the kinds'
-    cases ``kinds``); ``groups`` None: nothing to check."""
+    """:meth:`AssemblyCheck.begin`'s check of the cases ``P`` on ``s_values``, waiting for its
+    ``parts``' minima (on ``grid``; the kinds' cases ``kinds``); ``groups`` None: nothing to check."""
 
     def __init__(self, P, s_values):
         self.P, self.s_values = P, s_values
@@ -176,19 +175,17 @@ class AssemblyCheck:
         """Per case (a row of the parameters ``P``): ``(narrow, notes)`` (the minima the samples
         do not resolve; construction -> why its margin has no enclosure's proof) or the case's
         :class:`AssemblyError`.  The margins depend on the geometry alone: cases equal in its
-        parameters are checked once (:func:`~.batches.same_cases`).  :meth:`begin`, then the
-        continuous minima of its :attr:`Pending.parts` (:func:`~.peaks.extrema_of_cases`), then
-        :meth:`finish`."""
+        parameters are checked once (:func:`~.batches.same_cases`).  :meth:`begin`, the minima
+        of its parts (:func:`~.peaks.extrema_of_cases`), :meth:`finish`."""
         pending = self.begin(s_values, P)
         return self.finish(pending, [extrema_of_cases(evaluate, pending.grid, V, requests, enclosure=enclosure)
                                      for evaluate, V, requests, enclosure in pending.parts])
 
     def begin(self, s_values, P) -> "Pending":
-        """The check of :meth:`many` up to the continuous minima of the margins: the samples of
-        every case in one call, the crossings located; its :attr:`Pending.parts` the calls of the
-        one certification that find the minima between the samples (one per kind of case: the
-        same rows and signs), which :meth:`finish` takes (another caller may run them together
-        with its own: :func:`~.joint.maxima_together`, the same numbers)."""
+        """The check of :meth:`many` up to the margins' continuous minima: the samples of every
+        case in one call, the crossings located; its :attr:`Pending.parts` the calls of the one
+        certification that find the minima between the samples (one per kind of case: the same
+        rows and signs), for :meth:`finish` (run alone or with others': :mod:`.joint`)."""
         P = np.atleast_2d(np.asarray(P, float))
         s_values = np.asarray(s_values, float)
         pending = Pending(P, s_values)
@@ -218,8 +215,8 @@ class AssemblyCheck:
         return pending
 
     def finish(self, pending, extrema) -> list:
-        """:meth:`many`'s result from :meth:`begin`'s ``pending`` and ``extrema``, per part of
-        its :attr:`Pending.parts` what :func:`~.peaks.extrema_of_cases` gives for it."""
+        """:meth:`many`'s result from :meth:`begin`'s ``pending`` and what
+        :func:`~.peaks.extrema_of_cases` gives for each of its parts (``extrema``)."""
         P = pending.P
         if pending.groups is None:
             return [([], {}) for _ in P]
