@@ -223,9 +223,19 @@ def first_intervals(tasks, s_grid, found, best):
     per_task = counts[tasks.case]
     task = np.arange(len(tasks.case)).repeat(per_task)
     within = np.arange(len(task)) - np.concatenate(([0], per_task.cumsum()[:-1])).repeat(per_task)
-    index = starts.repeat(k * counts) + within   # (starts[tasks.case[task]]: case c's k tasks in a row)
-    # each interval's smallest entry, its case's first task's: case c's entries start at k starts[c]
-    first = np.arange(len(i_lo)) + (k - 1) * starts.repeat(counts) if k else np.full(len(i_lo), -1)
+    case_major = tasks.case[1:] >= tasks.case[:-1]
+    if np.logical_and.reduce(case_major):   # (each case's tasks in a row: repeats, not gathers and a scatter)
+        per_case = np.bincount(tasks.case, minlength=n_cases) * counts   # each case's entries
+        index = starts.repeat(per_case) + within   # (starts[tasks.case[task]])
+        # each interval's smallest entry, its case's first task's: case c's entries start after
+        # the earlier cases' (-1: a case without tasks)
+        first = np.arange(len(i_lo)) + (per_case.cumsum() - per_case - starts).repeat(counts)
+        first[(per_case == 0).repeat(counts)] = -1
+        return task, i_lo[index], i_hi[index], index, first
+    index = starts[tasks.case[task]] + within
+    first = np.empty(len(i_lo), int)
+    first.fill(-1)
+    first[index[::-1]] = np.arange(len(index))[::-1]   # (the smallest entry of each interval)
     return task, i_lo[index], i_hi[index], index, first
 
 
