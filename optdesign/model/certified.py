@@ -333,15 +333,6 @@ class Found:
             found["aggregates"].setdefault(name, []).append(sc[j])
         return found
 
-    def columns(self, cs) -> tuple:
-        """:meth:`case`'s values of the cases ``cs``, column by column (a study's rows): per peak
-        (name, |value| per case, its s per case), per constraint extreme (name, min per case,
-        max per case)."""
-        s, v = self.s, self.v
-        peaks = [(name, [abs(v[c][j]) for c in cs], [s[c][j] for c in cs]) for j, name, _ in self.peaks]
-        extremes = [(name, [v[c][j + 1] for c in cs], [v[c][j] for c in cs]) for j, name, _, _ in self.extremes]
-        return peaks, extremes
-
 
 class CertifiedPeaks:
     """The peaks |v| of named rows of (s, p) over the continuous stroke, located and certified

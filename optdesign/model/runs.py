@@ -87,12 +87,17 @@ class _Figures:
         return {"peaks": got["peaks"], "peak_at": got["peak_at"], "certificates": certificates,
                 "constraint_extremes": extremes}
 
-    def columns(self, cases) -> tuple:
-        """:meth:`made`'s sampled peaks and per-stroke constraints of the batch's cases ``cases``,
-        column by column (a study's rows): (key, values) pairs of each, the latter as floats."""
-        by_case, stroke = self.by_case, self.stroke
-        return ([(k, [by_case[i][m] for i in cases]) for m, k in enumerate(self.keys)],
-                [(name, [float(stroke[i][m]) for i in cases]) for m, name in enumerate(self.names)])
+    def columns(self, found, cases) -> tuple:
+        """:meth:`made`'s values of the batch's cases ``cases`` ((i, c) each: its number here, its
+        place in ``found``), column by column (a study's rows): (name, |value|s, s's) per peak,
+        (key, values) per sampled peak, (name, mins, maxs) per constraint extreme (as
+        ``found.case`` places them), (name, floats) per per-stroke constraint."""
+        s, v, by_case, stroke = found.s, found.v, self.by_case, self.stroke
+        i_s, c_s = [i for i, _ in cases], [c for _, c in cases]
+        return ([(name, [abs(v[c][j]) for c in c_s], [s[c][j] for c in c_s]) for j, name, _ in found.peaks],
+                [(k, [by_case[i][m] for i in i_s]) for m, k in enumerate(self.keys)],
+                [(name, [v[c][j + 1] for c in c_s], [v[c][j] for c in c_s]) for j, name, _, _ in found.extremes],
+                [(name, [float(stroke[i][m]) for i in i_s]) for m, name in enumerate(self.names)])
 
     def peaks(self, found, c) -> list:
         """Case ``c`` of ``found``: its peaks' values, in order (its ``peaks``' values)."""

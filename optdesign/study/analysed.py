@@ -132,11 +132,10 @@ def _columns(analysis, P) -> list:
 def _batch_columns(named, batch, rms, where, rms_names):
     """:func:`_columns`'s columns of certified cases of one batch (their ``CaseRun.batch``: the
     batch's figures, the case's number, its Found and its place there; the same figures and
-    Found for all), as those give them column by column (``Found.columns``, ``_Figures.columns``
-    in model/: the values of the cases' dicts)."""
+    Found for all), as the figures give them column by column (model/runs.py's
+    ``_Figures.columns``, beside ``_Figures.made``: the values of the cases' dicts)."""
     figures, found = batch[0][0], batch[0][2]
-    peaks, extremes = found.columns([c for _, _, _, c in batch])
-    sampled, stroke = figures.columns([i for _, i, _, _ in batch])
+    peaks, sampled, extremes, stroke = figures.columns(found, [(i, c) for _, i, _, c in batch])
     named.update({f"peak:{name}": values for name, values, _ in peaks})
     named.update({f"peak_at:{name}": at for name, _, at in peaks})
     named.update({f"peak_sampled:{k}": values for k, values in sampled})
