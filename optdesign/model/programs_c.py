@@ -142,6 +142,35 @@ int optdesign_program(long n, const int *kind, const int *code, const int *x, co
   (void)zero;
   return 0;
 }
+
+/* In program order: whether each instruction's operands vary with the column (flags, as above)
+   and whether a truth value reaches an operation that is not safe for one (cls: bit 0 the
+   operation gives a truth value, bit 1 it takes one as numpy does, bit 2 it keeps one).
+   0, or 1 for a truth value where numpy would change type, 2 for an operand out of range. */
+int optdesign_program_flags(long n, const int *kind, const int *x, const int *y, const int *dst, const int *cols,
+                            long n_in, const unsigned char *cls, long work, unsigned char *flags,
+                            unsigned char *block, unsigned char *truth) {
+  for (long i = 0; i < n; i++) {
+    int k = kind[i], d = dst[i];
+    if (d < 0 || d >= work) return 2;
+    if (k == 0) {
+      if (x[i] < 0 || x[i] >= n_in) return 2;
+      block[d] = cols[x[i]] != 0; truth[d] = 0;
+    } else if (k == 2) {
+      block[d] = 0; truth[d] = 0;
+    } else if (k == 1) {
+      flags[i] = block[d];
+    } else {
+      int a = x[i], b = k == 3 ? y[i] : x[i];
+      if (a < 0 || a >= work || b < 0 || b >= work) return 2;
+      if ((truth[a] || truth[b]) && !(cls[i] & 2)) return 1;
+      flags[i] = (block[a] ? 1 : 0) | ((k == 3 && block[b]) ? 2 : 0);
+      unsigned char t = (cls[i] & 1) || ((cls[i] & 4) && truth[a] && truth[b]);
+      block[d] = flags[i] != 0; truth[d] = t;
+    }
+  }
+  return 0;
+}
 """
 
 _function = {}   # the loaded C function (one per process)
@@ -223,7 +252,7 @@ def _library():
     if "f" in _function or time.monotonic() - _tried[0] < RETRY_S:
         return _function.get("f")
     _tried[0] = time.monotonic()
-    key = compiled.entry_key("program_c", SOURCE, {"block_max": 256})
+    key = compiled.entry_key("program_c", SOURCE, {"block_max": 256, "functions": 2})
     if key is None:
         _tried[0] = np.inf
         return None
@@ -241,8 +270,16 @@ def _library():
     except (OSError, AttributeError):
         compiled.remove(key)
         return None
-    f.restype = ctypes.c_int
+    try:
+        flags = getattr(ctypes.CDLL(str(path)), f"{NAME}_flags")
+    except AttributeError:
+        compiled.remove(key)
+        return None
+    f.restype = flags.restype = ctypes.c_int
     f.argtypes = [ctypes.c_long, *[ctypes.c_void_p] * 13, ctypes.c_long, ctypes.c_long, *[ctypes.c_void_p] * 4]
+    flags.argtypes = [ctypes.c_long, *[ctypes.c_void_p] * 5, ctypes.c_long, ctypes.c_void_p, ctypes.c_long,
+                      *[ctypes.c_void_p] * 3]
+    _function["flags"] = flags
     _function["f"] = f
     return f
 
@@ -289,28 +326,18 @@ class ProgramC:
         x[io], y[io] = op[io], b0[io]                       # input/output number, nonzero
         y[const] = np.arange(np.count_nonzero(const))       # the constants in order
         x[computed], y[kind == 3] = b0[computed], b1[kind == 3]
-        # in program order: whether each work entry varies with the column, and holds a truth value
-        flags = np.zeros(n, np.uint8)
-        block, truth = [False] * self.work, [False] * self.work
-        cols = self.columns.tolist()
-        bool_out = {getattr(ca, k) for k in _BOOL_OUT if hasattr(ca, k)}
-        bool_safe = {getattr(ca, k) for k in _BOOL_SAFE if hasattr(ca, k)}
-        keeps = {getattr(ca, k) for k in ("OP_MUL", "OP_SQ", "OP_ASSIGN") if hasattr(ca, k)}
-        for i, (k, o, a, b, d) in enumerate(zip(kind.tolist(), op.tolist(), b0.tolist(), b1.tolist(), c.tolist())):
-            if k == 0:
-                block[d], truth[d] = bool(cols[o]), False
-            elif k == 2:
-                block[d], truth[d] = False, False
-            elif k == 1:
-                flags[i] = block[d]
-            else:
-                b = b if k == 3 else a
-                if (truth[a] or truth[b]) and o not in bool_safe:
-                    return False
-                flags[i] = block[a] | (2 * (k == 3 and block[b]))
-                block[d] = bool(flags[i])
-                truth[d] = o in bool_out or (o in keeps and truth[a] and truth[b])
-        self.arrays = [np.ascontiguousarray(kind, np.int32), code, x, y, np.ascontiguousarray(c, np.int32), flags, loop]
+        # in program order: whether each operand varies with the column, and no truth value where numpy changes type
+        cls = np.zeros(n, np.uint8)
+        for bit, names in ((1, _BOOL_OUT), (2, _BOOL_SAFE), (4, ("OP_MUL", "OP_SQ", "OP_ASSIGN"))):
+            cls[computed & np.isin(op, [getattr(ca, k) for k in names if hasattr(ca, k)])] |= bit
+        flags, block, truth = np.zeros(n, np.uint8), np.zeros(self.work, np.uint8), np.zeros(self.work, np.uint8)
+        kind32, dst = np.ascontiguousarray(kind, np.int32), np.ascontiguousarray(c, np.int32)
+        status = _function["flags"](n, kind32.ctypes.data, x.ctypes.data, y.ctypes.data, dst.ctypes.data,
+                                     self.columns.ctypes.data, len(self.columns), cls.ctypes.data, self.work,
+                                     flags.ctypes.data, block.ctypes.data, truth.ctypes.data)
+        if status != 0:
+            return False
+        self.arrays = [kind32, code, x, y, dst, flags, loop]
         self.loops = (ctypes.c_void_p * max(1, len(ufuncs)))(*[found[u][0] for u in ufuncs])
         self.loop_data = (ctypes.c_void_p * max(1, len(ufuncs)))(*[found[u][1] for u in ufuncs])
         return True
