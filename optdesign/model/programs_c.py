@@ -7,8 +7,9 @@ column (crane_luffing_drive's screening rows: 143,000 instructions over 2,048 de
 working arrays ~90 MB, far outside the cache); here one C function runs the same instructions
 in the same order over blocks of ``BLOCK`` columns, a value that does not depend on the columns
 kept as one number.  The C is one small interpreter, the same for every program, compiled once
-through the disk cache (:mod:`.compiled`); the program is its arrays of integers, read from the
-cache folder as they are stored (:mod:`.programs`), without building a Python list.
+through the disk cache (:mod:`.compiled`, at its first use: about a second of gcc); the program
+is its arrays of integers, read from the cache folder as they are stored (:mod:`.programs`),
+without building a Python list.
 
 Same numbers: the arithmetic the C does itself is exact IEEE arithmetic as numpy's (+, -, *, /,
 negation, square, doubling, reciprocal, absolute value, square root, comparisons, the logical
@@ -247,8 +248,9 @@ def _check(u):
 
 
 def _library():
-    """The C function, or None (no compiler, the cache off, or not compiled yet: then in the
-    background, looked for again after RETRY_S)."""
+    """The C function, or None (no compiler, the cache off, or its compiling failed: looked for
+    again after RETRY_S).  Compiled at its first use, waited for (about a second of gcc, once
+    per cache folder), not in a background process."""
     if "f" in _function or time.monotonic() - _tried[0] < RETRY_S:
         return _function.get("f")
     _tried[0] = time.monotonic()
@@ -262,7 +264,7 @@ def _library():
         compiled.write_atomic(c_file, SOURCE.encode())
         return {"kind": "source", "name": NAME, "source": str(c_file), "cleanup": [str(c_file)]}
 
-    path = compiled.library(key, prepare)
+    path = compiled.library(key, prepare, wait=True)   # (small: about a second of gcc, once; no background process)
     if path is None:
         return None
     try:
