@@ -308,6 +308,17 @@ def report(args, got, load0, rounds, labels):
             busy = statistics.median((r[j]["cpu"] + sum(r[j]["cpu_by_role"].values())) / r[j]["wall"] for r in rs)
             cells = " | ".join(f"{v:,.0f}" if (v or not j == 0) else "-" for v in parts)
             lines.append(f"| {kind} | {n:,} | {name} | {cells} | {sum(parts):,.0f} | {busy:.2f} |")
+    lines += ["", "Per round (the Dask runs rotate their order each round): the machine's speed drifts between "
+              "minutes, so a ratio moves from round to round; CPU per case is the steadier measure.", "",
+              "| study | round | pool wall s | Dask wall s (" + " / ".join(labels) + ") | Dask / pool whole | "
+              "CPU per case all processes, us (pool / " + " / ".join(labels) + ") |", "|---|---|---|---|---|---|"]
+    for (kind, n), rs in got.items():
+        for k, r in enumerate(rs):
+            every = [1e6 * (m["cpu"] + sum(m["cpu_by_role"].values())) / n for m in r]
+            lines.append(f"| {kind} {n:,} | {k + 1} | {r[0]['wall']:.2f} | "
+                         + " / ".join(f"{m['wall']:.2f}" for m in r[1:]) + " | "
+                         + " / ".join(f"{r[0]['wall'] / m['wall']:.2f}x" for m in r[1:]) + " | "
+                         + " / ".join(f"{v:,.0f}" for v in every) + " |")
     lines.append("")
     lines.append("Every run's cases all finished; successful cases (pool / " + " / ".join(labels) + "): "
                  + ", ".join(f"{kind} {n:,}: " + " / ".join(f"{r['ok']:,}" for r in rs[-1] if r) for (kind, n), rs in got.items())
