@@ -89,6 +89,15 @@ def _is_term(node, name) -> bool:
     return False
 
 
+class Pending:
+    """:meth:`AssemblyCheck.begin`'s check of the cases ``P`` on ``s_values``, waiting for its
+    ``parts``' minima (on ``grid``; the kinds' cases ``kinds``); ``groups`` None: nothing to check."""
+
+    def __init__(self, P, s_values):
+        self.P, self.s_values = P, s_values
+        self.groups, self.grid, self.kinds, self.parts = None, None, [], []
+
+
 @dataclass(frozen=True)
 class _Failure:
     """Where one construction first fails along the sweep (``at``: its position along the
@@ -134,7 +143,8 @@ class AssemblyCheck:
             mech = self.mech
             r = ca.vertcat(*(rel for _, rel, _ in self.rows))
             dr = mech.ds(r)
-            self._derivatives = mech.function("assembly_ds", {"r": r, "dr": dr, "d2r": mech.ds(dr)})
+            self.expressions = (r, dr, mech.ds(dr))   # (also the rows of CertifiedExtremes.with_margins)
+            self._derivatives = mech.function("assembly_ds", dict(zip(("r", "dr", "d2r"), self.expressions)))
             self._enclosures = Enclosures(self._derivatives, mech.interval_compile)   # the same program, in intervals
 
     def _mapped(self, key, func):
@@ -165,47 +175,68 @@ class AssemblyCheck:
         """Per case (a row of the parameters ``P``): ``(narrow, notes)`` (the minima the samples
         do not resolve; construction -> why its margin has no enclosure's proof) or the case's
         :class:`AssemblyError`.  The margins depend on the geometry alone: cases equal in its
-        parameters are checked once (:func:`~.batches.same_cases`)."""
+        parameters are checked once (:func:`~.batches.same_cases`).  :meth:`begin`, the minima
+        of its parts (:func:`~.peaks.extrema_of_cases`), :meth:`finish`."""
+        pending = self.begin(s_values, P)
+        return self.finish(pending, [extrema_of_cases(evaluate, pending.grid, V, requests, enclosure=enclosure)
+                                     for evaluate, V, requests, enclosure in pending.parts])
+
+    def begin(self, s_values, P) -> "Pending":
+        """The check of :meth:`many` up to the margins' continuous minima: the samples of every
+        case in one call, the crossings located; its :attr:`Pending.parts` the calls of the one
+        certification that find the minima between the samples (one per kind of case: the same
+        rows and signs), for :meth:`finish` (run alone or with others': :mod:`.joint`)."""
         P = np.atleast_2d(np.asarray(P, float))
+        s_values = np.asarray(s_values, float)
+        pending = Pending(P, s_values)
         if not self.rows and not self.mech.loops:
-            return [([], {}) for _ in P]
+            return pending
         if self._sampled is None:
             self._sampled = self._sampled_function()
             self._uses = parameters_used(self.mech, *self._sampled[0].call([self.mech.s, self.mech.p]))
-        out = [None] * len(P)
-        groups = same_cases(P, self._uses)
-        for (first, members), found in zip(groups, self._checks(np.asarray(s_values, float), P[[g for g, _ in groups]])):
-            for i in members:
-                out[i] = found
-        return out
-
-    def _checks(self, s_values, P) -> list:
-        """Per case (a row of ``P``): (narrow, notes), or its AssemblyError.  The samples of every
-        case in one call, the continuous minima of the margins of all cases in one branch and
-        bound (:func:`~.peaks.extrema_of_cases`: every decision the case's own, so that a case's
-        result is the same in any batch); the rest (the failures' messages) per case."""
+        pending.groups = same_cases(P, self._uses)
+        G = P[[g for g, _ in pending.groups]]
         f, closing = self._sampled
-        n, G = len(s_values), len(P)
-        res = dict(zip(f.name_out(), self._mapped("sampled", f)(np.tile(s_values, G), np.repeat(P, n, axis=0))))
+        n = len(s_values)
+        res = dict(zip(f.name_out(), self._mapped("sampled", f)(np.tile(s_values, len(G)), np.repeat(G, n, axis=0))))
         direction = 1.0 if n < 2 or s_values[-1] >= s_values[0] else -1.0
         staged = []
-        for c in range(G):
+        for c in range(len(G)):
             one = {k: v[:, c * n:(c + 1) * n] for k, v in res.items()}
             R = one["r"].reshape(len(self.rows), n)
             failures = self._loops(one, closing, s_values, direction)
-            more, sign, T, first_bad, rows = self._sampled_margins(R, s_values, P[c], direction)
+            more, sign, T, first_bad, rows = self._sampled_margins(R, s_values, G[c], direction)
             staged.append((failures + more, sign, T, first_bad, rows))
-        self._resolve_crossings(staged, s_values, P, direction)
-        between = self._between(s_values, P, staged, direction)
-        out = []
-        for c, (failures, sign, T, first_bad, rows) in enumerate(staged):
-            failures, narrow, notes = self._continuous(s_values, P[c], sign, first_bad, rows, between.get(c), direction,
+        self._resolve_crossings(staged, s_values, G, direction)
+        pending.G, pending.staged, pending.direction = G, staged, direction
+        pending.grid = s_values if direction > 0 else s_values[::-1]
+        if n >= 2:
+            pending.kinds, pending.parts = self._between(G, staged, direction)
+        return pending
+
+    def finish(self, pending, extrema) -> list:
+        """:meth:`many`'s result from :meth:`begin`'s ``pending`` and what
+        :func:`~.peaks.extrema_of_cases` gives for each of its parts (``extrema``)."""
+        P = pending.P
+        if pending.groups is None:
+            return [([], {}) for _ in P]
+        between = {}
+        for cases, found in zip(pending.kinds, extrema):
+            between.update(zip(cases.tolist(), found))
+        s_values, G, direction = pending.s_values, pending.G, pending.direction
+        checked = []
+        for c, (failures, sign, T, first_bad, rows) in enumerate(pending.staged):
+            failures, narrow, notes = self._continuous(s_values, G[c], sign, first_bad, rows, between.get(c), direction,
                                                        failures)
             if failures:
                 first = min(failures, key=lambda x: (x.at, x.order))
-                out.append(AssemblyError(first.message, construction=first.construction, s=first.s))
+                checked.append(AssemblyError(first.message, construction=first.construction, s=first.s))
             else:
-                out.append((narrow, notes))
+                checked.append((narrow, notes))
+        out = [None] * len(P)
+        for (first, members), found in zip(pending.groups, checked):
+            for i in members:
+                out[i] = found
         return out
 
     def _sampled_margins(self, R, s_values, p, direction):
@@ -227,20 +258,17 @@ class AssemblyCheck:
         rows = [i for i in range(len(self.rows)) if self.varies[i] and np.any(np.isfinite(T[i]))]
         return failures, sign, T, first_bad, tuple(rows)
 
-    def _between(self, s_values, P, staged, direction) -> dict:
-        """case -> the continuous minima of its rows (one list of extrema per row), all cases with
-        the same rows and signs in one :func:`~.peaks.extrema_of_cases` (the enclosure's proof
-        between the samples)."""
-        if len(s_values) < 2:
-            return {}
+    def _between(self, P, staged, direction) -> tuple:
+        """(the cases of each kind, the calls of the one certification that find their rows'
+        continuous minima: (evaluate, V, requests, enclosure) each, on the ascending grid): the
+        cases with the same rows and signs in one (the enclosure's proof between the samples)."""
         kinds = {}
         for c, (_, sign, _, _, rows) in enumerate(staged):
             if rows:
                 kinds.setdefault((rows, tuple(sign[list(rows)])), []).append(c)
         self._build_derivatives()
         ascending = direction > 0
-        s_grid = s_values if ascending else s_values[::-1]
-        out = {}
+        cases_of, parts = [], []
         for (rows, signs), cases in kinds.items():
             rows, signs, cases = list(rows), np.array(signs)[:, None], np.array(cases)
             V = np.stack([staged[c][2][rows] for c in cases])
@@ -253,8 +281,9 @@ class AssemblyCheck:
 
             requests = [Request(j, "min", ends=True, tol=ASSEMBLY_TOL) for j in range(len(rows))]
             enclosure = Selected(self._enclosures.at(Pc), rows, signs.ravel())   # the proof between the samples
-            out.update(zip(cases.tolist(), extrema_of_cases(evaluate, s_grid, V, requests, enclosure=enclosure)))
-        return out
+            cases_of.append(cases)
+            parts.append((evaluate, V, requests, enclosure))
+        return cases_of, parts
 
     def _derivative_points(self, s, P):
         """(R, dR/ds, d2R/ds2) of every relative margin at each sweep value of ``s`` with its own

@@ -217,10 +217,11 @@ def first_intervals(tasks, s_grid, found, best):
     pair = (case[:-1] == case[1:]).nonzero()[0]   # consecutive cuts of one case: an interval
     i_case, i_lo, i_hi = case[pair], s[pair], s[pair + 1]
     counts = np.bincount(i_case, minlength=n_cases)
-    # each task of a case: all its case's intervals (tasks case-major: case * k + request)
+    # each task of a case: all its case's intervals (tasks case-major; counts.repeat(k) where
+    # every case has k tasks, but also cases of Tasks.joined, each with its own number of tasks)
     starts = np.concatenate(([0], counts.cumsum()[:-1]))
-    per_task = counts.repeat(k)
-    task = np.arange(n_cases * k).repeat(per_task)
+    per_task = counts[tasks.case]
+    task = np.arange(len(tasks.case)).repeat(per_task)
     within = np.arange(len(task)) - np.concatenate(([0], per_task.cumsum()[:-1])).repeat(per_task)
     index = starts[tasks.case[task]] + within
     first = np.empty(len(i_lo), int)

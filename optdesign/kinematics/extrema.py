@@ -144,6 +144,42 @@ class Tasks:
             made = cls._made[key] = cls(requests, n_cases)
         return made
 
+    @classmethod
+    def joined(cls, parts):
+        """The Tasks of several calls' Tasks in one (:func:`~.joint.maxima_together`): part q's
+        cases numbered after the earlier parts' (cases of different parts are never one case),
+        its rows after theirs (``parts``: (tasks, rows) each, rows the number of its rows); each
+        task's request an index into the requests of all parts, in order.  Read only: made once
+        per parts (the key holds the Tasks themselves, so that their ids stay theirs)."""
+        key = tuple(parts)
+        made = cls._joined.get(key)
+        if made is None:
+            if len(cls._joined) > 256:
+                cls._joined.clear()
+            made = cls._joined[key] = cls._join(parts)
+        return made
+
+    _joined = {}
+
+    @classmethod
+    def _join(cls, parts):
+        out = cls.__new__(cls)
+        cases = rows = requests = 0
+        pieces = []
+        for tasks, n_rows in parts:
+            pieces.append((tasks.case + cases, tasks.request + requests, tasks.row + rows))
+            cases, rows, requests = cases + tasks.n_cases, rows + n_rows, requests + len(tasks.requests)
+        out.requests = tuple(r for tasks, _ in parts for r in tasks.requests)
+        out.n_cases = cases
+        out.case, out.request, out.row = (np.concatenate(a) for a in zip(*pieces))
+        for name in ("code", "only_above", "ends", "tol", "is_max", "is_min"):
+            setattr(out, name, np.concatenate([getattr(tasks, name) for tasks, _ in parts]))
+        out.any_max, out.any_min = bool(out.is_max.any()), bool(out.is_min.any())
+        out.any_above = bool((out.only_above > -np.inf).any())
+        for a in (out.case, out.request, out.row, out.code, out.only_above, out.ends, out.tol, out.is_max, out.is_min):
+            a.flags.writeable = False
+        return out
+
     def __len__(self):
         return len(self.case)
 
@@ -201,12 +237,14 @@ class Found:
         return top, best
 
 
-def grid_brackets(tasks, s_grid, V, found):
+def grid_brackets(tasks, s_grid, V, found, T=None):
     """Every task's candidates on the grid: the stroke's two ends (found), its flat row's largest
     sample (found), and brackets (arrays task, lo, hi, s0, sign, i: the grid point's index) of
     its interior grid maxima and, with ``ends``, of its end intervals refined from the end; then
-    the samples of each task's row T (tasks x samples) and each task's largest sampled target."""
-    T = V[tasks.case, tasks.row]   # tasks x samples
+    the samples of each task's row T (tasks x samples) and each task's largest sampled target.
+    ``T``: those samples where the caller has them (``V`` is then not read)."""
+    if T is None:
+        T = V[tasks.case, tasks.row]   # tasks x samples
     S = T.shape[1]
     sign = tasks.sign(T)
     tgt = sign * T

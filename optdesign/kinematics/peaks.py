@@ -119,18 +119,26 @@ def extrema_of_cases(evaluate, s_grid, V, requests, s_tol=1e-13, enclosure=None,
     (the first with the enclosure's ``bound`` and ``note``)."""
     V = np.asarray(V, float)
     found, top, bound, notes = maxima(evaluate, s_grid, V, requests, s_tol, enclosure, tol)
+    return extrema_lists(found, bound, notes, V.shape[0], requests, enclosure is not None)
+
+
+def extrema_lists(found, bound, notes, n_cases, requests, certified, first=0):
+    """:func:`extrema_of_cases`' lists of ``n_cases`` cases of ``requests`` from :func:`maxima`'s
+    ``found`` (their tasks from ``first`` on among its: :func:`~.joint.maxima_together`'s
+    parts), ``bound`` and ``notes`` (theirs, from their first task); ``certified``: with the
+    enclosure's bounds."""
     k = len(requests)
     order = np.argsort(found.task, kind="stable")   # each task's extrema in the order found
-    starts = np.searchsorted(found.task[order], np.arange(V.shape[0] * k + 1))
+    starts = np.searchsorted(found.task[order], np.arange(first, first + n_cases * k + 1))
     s, v = found.s[order].tolist(), found.v[order].tolist()
     out = []
-    for c in range(V.shape[0]):
+    for c in range(n_cases):
         lists = []
         for j, r in enumerate(requests):
             t = c * k + j
             ext = sorted((Extremum(s[i], v[i]) for i in range(starts[t], starts[t + 1])),
                          key=lambda e: _target(e.value, r.sense), reverse=True)
-            if enclosure is not None:
+            if certified:
                 b = None if np.isnan(bound[t]) else float(bound[t])
                 ext[0] = Extremum(ext[0].s, ext[0].value, b, notes[t])
             lists.append(ext)
@@ -149,7 +157,12 @@ def maxima_of_cases(evaluate, s_grid, V, requests, s_tol=1e-13, enclosure=None, 
     those of :func:`continuous_maxima_rows` of case i alone (its first extremum per request)."""
     V = np.asarray(V, float)
     found, top, bound, notes = maxima(evaluate, s_grid, V, requests, s_tol, enclosure, tol)
-    n, k = V.shape[0], len(requests)
+    return maxima_arrays(found, top, bound, notes, V.shape[0], len(requests))
+
+
+def maxima_arrays(found, top, bound, notes, n, k):
+    """:func:`maxima_of_cases`' arrays from :func:`maxima`'s results (``top``, ``bound`` and
+    ``notes``: the tasks of n cases x k requests)."""
     return (found.s[top].reshape(n, k), found.v[top].reshape(n, k), bound.reshape(n, k),
             [notes[i * k:(i + 1) * k] for i in range(n)])
 

@@ -63,9 +63,11 @@ class CertifiedExtremes:
                                for j, (name, _, _) in enumerate(self.aggregate_rows)))
         v = ca.vertcat(*rows) if rows else ca.DM.zeros(0, 1)
         dv = mech.ds(v)
+        self.expressions = (v, dv, mech.ds(dv))
+        self._margins = None   # (with_margins', built on first use)
         # compiled from the disk cache where it is there (CasADi's C of the same graph: the same
         # numbers, ~14x faster per point on the truck crane: measured)
-        derivatives = mech.function("certified_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)})
+        derivatives = mech.function("certified_ds", dict(zip(("v", "dv", "d2v"), self.expressions)))
         self.derivatives = MappedFunction(derivatives, compile=compiled_function)
         self.enclosures = Enclosures(derivatives, compile_program)   # the same program, in intervals
         self.values = MappedFunction(mech.function("certified_v", {"v": v}), compile=compiled_function)
@@ -77,6 +79,24 @@ class CertifiedExtremes:
         self.aggregate_parameters = None if func is None else parameters_used(mech, inner)
         self.q = MappedFunction(mech.function("q", {"q": mech.q}), compile=compiled_function)
         self.fixed_rows, self.fixed_parameters = _fixed_rows(mech, rows)
+
+    def with_margins(self, assembly):
+        """(evaluate, enclosure) of one Function of this analysis's rows followed by the relative
+        margins of ``assembly`` (its :class:`~optdesign.kinematics.assembly.AssemblyCheck`),
+        the same expressions as each one's own Function (so the same numbers), built once:
+        ``evaluate(s, p)`` a MappedFunction, ``enclosure`` an Enclosures
+        (:func:`~optdesign.kinematics.joint.maxima_together`); None while its interval program
+        is not compiled and this analysis's own is (compiling in the background: the two alone
+        are faster until it is there)."""
+        if self._margins is None:
+            assembly._build_derivatives()
+            func = self.mech.function("certified_margins_ds", {
+                name: ca.vertcat(a, b) for name, a, b in zip(("v", "dv", "d2v"), self.expressions, assembly.expressions)})
+            self._margins = (MappedFunction(func, compile=compiled_function), Enclosures(func, compile_program))
+        if getattr(self._margins[1].program, "subsets_pay", False) or not getattr(self.enclosures.program, "subsets_pay",
+                                                                                  False):
+            return self._margins
+        return None
 
     def many(self, s_values, P, columns, constraints, narrow=None) -> list:
         """The continuous extremes of N cases of this analysis that differ only in their
@@ -141,6 +161,39 @@ class CertifiedExtremes:
 
     def _group(self, s_values, P, columns, constraints, extra):
         """:meth:`many` of cases that share their sweep values (``extra`` joining the samples)."""
+        inputs = self._inputs(s_values, P, columns, constraints, extra)
+        if inputs is None:
+            return Found(*([[]] * len(P),) * 5, (), (), ())
+        grid, values, requests, made = inputs
+        parts, combine = self._parts(grid, values, P, requests)
+        return made(combine([maxima_of_cases(evaluate, grid, V, r, enclosure=enclosure)
+                             for evaluate, V, r, enclosure in parts]))
+
+    def begin(self, s_values, P, columns, constraints):
+        """:meth:`found`'s work for cases whose sweep values are the samples (no narrow minima
+        to resolve) up to its calls of the one certification: (parts, grid, finish), the calls
+        as (evaluate, V, requests, enclosure) each on the ascending ``grid``, ``finish`` the
+        function that makes :meth:`found`'s result from what
+        :func:`~optdesign.kinematics.peaks.maxima_of_cases` gives for each part; or None where
+        there is nothing to certify.  Another caller may run the parts together with its own
+        (:func:`~optdesign.kinematics.joint.maxima_together`: the same numbers)."""
+        P = np.atleast_2d(np.asarray(P, float))
+        inputs = self._inputs(np.asarray(s_values, float), P, columns, constraints, [])
+        if inputs is None:
+            return None
+        grid, values, requests, made = inputs
+        parts, combine = self._parts(grid, values, P, requests)
+
+        def finish(results):
+            found = made(combine(results))
+            return [(found, c) for c in range(len(P))]
+
+        return parts, grid, finish
+
+    def _inputs(self, s_values, P, columns, constraints, extra):
+        """(the ascending grid, the rows on it: cases x rows x len(grid), the requests, the
+        function making the group's :class:`Found` from (s, value, bound, notes)) of the cases
+        ``P`` on ``s_values`` with ``extra``; None without requests."""
         n, S = P.shape[0], len(s_values)
         V = np.empty((n, self.n_rows, S))
         for name, i in self.peak_rows.items():
@@ -160,49 +213,57 @@ class CertifiedExtremes:
             s_values = s_all[order]
         requests = list(self.requests)
         if not requests:
-            return Found(*([[]] * n,) * 5, (), (), ())
+            return None
         ascending = len(s_values) < 2 or s_values[-1] >= s_values[0]
         grid, values = (s_values, V) if ascending else (s_values[::-1], V[:, :, ::-1])
-        s, v, bound, notes = self._maxima(grid, values, P, requests)
         k_peaks = len(self.peak_rows)
-        q = self._q(s[:, :k_peaks], s_values, q_sampled, P)
         peaks, extremes, aggregates = self._figures
-        return Found(s.tolist(), v.tolist(), bound.tolist(), notes, q, peaks, extremes, aggregates)
 
-    def _maxima(self, grid, values, P, requests):
-        """:func:`~optdesign.kinematics.peaks.maxima_of_cases` of ``requests`` (s, value, bound,
-        notes): those of the rows that depend on none of the study's axes (:func:`_fixed_rows`: a
-        study of masses, the transmission angle and the cylinder's lengths) apart from the
-        others, once per group of cases equal bit for bit in the parameters those rows read and
-        in their sampled values (a batch of masses: once); each case gets its group's numbers,
-        what the case alone gives (the same operations on the same bits).  Without such rows,
-        or without others, all in one branch and bound as before (an analysis without axes)."""
+        def made(found):
+            s, v, bound, notes = found
+            q = self._q(s[:, :k_peaks], s_values, q_sampled, P)
+            return Found(s.tolist(), v.tolist(), bound.tolist(), notes, q, peaks, extremes, aggregates)
+
+        return grid, values, requests, made
+
+    def _parts(self, grid, values, P, requests):
+        """(the calls of :func:`~optdesign.kinematics.peaks.maxima_of_cases` that give the
+        ``requests``' (s, value, bound, notes): (evaluate, V, requests, enclosure) each, the
+        function that makes those from what the calls give): those of the rows that depend on
+        none of the study's axes (:func:`_fixed_rows`: a study of masses, the transmission angle
+        and the cylinder's lengths) apart from the others, once per group of cases equal bit for
+        bit in the parameters those rows read and in their sampled values (a batch of masses:
+        once); each case gets its group's numbers, what the case alone gives (the same
+        operations on the same bits).  Without such rows, or without others, all in one call as
+        before (an analysis without axes)."""
         fixed = [j for j, r in enumerate(requests) if r.row in self.fixed_rows]
         if not fixed or len(fixed) == len(requests):
-            return maxima_of_cases(_per_case(self.derivatives, P), grid, values, requests,
-                                   enclosure=self.enclosures.at(P))
+            return [(_per_case(self.derivatives, P), values, requests, self.enclosures.at(P))], lambda found: found[0]
         moving = [j for j in range(len(requests)) if j not in fixed]
-        s_m, v_m, b_m, n_m = maxima_of_cases(_per_case(self.derivatives, P), grid, values,
-                                             [requests[j] for j in moving], enclosure=self.enclosures.at(P))
         rows = sorted({requests[j].row for j in fixed})
         # by the bits of the parameters those rows read and of each row's samples (views, not
         # one key made of copies of them: the same groups)
         first, inverse = _groups([P[:, self.fixed_parameters].view(np.int64)]
                                  + [values[:, r].view(np.int64) for r in rows])
         Q = P[first]
-        s_f, v_f, b_f, n_f = maxima_of_cases(_per_case(self.derivatives, Q), grid, values[first],
-                                             [requests[j] for j in fixed], enclosure=self.enclosures.at(Q))
-        n, k = len(P), len(requests)
-        s, v, bound = np.empty((n, k)), np.empty((n, k)), np.empty((n, k))
-        for out, a, b in ((s, s_m, s_f), (v, v_m, v_f), (bound, b_m, b_f)):
-            out[:, moving], out[:, fixed] = a, b[inverse]
-        notes = [[None] * k for _ in range(n)]
-        for c in range(n):
-            for j, note in zip(moving, n_m[c]):
-                notes[c][j] = note
-            for j, note in zip(fixed, n_f[inverse[c]]):
-                notes[c][j] = note
-        return s, v, bound, notes
+        parts = [(_per_case(self.derivatives, P), values, [requests[j] for j in moving], self.enclosures.at(P)),
+                 (_per_case(self.derivatives, Q), values[first], [requests[j] for j in fixed], self.enclosures.at(Q))]
+
+        def combine(found):
+            (s_m, v_m, b_m, n_m), (s_f, v_f, b_f, n_f) = found
+            n, k = len(P), len(requests)
+            s, v, bound = np.empty((n, k)), np.empty((n, k)), np.empty((n, k))
+            for out, a, b in ((s, s_m, s_f), (v, v_m, v_f), (bound, b_m, b_f)):
+                out[:, moving], out[:, fixed] = a, b[inverse]
+            notes = [[None] * k for _ in range(n)]
+            for c in range(n):
+                for j, note in zip(moving, n_m[c]):
+                    notes[c][j] = note
+                for j, note in zip(fixed, n_f[inverse[c]]):
+                    notes[c][j] = note
+            return s, v, bound, notes
+
+        return parts, combine
 
     def _values(self, s, P):
         """The rows at the sweep values ``s`` for each case: cases x rows x len(s)."""
@@ -399,7 +460,7 @@ def _per_case(derivatives, P):
 def _fixed_rows(mech, rows) -> tuple:
     """(the rows, by index, whose graphs depend on none of the study's axes, the parameters
     that those rows read), by the graphs' structure (CasADi's which_depends): no rows where the
-    analysis has no axes (one branch and bound for all, :meth:`CertifiedExtremes._maxima`) or
+    analysis has no axes (one branch and bound for all, :meth:`CertifiedExtremes._parts`) or
     an axis is not a leaf parameter."""
     axes = mech.resolved.axes
     if not axes or any(a not in mech.parameter_names for a in axes):

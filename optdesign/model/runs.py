@@ -20,6 +20,9 @@ import time
 import numpy as np
 
 from ..errors import OptdesignError
+from ..kinematics.assembly import ASSEMBLY_TOL
+from ..kinematics.joint import Distinct, maxima_together
+from ..kinematics.peaks import Request, extrema_lists, extrema_of_cases, maxima_arrays
 from .finite import check_columns, check_values
 
 
@@ -98,25 +101,29 @@ def run_cases(a, P):
     runs = [CaseRun() for _ in range(n)]
     narrow = [[] for _ in range(n)]
     notes = [{} for _ in range(n)]
-    for i, found in enumerate(a.assembly.many(s, P)):   # both certified over the continuous stroke
+    # one case certified: its assembly margins and its extremes in one branch and bound
+    # (_together: the same numbers); else the assembly, then the model, then the extremes
+    assembled, values, dead_found, places, split = (_together(a, s, P) if a.certified is not None and n == 1
+                                                    else (a.assembly.many(s, P), None, None, None, None))
+    for i, found in enumerate(assembled):   # both certified over the continuous stroke
         if isinstance(found, OptdesignError):
             runs[i].error = found
         else:
             narrow[i], notes[i] = list(found[0]), found[1]
-    values = _model_values(a, P)
+    values = _model_values(a, P) if values is None else values
     live = [i for i in range(n) if runs[i].error is None]
     dead = [""] * n
     if live:
-        for i, found in zip(live, a.model.dead_centres(s, P[live], values["k"][live])):
+        if dead_found is None or live != [0]:
+            dead_found = a.model.dead_centres(s, P[live], values["k"][live])
+        for i, found in zip(live, dead_found):
             if isinstance(found, OptdesignError):
                 runs[i].error = found
             else:
                 narrow[i] += found[0]
                 dead[i] = found[1]
-    columns = {"s": np.broadcast_to(s, (n, len(s)))}
-    columns.update({k: v for k, v in values.items() if ":" not in k})
-    constraints = {k.split(":", 1)[1]: v for k, v in values.items() if k.startswith("constraint:")}
-    _check_finite(a, s, columns, constraints, P, runs)
+    columns, constraints, bad = _split(s, values, n) if split is None else split
+    _check_finite(a, s, columns, constraints, P, runs, bad)
     sampled = a.stroke.values(values, P) if a.stroke is not None else np.zeros((n, 0))
     names = a.stroke.names if a.stroke is not None else []
     peaks = {k: (np.argmax(np.abs(columns[k]), axis=1)) for k in a.peak_names if k in columns}
@@ -144,7 +151,9 @@ def run_cases(a, P):
     extra = [None] * n
     if certify:   # each certified case's figures made from the batch's when asked for (CaseRun)
         live = [i for i in range(n) if runs[i].error is None]
-        for i, got in zip(live, _certified(a, s, P, columns, constraints, narrow, live)):
+        if places is None or live != [0] or narrow[0]:   # (_together's: for case 0 alone, on the samples)
+            places = _certified(a, s, P, columns, constraints, narrow, live)
+        for i, got in zip(live, places):
             r = runs[i]
             if isinstance(got, OptdesignError):
                 r.error = got
@@ -241,6 +250,72 @@ def _certified(a, s, P, columns, constraints, narrow, live) -> list:
     return out
 
 
+def _together(a, s, P):
+    """(the assembly check of the one case ``P`` (:meth:`~optdesign.kinematics.assembly.
+    AssemblyCheck.many`'s), the model's values (:func:`_model_values`), the dead-centre check of
+    the case or None, its certified extremes on the samples (:func:`_certified`'s) or None):
+    where the case assembles at its samples, is finite and passes the dead-centre check with no
+    minimum narrower than the samples, the continuous minima of its assembly margins and its
+    certified extremes in one call of the one certification
+    (:func:`~optdesign.kinematics.joint.maxima_together`: each part's numbers what it gives
+    alone; a certified analysis spent about half its time in the two calls' fixed costs).  The
+    extremes are the case's only where the assembly check then passes with no narrow minimum
+    (run_cases checks), as the assembly's minima decide where the extremes are sampled; else
+    (and where the call raises) they are None and found as before: the case's numbers are the
+    same either way."""
+    pending = a.assembly.begin(s, P)
+    values = _model_values(a, P)
+
+    def alone():
+        return a.assembly.finish(pending, [extrema_of_cases(evaluate, pending.grid, V, requests, enclosure=enclosure)
+                                           for evaluate, V, requests, enclosure in pending.parts])
+
+    if not pending.parts or pending.staged[0][0] or any(getattr(p[3], "reason", None) is not None for p in pending.parts):
+        return alone(), values, None, None, None   # (nothing to join, or it fails at its samples)
+    dead = a.model.dead_centres(s, P, values["k"])
+    split = columns, constraints, bad = _split(s, values, 1)
+    plan = None
+    if not isinstance(dead[0], OptdesignError) and not dead[0][0] and not bad.any():
+        plan = a.certified.begin(s, P, columns, constraints)
+    # (both grids the samples, ascending: the same numbers)
+    if plan is None or len(plan[0]) != 1 or len(pending.parts) != 1 or np.any(pending.parts[0][3].sign != 1.0):
+        return alone(), values, dead, None, split
+    joint = a.certified.with_margins(a.assembly)
+    enclosure = None if joint is None else joint[1].at(P)
+    if enclosure is None or getattr(enclosure, "reason", None) is not None:
+        return alone(), values, dead, None, split
+    evaluate = joint[0]
+    (_, V, requests, _), margins = plan[0][0], pending.parts[0][3].rows
+    T = pending.staged[0][2][None]   # (the case's relative margins, all of them: rows by their index)
+    mine = [Request(int(i), "min", ends=True, tol=ASSEMBLY_TOL) for i in margins]
+    p = P[0]
+    try:
+        found, top, bound, notes, (f, g) = maxima_together(
+            pending.grid, [(V, requests), (T if pending.direction > 0 else T[:, :, ::-1], mine)],
+            lambda s, cases: evaluate(s, p), Distinct(enclosure))
+    except OptdesignError:   # (an invariant failed: each call alone says which, as before)
+        return alone(), values, dead, None, split
+    assembled = a.assembly.finish(pending, [extrema_lists(found, bound[g:], notes[g:], 1, mine, True, g)])
+    k = len(requests)
+    return assembled, values, dead, plan[2]([maxima_arrays(found, top[f:f + k], bound[f:f + k], notes[f:f + k], 1, k)]), \
+        split
+
+
+def _split(s, values, n):
+    """(the columns, the per-sample constraints, per case whether its columns hold a value that
+    is not finite or a negative reduced inertia: :func:`_check_finite`'s test) of the model's
+    ``values`` (of ``n`` cases)."""
+    columns = {"s": np.broadcast_to(s, (n, len(s)))}
+    columns.update({k: v for k, v in values.items() if ":" not in k})
+    constraints = {k.split(":", 1)[1]: v for k, v in values.items() if k.startswith("constraint:")}
+    bad = np.zeros(n, bool)
+    for v in (*columns.values(), *constraints.values()):   # a row's sum is finite where every value is (one
+        bad |= ~np.isfinite(np.sum(v, axis=1))            # that overflows: check_columns clears the case)
+    if "reduced_inertia" in columns:
+        bad |= np.any(columns["reduced_inertia"] < 0, axis=1)
+    return columns, constraints, bad
+
+
 def _model_values(a, P):
     """The model's outputs over the samples of every case: name -> cases x samples."""
     s = a.s_values
@@ -259,14 +334,10 @@ def _model_values(a, P):
     return values
 
 
-def _check_finite(a, s, columns, constraints, P, runs):
-    """:func:`~.finite.check_columns` of the cases whose columns hold a value that is not finite
-    or a negative reduced inertia (the others pass it: nothing to look at)."""
-    bad = np.zeros(len(P), bool)
-    for v in (*columns.values(), *constraints.values()):   # a row's sum is finite where every value is (one
-        bad |= ~np.isfinite(np.sum(v, axis=1))            # that overflows: check_columns clears the case)
-    if "reduced_inertia" in columns:
-        bad |= np.any(columns["reduced_inertia"] < 0, axis=1)
+def _check_finite(a, s, columns, constraints, P, runs, bad):
+    """:func:`~.finite.check_columns` of the cases ``bad`` (:func:`_split`'s: whose columns hold
+    a value that is not finite or a negative reduced inertia; the others pass it: nothing to
+    look at)."""
     for i in np.flatnonzero(bad):
         if runs[i].error is None:
             try:
