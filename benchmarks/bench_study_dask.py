@@ -29,8 +29,8 @@ byte-identical.
 Fixed costs.  A Dask client pays ``import distributed`` (0.3-0.6 s of CPU; the pool's client
 does not import it) and its connection before the first batch, while the cluster's helpers wait:
 at 20,000 truck-crane cases (~3.5 s of wall on the quiet machine) that alone is ~10 % of the
-whole run.  The steady rate leaves it out; a larger size (``--sizes 20000,200000``) shows the
-whole run's ratio where it is diluted.
+whole run, at 96 jib optimisations (~3 s) ~12 %.  The steady rate leaves it out; larger sizes
+(``--sizes 20000,200000``, ``--optimise 480``) show the whole run's ratio where it is diluted.
 
 Dask's settings.  Each round runs this code's Dask twice: on a cluster started with the settings
 README.md recommends for a study's cluster (optdesign/study/cluster.py: Dask's event-loop check,
