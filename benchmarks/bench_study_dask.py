@@ -21,6 +21,17 @@ first durable one (``progress`` calls: cases done and times), from that moment t
 rate once both are running.  The time to the first durable result is given too, and the
 client's start-up in it (to the moment the study starts feeding cases: connection, preparation).
 
+Fair per worker: 2 pool processes against 2 single-threaded Dask workers, the same study (the
+same cases, batched by the same code) in every run; each run's cases.csv is hashed (SHA-256) and
+compared with the pool's run of the same round: the line under the tables says whether all were
+byte-identical.
+
+Fixed costs.  A Dask client pays ``import distributed`` (0.3-0.6 s of CPU; the pool's client
+does not import it) and its connection before the first batch, while the cluster's helpers wait:
+at 20,000 truck-crane cases (~3.5 s of wall on the quiet machine) that alone is ~10 % of the
+whole run, at 96 jib optimisations (~3 s) ~12 %.  The steady rate leaves it out; larger sizes
+(``--sizes 20000,200000``, ``--optimise 480``) show the whole run's ratio where it is diluted.
+
 Dask's settings.  Each round runs this code's Dask twice: on a cluster started with the settings
 README.md recommends for a study's cluster (optdesign/study/cluster.py: Dask's event-loop check,
 system monitor and worker profiler less often or off) and on the same cluster with Dask's defaults.
@@ -73,7 +84,9 @@ with open("/proc/self/status") as fh:
     hwm = next(int(l.split()[1]) for l in fh if l.startswith("VmHWM:"))
 assert r.complete and r.computed == n, r
 kids = resource.getrusage(resource.RUSAGE_CHILDREN)   # the pool's processes, waited for when it ended
-print(json.dumps({"wall": wall, "cpu": cpu, "children_cpu": kids.ru_utime + kids.ru_stime, "hwm_kB": hwm, "ok": int(r.column("success").sum()), "start_s": start, "first_s": t1 - t0,
+import hashlib
+csv = hashlib.sha256(open(out + "/cases.csv", "rb").read()).hexdigest()   # the answers, compared between runs
+print(json.dumps({"csv": csv, "wall": wall, "cpu": cpu, "children_cpu": kids.ru_utime + kids.ru_stime, "hwm_kB": hwm, "ok": int(r.column("success").sum()), "start_s": start, "first_s": t1 - t0,
                   "steady": steady}))
 """
 
@@ -226,6 +239,17 @@ def main():
             report(args, got, load0, k + 1, [label for label, _, _ in dask_runs])   # after every round
 
 
+def same_answers(got) -> str:
+    """Whether every run of a study wrote the same cases.csv, byte for byte (its SHA-256), as the
+    pool's run of the same round: the same cases and the same answers."""
+    differ = [f"{kind} {n:,} round {k + 1} run {j}" for (kind, n), rs in got.items() for k, r in enumerate(rs)
+              for j, m in enumerate(r) if m.get("csv") != r[0].get("csv")]
+    runs = sum(len(r) for rs in got.values() for r in rs)
+    if not differ:
+        return f"cases.csv byte-identical (SHA-256) to the pool's of the same study in all {runs} runs."
+    return f"cases.csv DIFFERS from the pool's of the same study in {len(differ)} of {runs} runs: {', '.join(differ)}."
+
+
 def report(args, got, load0, rounds, labels):
     load1 = os.getloadavg()
     cmd = " ".join(["python benchmarks/bench_study_dask.py", *sys.argv[1:]])
@@ -284,10 +308,21 @@ def report(args, got, load0, rounds, labels):
             busy = statistics.median((r[j]["cpu"] + sum(r[j]["cpu_by_role"].values())) / r[j]["wall"] for r in rs)
             cells = " | ".join(f"{v:,.0f}" if (v or not j == 0) else "-" for v in parts)
             lines.append(f"| {kind} | {n:,} | {name} | {cells} | {sum(parts):,.0f} | {busy:.2f} |")
+    lines += ["", "Per round (the Dask runs rotate their order each round): the machine's speed drifts between "
+              "minutes, so a ratio moves from round to round; CPU per case is the steadier measure.", "",
+              "| study | round | pool wall s | Dask wall s (" + " / ".join(labels) + ") | Dask / pool whole | "
+              "CPU per case all processes, us (pool / " + " / ".join(labels) + ") |", "|---|---|---|---|---|---|"]
+    for (kind, n), rs in got.items():
+        for k, r in enumerate(rs):
+            every = [1e6 * (m["cpu"] + sum(m["cpu_by_role"].values())) / n for m in r]
+            lines.append(f"| {kind} {n:,} | {k + 1} | {r[0]['wall']:.2f} | "
+                         + " / ".join(f"{m['wall']:.2f}" for m in r[1:]) + " | "
+                         + " / ".join(f"{r[0]['wall'] / m['wall']:.2f}x" for m in r[1:]) + " | "
+                         + " / ".join(f"{v:,.0f}" for v in every) + " |")
     lines.append("")
     lines.append("Every run's cases all finished; successful cases (pool / " + " / ".join(labels) + "): "
                  + ", ".join(f"{kind} {n:,}: " + " / ".join(f"{r['ok']:,}" for r in rs[-1] if r) for (kind, n), rs in got.items())
-                 + ".")
+                 + ". " + same_answers(got))
     write_section(args.section, "\n".join(lines) + "\n", SCALING_MD)
     print("\n".join(lines), flush=True)
 

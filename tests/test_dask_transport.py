@@ -116,7 +116,9 @@ def test_idle_helpers_end_with_their_worker():
 
     assert worker.prestart(1) >= 1
     helpers = list(worker._IDLE)
-    worker._close_idle()
+    # time to end by itself: a helper reads its input only after its imports, which take
+    # longer than _close_idle's 2 s at load ~10 (killed then: returncode -9)
+    worker._close_idle(timeout=120)
     assert worker._IDLE == []
     for helper in helpers:
         assert helper.returncode == 0   # it ended at the end of its input, not killed

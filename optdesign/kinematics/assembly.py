@@ -143,7 +143,7 @@ class AssemblyCheck:
             mech = self.mech
             r = ca.vertcat(*(rel for _, rel, _ in self.rows))
             dr = mech.ds(r)
-            self.expressions = (r, dr, mech.ds(dr))   # (also the rows of CertifiedExtremes.with_margins)
+            self.expressions = (r, dr, mech.ds(dr))   # (also rows of CertifiedExtremes' Function)
             self._derivatives = mech.function("assembly_ds", dict(zip(("r", "dr", "d2r"), self.expressions)))
             self._enclosures = Enclosures(self._derivatives, mech.interval_compile)   # the same program, in intervals
 

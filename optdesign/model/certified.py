@@ -63,13 +63,25 @@ class CertifiedExtremes:
                                for j, (name, _, _) in enumerate(self.aggregate_rows)))
         v = ca.vertcat(*rows) if rows else ca.DM.zeros(0, 1)
         dv = mech.ds(v)
-        self.expressions = (v, dv, mech.ds(dv))
-        self._margins = None   # (with_margins', built on first use)
+        # the rows followed by the assembly's relative margins (with_margins: both certified in
+        # one call; the same expressions as each one's own Function, so the same numbers; a call
+        # of some rows runs the instructions those need), or the rows alone where that Function
+        # has no enclosure (or there are no margins)
+        derivatives, assembly = None, analysis.assembly
+        if assembly.rows:
+            assembly._build_derivatives()
+            both = mech.function("certified_ds", {name: ca.vertcat(a, b) for name, a, b in zip(
+                ("v", "dv", "d2v"), (v, dv, mech.ds(dv)), assembly.expressions)})
+            enclosures = Enclosures(both, compile_program)   # the same program, in intervals
+            if enclosures.reason is None:
+                derivatives, self.enclosures = both, enclosures
+        self.margins = derivatives is not None
+        if derivatives is None:
+            derivatives = mech.function("certified_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)})
+            self.enclosures = Enclosures(derivatives, compile_program)
         # compiled from the disk cache where it is there (CasADi's C of the same graph: the same
         # numbers, ~14x faster per point on the truck crane: measured)
-        derivatives = mech.function("certified_ds", dict(zip(("v", "dv", "d2v"), self.expressions)))
         self.derivatives = MappedFunction(derivatives, compile=compiled_function)
-        self.enclosures = Enclosures(derivatives, compile_program)   # the same program, in intervals
         self.values = MappedFunction(mech.function("certified_v", {"v": v}), compile=compiled_function)
         # the aggregates' rows at the samples (not among the sampled columns), once per distinct
         # value of the parameters they depend on (a batch varying masses: once)
@@ -80,23 +92,11 @@ class CertifiedExtremes:
         self.q = MappedFunction(mech.function("q", {"q": mech.q}), compile=compiled_function)
         self.fixed_rows, self.fixed_parameters = _fixed_rows(mech, rows)
 
-    def with_margins(self, assembly):
-        """(evaluate, enclosure) of one Function of this analysis's rows followed by the relative
-        margins of ``assembly`` (its :class:`~optdesign.kinematics.assembly.AssemblyCheck`),
-        the same expressions as each one's own Function (so the same numbers), built once:
-        ``evaluate(s, p)`` a MappedFunction, ``enclosure`` an Enclosures
-        (:func:`~optdesign.kinematics.joint.maxima_together`); None while its interval program
-        is not compiled and this analysis's own is (compiling in the background: the two alone
-        are faster until it is there)."""
-        if self._margins is None:
-            assembly._build_derivatives()
-            func = self.mech.function("certified_margins_ds", {
-                name: ca.vertcat(a, b) for name, a, b in zip(("v", "dv", "d2v"), self.expressions, assembly.expressions)})
-            self._margins = (MappedFunction(func, compile=compiled_function), Enclosures(func, compile_program))
-        if getattr(self._margins[1].program, "subsets_pay", False) or not getattr(self.enclosures.program, "subsets_pay",
-                                                                                  False):
-            return self._margins
-        return None
+    def with_margins(self):
+        """(evaluate, enclosure) of this analysis's rows followed by its assembly's relative
+        margins, the rows' own (:func:`~optdesign.kinematics.joint.maxima_together`), or None
+        where the Function has no margins."""
+        return (self.derivatives, self.enclosures) if self.margins else None
 
     def many(self, s_values, P, columns, constraints, narrow=None) -> list:
         """The continuous extremes of N cases of this analysis that differ only in their

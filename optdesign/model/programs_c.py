@@ -183,14 +183,19 @@ def _ufunc_loop(ufunc):
     """(address of numpy's float64 loop of ``ufunc``, its data) read from the ufunc object
     (numpy's PyUFuncObject: functions at 32, data at 40, ntypes at 48, types at 64 bytes), or
     None when its layout is not the one expected (its name at 56 must be the ufunc's)."""
+    if ctypes.sizeof(ctypes.c_void_p) != 8 or not np.__version__.startswith("2."):
+        return None   # the offsets are numpy 2's on a 64-bit build; elsewhere the numpy loop runs
     nargs = ufunc.nin + ufunc.nout
     base = id(ufunc)
     read = lambda offset, t: t.from_address(base + offset).value   # noqa: E731
-    if ctypes.string_at(read(56, ctypes.c_void_p)).decode() != ufunc.__name__:
+    name = read(56, ctypes.c_void_p)
+    if not name or ctypes.string_at(name).decode() != ufunc.__name__:
         return None
     if (read(16, ctypes.c_int), read(20, ctypes.c_int)) != (ufunc.nin, ufunc.nout):
         return None
     ntypes, types = read(48, ctypes.c_int), read(64, ctypes.c_void_p)
+    if not types or ntypes <= 0:
+        return None
     codes = ctypes.string_at(types, ntypes * nargs)
     double = np.dtype(np.float64).num
     for i in range(ntypes):

@@ -292,7 +292,7 @@ def _together(a, s, P):
     # (both grids the samples, ascending: the same numbers)
     if plan is None or len(plan[0]) != 1 or len(pending.parts) != 1 or np.any(pending.parts[0][3].sign != 1.0):
         return alone(), values, dead, None, split
-    joint = a.certified.with_margins(a.assembly)
+    joint = a.certified.with_margins()
     enclosure = None if joint is None else joint[1].at(P)
     if enclosure is None or getattr(enclosure, "reason", None) is not None:
         return alone(), values, dead, None, split

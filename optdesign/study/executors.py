@@ -292,11 +292,11 @@ class _Dask(_Futures):
     # cluster with cluster.SETTINGS, 2 interleaved pairs at load ~7: the client's, scheduler's
     # and workers' CPU 3.1 / 2.5 s in batches of 0.5 s (84 tasks), 1.9 / 1.3 s in batches of 2 s
     group_s = 2.0
-    # an analyse batch's seconds of work (execute._group_size): 1 s, not group_s: a truck-crane
-    # batch of 4,096 cases (2 s) cost its helper ~7 % more CPU per case than one of 1,024 or
-    # 2,048 (its arrays of cases x samples larger than the caches; 20
-    # interleaved rounds in one process, load ~8: medians 491 / 459 / 457 us per case), while
-    # a task's own cost (milliseconds of the client's, scheduler's and worker's CPU) stays small
+    # an analyse batch's seconds of work (execute._group_size): 1 s, not group_s.  A batch of
+    # 4,096 truck-crane cases (~1 s) once cost its helper more per case than one of 1,024 (its
+    # arrays of cases x samples larger than the caches); a batch is now analysed
+    # analysed.CHUNK cases at a time, so its size no longer sets its cost per case, and a
+    # task's own cost (milliseconds of the client's, scheduler's and worker's CPU) stays small
     analyse_s = 1.0
     FIRST_BATCH = 4      # cases per batch before any case has finished
     WINDOW = 2           # batches in flight per worker thread
