@@ -345,6 +345,7 @@ class ProgramC:
         if status != 0:
             return False
         self.arrays = [kind32, code, x, y, dst, flags, loop]
+        self.io = [(x[kind == j].astype(np.int64), y[kind == j].astype(np.int64)) for j in (0, 1)]   # (number, nonzero)
         self.loops = (ctypes.c_void_p * max(1, len(ufuncs)))(*[found[u][0] for u in ufuncs])
         self.loop_data = (ctypes.c_void_p * max(1, len(ufuncs)))(*[found[u][1] for u in ufuncs])
         return True
@@ -355,6 +356,10 @@ class ProgramC:
         written) and ``where`` (per output: the row of each nonzero).  False when the C refused."""
         m = outs[0].shape[1]
         ins = [np.ascontiguousarray(a, float) for a in inputs]
+        for (number, nonzero), sizes in zip(self.io, ([len(a) for a in ins], [len(w) for w in where])):
+            sizes = np.asarray(sizes, np.int64)   # (every input and output place read or written in range)
+            if np.any((number < 0) | (number >= len(sizes))) or np.any((nonzero < 0) | (nonzero >= sizes[number])):
+                return False
         in_ptrs = (ctypes.c_void_p * len(ins))(*[a.ctypes.data for a in ins])
         out_ptrs = (ctypes.c_void_p * len(outs))(*[o.ctypes.data for o in outs])
         where_flat = np.ascontiguousarray(np.concatenate([np.asarray(w, np.int64) for w in where] + [np.zeros(1, np.int64)]))
