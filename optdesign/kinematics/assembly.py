@@ -95,7 +95,7 @@ class Pending:
 
     def __init__(self, P, s_values):
         self.P, self.s_values = P, s_values
-        self.groups, self.grid, self.kinds, self.parts = None, None, [], []
+        self.groups, self.grid, self.kinds, self.parts, self.G, self.staged, self.direction = None, None, [], [], None, None, None
 
 
 @dataclass(frozen=True)
