@@ -303,26 +303,12 @@ class Enclosure:
             p = p_cases = p_ends = self.p
         else:
             one = len(self.p) == 1   # one case: its parameter vector (the same bits, without a row per interval)
-            key_s = np.concatenate((lo, hi))
-            if one:
-                order = key_s.argsort(kind="stable")
-            else:
-                cases = np.asarray(cases, int)
-                key_case = np.concatenate((cases, cases))
-                order = np.lexsort((key_s, key_case))
-            by_s = key_s[order]
-            first = np.empty(2 * n, bool)   # (an end that differs from the one before: by s - s' != 0)
-            first[:1] = True
-            np.not_equal(by_s[1:] - by_s[:-1], 0, out=first[1:])
             if not one:
-                by_case = key_case[order]
-                first[1:] |= by_case[1:] != by_case[:-1]
-            where_end = np.empty(2 * n, int)
-            where_end[order] = first.cumsum() - 1
-            ends = by_s[first]
+                cases = np.asarray(cases, int)
+            ends, where_end, end_case = distinct_ends(lo, hi, None if one else cases)
             # each interval's parameters (over [lo, hi] and at its midpoint: the same rows), each end's
             p_cases, p_ends = (self.p[0], self.p[0]) if one else (self.p.take(cases, axis=0),
-                                                                   self.p.take(by_case[first], axis=0))
+                                                                   self.p.take(end_case, axis=0))
             p = p_cases if one else None
         # over [lo, hi] everything; at the midpoints v and v' (the Taylor form's); at the ends v
         # (the monotone form's): each call runs only the instructions its outputs need
@@ -377,6 +363,58 @@ class Enclosure:
         U = np.where(U_m < U, U_m, U)
         L = np.where(L_m > L, L_m, L)
         return L, U, vm_lo, vm_hi
+
+
+def distinct_ends(lo, hi, cases=None):
+    """(the distinct (case, value) pairs among the intervals' ends, ascending by case then value,
+    each as its first end in the order lo then hi (an end equal in value to another, +0.0 and
+    -0.0 included, is the same end: by s - s' != 0); each end's index among them, lo's then
+    hi's; the case of each) of the intervals [lo, hi] of ``cases`` (None: one case; its cases
+    None).  Where each case's intervals are consecutive and ascending, each ending where or
+    before the next begins (a branch and bound's intervals, mostly), its ends are sorted
+    already, taken in the order lo_0, hi_0, lo_1, hi_1, ...: found in one pass, the same
+    arrays as the stable sort's (each group the same ends; its first in the order lo then hi,
+    the smallest index), else (or with an infinite end) by that sort."""
+    n = len(lo)
+    if n > 1:
+        s = np.empty(2 * n)   # (the ends in the order lo_0, hi_0, lo_1, hi_1, ...)
+        s[0::2], s[1::2] = lo, hi
+        c = None if cases is None else np.repeat(cases, 2)
+        with np.errstate(invalid="ignore"):   # (NaN: not sorted; inf, whose copies the sort keeps apart: not taken)
+            rising = (s[1:] >= s[:-1]) & (np.abs(s[1:]) < np.inf)
+        new_case = None if c is None else c[1:] != c[:-1]
+        if c is not None:
+            rising |= new_case
+        if np.logical_and.reduce(rising) and (c is None or np.logical_and.reduce(c[1:] >= c[:-1])):
+            first = np.empty(2 * n, bool)
+            first[:1] = True
+            np.not_equal(s[1:] - s[:-1], 0, out=first[1:])
+            if new_case is not None:
+                first[1:] |= new_case
+            group = first.cumsum() - 1
+            where_end = np.empty(2 * n, int)
+            where_end[:n], where_end[n:] = group[0::2], group[1::2]
+            index = np.empty(2 * n, int)   # (each end's index in the order lo then hi)
+            index[0::2], index[1::2] = np.arange(n), np.arange(n, 2 * n)
+            head = np.minimum.reduceat(index, first.nonzero()[0])
+            key_s = np.concatenate((lo, hi))
+            return key_s[head], where_end, None if cases is None else np.concatenate((cases, cases))[head]
+    key_s = np.concatenate((lo, hi))
+    if cases is None:
+        order = key_s.argsort(kind="stable")
+    else:
+        key_case = np.concatenate((cases, cases))
+        order = np.lexsort((key_s, key_case))
+    by_s = key_s[order]
+    first = np.empty(2 * n, bool)   # (an end that differs from the one before: by s - s' != 0)
+    first[:1] = True
+    np.not_equal(by_s[1:] - by_s[:-1], 0, out=first[1:])
+    if cases is not None:
+        by_case = key_case[order]
+        first[1:] |= by_case[1:] != by_case[:-1]
+    where_end = np.empty(2 * n, int)
+    where_end[order] = first.cumsum() - 1
+    return by_s[first], where_end, None if cases is None else by_case[first]
 
 
 class Unavailable:
