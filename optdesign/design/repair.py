@@ -18,10 +18,22 @@ class Repair:
     def __init__(self, problem: DesignProblem):
         pb = problem
         self.pb = pb
+        self.ok = any(b.kind == "margin" for b in pb.blocks)
+        self._solver = None
+
+    @property
+    def solver(self):
+        """The projection's IPOPT solver, built on first use: most starts assemble and never need
+        it (crane_luffing_drive: none of its 60 starts; 0.1 s of CPU per motor of a catalogue,
+        before the starts could begin).  The same NLP whenever it is built (in a forked worker
+        when that is where a start first needs it)."""
+        if self._solver is None:
+            self._solver = self._build()
+        return self._solver
+
+    def _build(self):
+        pb = self.pb
         margins = [b for b in pb.blocks if b.kind == "margin"]
-        self.ok = bool(margins)
-        if not self.ok:
-            return
         sym = pb.mech.sym
         z = sym.sym("z", len(pb.design_names))
         z0 = sym.sym("z0", len(pb.design_names))
@@ -35,10 +47,9 @@ class Repair:
         pts = np.unique(np.r_[pb.s_grid, pb.base_points, pb.initial_slots])
         g = ca.vec(f.map(len(pts))(ca.DM(pts).T, p))
         nlp = {"x": z, "p": ca.vertcat(z0, fixed), "f": ca.sumsqr(z - z0), "g": g}
-        self.solver = ca.nlpsol("repair", "ipopt", nlp, {
+        return ca.nlpsol("repair", "ipopt", nlp, {
             "ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "error_on_fail": False,
             "show_eval_warnings": False})
-        self.n_g = int(g.numel())
 
     def __call__(self, x0, fixed):
         pb = self.pb
