@@ -53,7 +53,7 @@ RELATIVE = 1e-3        # the energy needed must exceed the motor's by this fract
 TANH_GAP = 0.2785      # > max over x > 0 of x (1 - tanh x) (0.27846 at x = 0.6392)
 BOXES = 4000           # boxes of the branch and bound at most
 SECONDS = 4.0          # its time at most (process time)
-BATCH = 64             # boxes per evaluation
+BATCH = 1024           # boxes per evaluation at most
 CASES = 1              # the cases tried on each box: those with the largest margins at the box's centre
 
 
@@ -183,6 +183,8 @@ class EnergyBound:
         used = np.flatnonzero(self.used)
         root = (self.lower[used].copy(), self.upper[used].copy())
         cases = self._ranked(root, tp, wm, jr)[:CASES]
+        if self._unsettled_point(root, cases, tp, wm, jr):
+            return None   # a design no verdict settles even alone: no box holding it can be
         began = time.process_time()
         for full in (False, True):   # the cheap stage alone first, then both
             proof = self._branch_and_bound(motor, root, cases, full, tp, wm, jr, began)
@@ -231,12 +233,30 @@ class EnergyBound:
                            inf["bodies"], boxes, settled, tuple(self.design[i] for i in used), inf["terms"])
 
 
+    POINTS = 16   # designs tried alone before the branch and bound (random, and the scene's own)
+
+    def _unsettled_point(self, root, cases, tp, wm, jr) -> bool:
+        """Whether some design (the scene's, or one of POINTS spread over the box) is settled by
+        no verdict of ``cases`` even as a box of its own: then no proof can be found."""
+        used = np.flatnonzero(self.used)
+        r = self.mech.resolved
+        own = np.array([r.values[self.design[k]] for k in used])
+        spread = root[0] + (root[1] - root[0]) * np.random.default_rng(0).random((self.POINTS, len(used)))
+        pts = np.vstack([own, spread]).T
+        open_ = np.ones(pts.shape[1], bool)
+        for c in cases:
+            for stage in (lambda a: c.settle_positions(a, a, tp, wm), lambda a: c.settle(a, a, used, tp, wm, jr)):
+                sel = np.flatnonzero(open_)
+                if sel.size:
+                    open_[sel] = [v is None for v, _, _ in stage(pts[:, sel])]
+        return bool(open_.any())
+
     def _ranked(self, root, tp, wm, jr):
         """The cases, the one with the largest margin at the box's centre first."""
         c = 0.5 * (root[0] + root[1])
         margins = []
-        for case in self.cases:
-            case.settle(c[:, None], c[:, None], None, tp, wm, jr)
+        for case in self.cases:   # (the cheap stage's margin)
+            case.settle_positions(c[:, None], c[:, None], tp, wm)
             margins.append(case.last_slack[0])
         return [self.cases[k] for k in np.argsort(-np.asarray(margins), kind="stable")]
 
@@ -389,7 +409,7 @@ class _Case:
         (M,), _ = self._run(self.checks, nodes, nodes, lo, hi)
         assembly_out = np.any(M[1] < 0, axis=(0, 1)) if M[1].size else np.zeros(nb, bool)
         out = [("assembly", None, None) if a else (None, None, None) for a in assembly_out]
-        self.last_split = np.full(nb, -1)
+        self.last_split, self.last_slack = np.full(nb, -1), np.full(nb, -np.inf)
         if not rest.size:
             return out
         (PE, GP), jump = self._run(self.positions, nodes, nodes, lo, hi)
@@ -406,6 +426,7 @@ class _Case:
         slack = need - available * (1 + RELATIVE)
         slack = np.where(np.isnan(slack), -np.inf, slack)
         best = np.argmax(slack, axis=0)
+        self.last_slack = slack[best, np.arange(nb)] / np.maximum(available[best, np.arange(nb)], 1e-300)
         # where to split a box left open: the side whose share of the mean-value form's spread at
         # its best window is largest (-1: none finite, the widest side then)
         bi, bj = i[best], j[best]
@@ -467,7 +488,8 @@ class _Case:
         with np.errstate(invalid="ignore"):
             travel = (cum[j] - cum[i]) / self.speed[star_i][None, :]
         # (and int |qd| dt = int |k| ds with |i| <= its largest: the motor's speed times T at most)
-        available = tp * np.fmin(wm * np.fmin(T[:, None], travel), self.ratio_max * (cum_k[j] - cum_k[i]))
+        with np.errstate(invalid="ignore"):   # (inf - inf: no bound, NaN, dropped by fmin)
+            available = tp * np.fmin(wm * np.fmin(T[:, None], travel), self.ratio_max * (cum_k[j] - cum_k[i]))
         slack = need - available * (1 + RELATIVE)
         slack = np.where(np.isnan(slack), -np.inf, slack)
         best = np.argmax(slack, axis=0)
