@@ -51,8 +51,8 @@ from ..model.train import motor_numbers
 
 RELATIVE = 1e-3        # the energy needed must exceed the motor's by this fraction
 TANH_GAP = 0.2785      # > max over x > 0 of x (1 - tanh x) (0.27846 at x = 0.6392)
-BOXES = 4000           # boxes of the branch and bound at most
-SECONDS = 4.0          # its time at most (process time)
+BOXES = 50000          # boxes of the branch and bound at most (the time is the usual limit)
+SECONDS = 2.0          # its time at most (process time; a motor that fits spends it when no design settles alone)
 BATCH = 1024           # boxes per evaluation at most
 CASES = 1              # the cases tried on each box: those with the largest margins at the box's centre
 
@@ -80,8 +80,9 @@ class EnergyProof:
     def message(self) -> str:
         return (f"cannot fit (energy proof): in case {self.case!r} from t = {self.window[0]:.4g} to "
                 f"{self.window[1]:.4g} s the load needs >= {self.needed:.6g} J at the motor, the motor gives "
-                f"<= {self.available:.6g} J (peak torque x speed); every design of the box "
-                f"({', '.join(self.variables)}) settled in {self.boxes} boxes")
+                f"<= {self.available:.6g} J (peak torque x speed); " + (
+                    f"every design of the box ({', '.join(self.variables)}) settled in {self.boxes} boxes"
+                    if self.variables else "no design variable moves the mechanism"))
 
     def to_dict(self) -> dict:
         return {"case": self.case, "window_s": list(self.window), "sweep": list(self.sweep),
@@ -183,13 +184,11 @@ class EnergyBound:
         used = np.flatnonzero(self.used)
         root = (self.lower[used].copy(), self.upper[used].copy())
         cases = self._ranked(root, tp, wm, jr)[:CASES]
-        if self._unsettled_point(root, cases, tp, wm, jr):
-            return None   # a design no verdict settles even alone: no box holding it can be
         began = time.process_time()
-        for full in (False, True):   # the cheap stage alone first, then both
-            proof = self._branch_and_bound(motor, root, cases, full, tp, wm, jr, began)
-            if proof is not None:
-                return proof
+        for full in (False, True):   # the cheap stage alone, else (a design it cannot settle) both stages
+            if self._unsettled_point(root, cases, full, tp, wm, jr):
+                continue   # a design no verdict settles even alone: no box holding it can be
+            return self._branch_and_bound(motor, root, cases, full, tp, wm, jr, began)
         return None
 
     def _branch_and_bound(self, motor, root, cases, full, tp, wm, jr, began):
@@ -200,7 +199,8 @@ class EnergyBound:
         while queue:
             if boxes > BOXES or time.process_time() - began > SECONDS:
                 return None
-            batch, queue = queue[:BATCH], queue[BATCH:]
+            size = BATCH if not full else BATCH // 16   # (the full stage: ~7 ms a box; the time is checked per batch)
+            batch, queue = queue[:size], queue[size:]
             boxes += len(batch)
             lo = np.array([b[0] for b in batch]).T
             hi = np.array([b[1] for b in batch]).T
@@ -223,6 +223,8 @@ class EnergyBound:
                             settled[v] += 1
                             if v == "energy" and (tightest is None or sl < tightest[0]):
                                 tightest = (sl, inf)
+            if open_.any() and not len(used):
+                return None   # (no design variable moves the mechanism: nothing to split)
             for j in np.flatnonzero(open_):
                 queue.append(_split(lo[:, j], hi[:, j], root[0], root[1], side=side[j]))
                 queue.append(_split(lo[:, j], hi[:, j], root[0], root[1], right=True, side=side[j]))
@@ -235,7 +237,7 @@ class EnergyBound:
 
     POINTS = 16   # designs tried alone before the branch and bound (random, and the scene's own)
 
-    def _unsettled_point(self, root, cases, tp, wm, jr) -> bool:
+    def _unsettled_point(self, root, cases, full, tp, wm, jr) -> bool:
         """Whether some design (the scene's, or one of POINTS spread over the box) is settled by
         no verdict of ``cases`` even as a box of its own: then no proof can be found."""
         used = np.flatnonzero(self.used)
@@ -245,7 +247,8 @@ class EnergyBound:
         pts = np.vstack([own, spread]).T
         open_ = np.ones(pts.shape[1], bool)
         for c in cases:
-            for stage in (lambda a: c.settle_positions(a, a, tp, wm), lambda a: c.settle(a, a, used, tp, wm, jr)):
+            stages = [lambda a: c.settle_positions(a, a, tp, wm)] + [lambda a: c.settle(a, a, used, tp, wm, jr)] * full
+            for stage in stages:
                 sel = np.flatnonzero(open_)
                 if sel.size:
                     open_[sel] = [v is None for v, _, _ in stage(pts[:, sel])]
@@ -432,7 +435,8 @@ class _Case:
         bi, bj = i[best], j[best]
         g = np.maximum(np.abs(GP[0][:, bj, np.arange(nb)] - GP[1][:, bi, np.arange(nb)]),
                        np.abs(GP[1][:, bj, np.arange(nb)] - GP[0][:, bi, np.arange(nb)])) * half
-        self.last_split = np.where(np.all(np.isfinite(g), axis=0), np.argmax(np.nan_to_num(g, nan=0.0), axis=0), -1)
+        self.last_split = (np.where(np.all(np.isfinite(g), axis=0), np.argmax(np.nan_to_num(g, nan=0.0), axis=0), -1)
+                           if len(g) else np.full(nb, -1))
         for b in range(nb):
             w = best[b]
             if out[b][0] is None and slack[w, b] > 0:
