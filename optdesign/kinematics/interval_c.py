@@ -44,9 +44,7 @@ import casadi as ca
 
 from .intervals import ROUND, ROUND_LIB, TINY, TWO_PI
 
-BLOCK = 256  # intervals per loop of one operation (the same numbers; each instruction's dispatch paid once per block: on the
-#              truck crane's batches 256 ran run_many in 0.89-0.91x the time of 64 (64: 1.1-1.6x faster than 32),
-#              single analyses (slider crank, toggle press) alike)
+BLOCK = 256  # intervals per loop of one operation (the same numbers; truck-crane batches 0.89-0.91x the time of 64, measured)
 
 _PRELUDE = r"""
 #include <math.h>
