@@ -95,7 +95,10 @@ class Pending:
 
     def __init__(self, P, s_values):
         self.P, self.s_values = P, s_values
-        self.groups, self.grid, self.kinds, self.parts, self.G, self.staged, self.direction = None, None, [], [], None, None, None
+        self.groups = None   # (None: nothing to check)
+        self.grid = None
+        self.kinds, self.parts = [], []
+        self.G = self.staged = self.direction = None
 
 
 @dataclass(frozen=True)

@@ -386,11 +386,7 @@ def distinct_ends(lo, hi, cases=None):
         if c is not None:
             rising |= new_case
         if np.logical_and.reduce(rising) and (c is None or np.logical_and.reduce(c[1:] >= c[:-1])):
-            first = np.empty(2 * n, bool)
-            first[:1] = True
-            np.not_equal(s[1:] - s[:-1], 0, out=first[1:])
-            if new_case is not None:
-                first[1:] |= new_case
+            first = _first_of_each(s, new_case)
             group = first.cumsum() - 1
             where_end = np.empty(2 * n, int)
             where_end[:n], where_end[n:] = group[0::2], group[1::2]
@@ -406,15 +402,23 @@ def distinct_ends(lo, hi, cases=None):
         key_case = np.concatenate((cases, cases))
         order = np.lexsort((key_s, key_case))
     by_s = key_s[order]
-    first = np.empty(2 * n, bool)   # (an end that differs from the one before: by s - s' != 0)
-    first[:1] = True
-    np.not_equal(by_s[1:] - by_s[:-1], 0, out=first[1:])
-    if cases is not None:
-        by_case = key_case[order]
-        first[1:] |= by_case[1:] != by_case[:-1]
+    by_case = None if cases is None else key_case[order]
+    first = _first_of_each(by_s, None if cases is None else by_case[1:] != by_case[:-1])
     where_end = np.empty(2 * n, int)
     where_end[order] = first.cumsum() - 1
     return by_s[first], where_end, None if cases is None else by_case[first]
+
+
+def _first_of_each(s, new_case):
+    """Of the ends ``s`` in order, those that differ from the one before (by s - s' != 0, so
+    that +0.0 and -0.0 are one end) or begin a new case (``new_case[k]``: end k + 1 is another
+    case's than end k; None: one case)."""
+    first = np.empty(len(s), bool)
+    first[:1] = True
+    np.not_equal(s[1:] - s[:-1], 0, out=first[1:])
+    if new_case is not None:
+        first[1:] |= new_case
+    return first
 
 
 class Unavailable:
