@@ -65,7 +65,9 @@ def crane(design, t):
     ke = 0.5 * (M_JIB * (0.45 * L) ** 2 + M_JIB * L**2 / 12 + M_TAIL * L_TAIL**2 + M_LOAD * L**2) * om**2
     ke = ke + 0.5 * mR * np.sum(vel(mid) ** 2, axis=0) + 0.5 * mR * lc**2 / 12 * vel(phi) ** 2
     pe = G * (M_JIB * com_jib[1] - M_TAIL * L_TAIL * e[1] + M_LOAD * L * e[1] + mR * mid[1])
-    angle = lambda p, q, s: np.arccos(np.clip(np.sum((p - q) * (s - q), 0) / np.hypot(*(p - q)) / np.hypot(*(s - q)), -1, 1))  # noqa: E731
+    def angle(p, q, s):
+        cos = np.sum((p - q) * (s - q), 0) / np.hypot(*(p - q)) / np.hypot(*(s - q))
+        return np.arccos(np.clip(cos, -1, 1))
     q = np.unwrap(np.arctan2(*(P - O)[::-1]))
     del dt
     return ok, angle(O, P, Bp), angle(P, Bp, np.zeros((2, 1))), ke + pe, q
@@ -290,3 +292,26 @@ def test_catalogue_keeps_the_starts_without_a_proof():
     scene = loads(text, str(CRANE))
     prover = Prover(scene)
     assert prover.prove(scene.motors[0]) is None and "forces" in prover.why
+
+
+def test_a_proved_motor_in_the_catalogues_json_and_summary():
+    """A motor proved not to fit is recorded as not fitting, with its proof, in result.json's
+    catalogue (``proofs``, its result's start_plan) and the summary's line of the motor."""
+    import json
+
+    from optdesign.design.catalogue import CatalogueResult, proved_result
+    from optdesign.report.design import result_json
+    from optdesign.report.design_cases import motor_outcomes
+
+    scene = loads(crank_scene(0.5, 1.0, 40.0, 1.0, 2.0, [(0.05, 100.0, 1e-4), (50.0, 300.0, 1e-4)], 0.9))
+    proof = EnergyBound(scene).prove(scene.motors[0])
+    result = proved_result(scene, proof)
+    cat = CatalogueResult({"m0": result}, None, result, ("m1",), motors=tuple(scene.motors), proofs={"m0": proof})
+    doc = json.loads(json.dumps(result_json(result, cat)))
+    assert doc["motors"] == {"m0": "does not fit", "m1": "not tried"} and doc["chosen_motor"] is None
+    p = doc["proofs"]["m0"]
+    assert p["energy_needed_J"] > p["energy_available_J"] > 0 and p["window_s"][1] > p["window_s"][0] >= 0
+    assert doc["catalogue"]["m0"]["start_plan"]["proof"] == p and doc["catalogue"]["m0"]["starts_total"] == 0
+    assert p["bodies"]["arm"].startswith(">=")
+    (name, outcome, what), = [o for o in motor_outcomes(cat) if o[1] != "not tried"]
+    assert (name, outcome) == ("m0", "does not fit") and "energy proof" in what

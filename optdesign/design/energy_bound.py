@@ -76,7 +76,8 @@ class EnergyProof:
     terms: dict = field(default_factory=dict)
 
     def message(self) -> str:
-        return (f"cannot fit (energy proof): in case {self.case!r} from t = {self.window[0]:.4g} to "
+        return (f"cannot fit (energy proof; its tightest box): in case {self.case!r} from t = "
+                f"{self.window[0]:.4g} to "
                 f"{self.window[1]:.4g} s the load needs >= {self.needed:.6g} J at the motor, the motor gives "
                 f"<= {self.available:.6g} J (peak torque x speed); " + (
                     f"every design of the box ({', '.join(self.variables)}) settled in {self.boxes} boxes"

@@ -205,13 +205,14 @@ class CaseEnergy:
 
     def _info(self, i, j, need, available, d_free, d_dep, rotor, T, q_low, travel, how):
         bodies = {n: f"exact: {self.e_free[q, j] - self.e_free[q, i]:.6g} J" for q, n in enumerate(self.free_names)}
-        bounded = [n for n, how in self.names.items() if how == "bounded"]
+        bounded = [n for n, kind in self.names.items() if kind == "bounded"]
         if bounded:
             bodies[" + ".join(bounded)] = f">= {d_dep:.6g} J: {how} (interval arithmetic, branch and bound)"
         return {"case": self.name, "window": (float(self.t[i]), float(self.t[j])),
                 "sweep": (float(self.nodes[i]), float(self.nodes[j])), "needed": float(need),
                 "available": float(available), "bodies": bodies,
-                "terms": {"efficiency_factor": self.a, "rotor_J": float(rotor), "smoothing_J": float(self.smooth_rate * T),
+                "terms": {"efficiency_factor": self.a, "rotor_J": float(rotor),
+                          "smoothing_J": float(self.smooth_rate * T),
                           "energy_exact_J": float(d_free), "energy_bounded_J": float(d_dep),
                           "max_drive_speed_lower": None if q_low is None else float(q_low),
                           "time_at_motor_speed_upper_s": float(min(T, travel))}}
