@@ -51,6 +51,7 @@ class CatalogueResult:
     interrupted: str | None = None
     interrupted_starts: tuple = ()
     motors: tuple = ()   # every motor of the catalogue, in the order tried (smallest rated torque first)
+    proofs: dict = dataclasses.field(default_factory=dict)   # motor -> its EnergyProof (design/energy_bound.py)
 
 
 def optimise_catalogue(scene, progress=None, **options) -> CatalogueResult:
@@ -65,10 +66,17 @@ def optimise_catalogue(scene, progress=None, **options) -> CatalogueResult:
     found a feasible design); ``result``, ``finished`` and ``total`` are the interrupted
     motor's, as from :func:`.multistart.optimise`."""
     motors = motor_order(scene)
-    results, chosen, ahead = {}, None, None
+    results, chosen, ahead, proofs = {}, None, None, {}
+    prover = Prover(scene, options.get("settings"))
     with interruptible():   # a Ctrl-C between two motors' starts (a motor's build) is kept too
         for k, motor in enumerate(motors):
             one = with_motor(scene, motor)
+            if ahead is None and len(proofs) == k:   # every smaller motor proved not to fit: try this one
+                proof = prover.prove(motor)
+                if proof is not None:
+                    proofs[motor.name] = proof
+                    results[motor.name] = proved_result(one, proof, options.get("settings"))
+                    continue
             label = f"{motor.name}, motor {k + 1} of {len(motors)}"
             step = None if progress is None else (lambda done, total, label=label: progress(label, done, total))
             prepared, ahead = (ahead.result(), None) if ahead is not None else (None, None)
@@ -81,11 +89,11 @@ def optimise_catalogue(scene, progress=None, **options) -> CatalogueResult:
                                                retry_if_fits=True, **options)
                 ahead = look_ahead if look_ahead is not None and look_ahead.started else None
             except KeyboardInterrupt as stop:
-                raise interrupted_catalogue(motors, results, stop) from None
+                raise interrupted_catalogue(motors, results, stop, proofs) from None
             except RuntimeError as exc:   # a Ctrl-C that CasADi reported as a failed call (errors.py)
                 if not interrupt_pending() and "KeyboardInterrupt" not in str(exc):
                     raise
-                raise interrupted_catalogue(motors, results, OptimisationInterrupted()) from None
+                raise interrupted_catalogue(motors, results, OptimisationInterrupted(), proofs) from None
             if results[motor.name].status == "infeasible":   # the rule of optimise's retry_if_fits, said
                 results[motor.name] = dataclasses.replace(results[motor.name], message=results[motor.name].message.replace(
                     "failed from every start and its retries", RULE))
@@ -93,7 +101,42 @@ def optimise_catalogue(scene, progress=None, **options) -> CatalogueResult:
                 chosen = motor.name
                 break
     best = results[chosen] if chosen else results[motors[-1].name]
-    return CatalogueResult(results, chosen, best, tuple(m.name for m in motors[len(results):]), motors=tuple(motors))
+    return CatalogueResult(results, chosen, best, tuple(m.name for m in motors[len(results):]), motors=tuple(motors),
+                           proofs=proofs)
+
+
+class Prover:
+    """The energy proof (:mod:`.energy_bound`) of the catalogue's scene, built on first use;
+    ``prove(motor)`` gives the motor's proof or None (none found, or the scene is outside what
+    the proof covers: ``why``)."""
+
+    def __init__(self, scene, settings=None):
+        self.scene, self.settings, self._bound, self.why = scene, settings, None, None
+
+    def prove(self, motor):
+        from .energy_bound import EnergyBound, Unproven
+
+        if self.why is not None:
+            return None
+        if self._bound is None:
+            try:
+                self._bound = EnergyBound(self.scene, self.settings)
+            except Unproven as exc:
+                self.why = str(exc)
+                return None
+        return self._bound.prove(motor)
+
+
+def proved_result(scene, proof, settings=None) -> OptimisationResult:
+    """The result of a motor proved not to fit (no start run): unsuccessful, its message the proof's."""
+    from .problem import SolverSettings
+
+    return OptimisationResult(scene=scene, design={}, objective=None, objective_sampled=None, objective_kind="none",
+                              peak_certified=None, peak_sampled=None, success=False, status="proved infeasible",
+                              message=proof.message(), constraints={}, sensitivities={}, starts_total=0,
+                              starts_at_best=0, starts=(), settings=settings or SolverSettings(),
+                              start_plan={"method": "none: proved not to fit before its starts (energy bound)",
+                                          "proof": proof.to_dict()})
 
 
 class Ahead:
@@ -177,7 +220,7 @@ def with_motor(scene, motor):
     return dataclasses.replace(scene, motors=(motor,), simulation=sim)
 
 
-def interrupted_catalogue(motors, results, stop) -> OptimisationInterrupted:
+def interrupted_catalogue(motors, results, stop, proofs=None) -> OptimisationInterrupted:
     """Ctrl-C while the motor after those of ``results`` (decided, none fits) was optimised:
     ``stop`` (its :class:`~optdesign.errors.OptimisationInterrupted`, or a plain
     KeyboardInterrupt from before its starts) with ``catalogue``, the catalogue so far (its
@@ -192,5 +235,5 @@ def interrupted_catalogue(motors, results, stop) -> OptimisationInterrupted:
     decided = [r for name, r in results.items() if name != motor]
     best = results[chosen] if chosen else (decided[-1] if decided else None)
     stop.catalogue = CatalogueResult(results, chosen, best, tuple(m.name for m in motors[len(decided) + 1:]),
-                                     motor, (stop.finished, stop.total), tuple(motors))
+                                     motor, (stop.finished, stop.total), tuple(motors), dict(proofs or {}))
     return stop
