@@ -317,9 +317,12 @@ class Enclosure:
         compiled = getattr(self.program, "subsets_pay", False)
         if compiled:
             varied = self._varied() if p_cases.ndim == 2 else None   # (the parameters that differ between the cases)
-            (L, U, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(lo, hi, p_cases, rows, varied=varied)
+            # (the C forms read only the rows asked for: the whole's and the ends' other rows left unset)
+            fill = not hasattr(self.program, "forms")
+            (L, U, v_jump), (d_lo, d_hi, d_jump), (e_lo, e_hi, _) = self.program(lo, hi, p_cases, rows, varied=varied,
+                                                                                  fill=fill)
             (vm_lo, vm_hi, _), (dm_lo, dm_hi, _), _ = self.program(m, m, p_cases, rows, (0, 1), varied=varied)
-            (at_lo, at_hi, _), _, _ = self.program(ends, ends, p_ends, rows, (0,), varied=varied)
+            (at_lo, at_hi, _), _, _ = self.program(ends, ends, p_ends, rows, (0,), varied=varied, fill=fill)
         else:
             if p is None:   # (a row of parameters per interval, midpoint and end)
                 p = np.concatenate((p_cases, p_cases, p_ends))

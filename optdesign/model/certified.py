@@ -12,6 +12,7 @@ of its aggregates, so max(...) and min(...) inside it take their continuous valu
 from __future__ import annotations
 
 import math
+from operator import itemgetter
 
 import casadi as ca
 import numpy as np
@@ -255,12 +256,10 @@ class CertifiedExtremes:
             s, v, bound = np.empty((n, k)), np.empty((n, k)), np.empty((n, k))
             for out, a, b in ((s, s_m, s_f), (v, v_m, v_f), (bound, b_m, b_f)):
                 out[:, moving], out[:, fixed] = a, b[inverse]
-            notes = [[None] * k for _ in range(n)]
-            for c in range(n):
-                for j, note in zip(moving, n_m[c]):
-                    notes[c][j] = note
-                for j, note in zip(fixed, n_f[inverse[c]]):
-                    notes[c][j] = note
+            # each case's notes in the requests' order: its moving notes then its group's fixed
+            # ones, rearranged (the same objects as placing them one by one)
+            place = itemgetter(*np.argsort(np.array(moving + fixed), kind="stable").tolist())
+            notes = [list(place(own + n_f[g])) for own, g in zip(n_m, inverse.tolist())]   # (k >= 2: a tuple)
             return s, v, bound, notes
 
         return parts, combine

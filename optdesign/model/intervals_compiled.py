@@ -145,7 +145,11 @@ class CompiledProgram:
         kept = [np.ascontiguousarray(a) for a in (*whole, *mid, *ends)]   # (alive through the call)
         kept += [np.ascontiguousarray(a, np.int64) for a in (rows, end_a, end_b)]
         kept += [np.ascontiguousarray(a, float) for a in (r_above, r_below)]
-        out = np.full((2, m, n), np.nan)   # (out_lo, out_hi)
+        out = np.empty((2, m, n))   # (out_lo, out_hi: C writes every interval of the rows asked, NaN the others)
+        if len(rows) < m:
+            unasked = np.ones(m, bool)
+            unasked[rows] = False
+            out[:, unasked] = np.nan
         at = [address(a) for a in kept] + [address(out)]
         self._forms(len(rows), at[14], n, kept[13].shape[1], *at[:14], *at[15:19], at[19], at[19] + 8 * m * n)
         out_lo, out_hi = out
@@ -195,11 +199,13 @@ class CompiledProgram:
             self._phases[key] = found
         return self._phases[key]
 
-    def __call__(self, lo, hi, p, rows=None, outputs=None, varied=None):
+    def __call__(self, lo, hi, p, rows=None, outputs=None, varied=None, fill=True):
         """As :meth:`IntervalProgram.__call__`: per output (lo, hi, jump), output rows x intervals.
         ``varied``: with a row of parameters per interval, a bitmask (bit k: parameter k) of
         those that may differ between the rows (None: found from ``p``); lo and hi the same
-        array: points (one key to sort)."""
+        array: points (one key to sort).  ``fill`` False: the rows not asked for (of the outputs
+        asked for) are left unset, not NaN, for a caller that reads only the rows it asked for
+        (:meth:`forms`)."""
         function = self._library()
         if function is None:
             return self.program(lo, hi, p, rows, outputs)
@@ -218,7 +224,7 @@ class CompiledProgram:
             p = np.zeros(1)
         need, need_at, total, unwritten = self._plan(rows, outputs)
         out = np.empty((2, total, n))   # (out_lo, out_hi)
-        if unwritten is not None:   # (NaN: the rows C does not write)
+        if unwritten is not None and fill:   # (NaN: the rows C does not write)
             out[:, unwritten] = np.nan
         out_lo, out_hi = out
         out_jump = np.zeros((total, n), np.bool_)
