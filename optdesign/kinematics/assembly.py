@@ -94,11 +94,8 @@ class Pending:
     ``parts``' minima (on ``grid``; the kinds' cases ``kinds``); ``groups`` None: nothing to check."""
 
     def __init__(self, P, s_values):
-        self.P, self.s_values = P, s_values
-        self.groups = None   # (None: nothing to check)
-        self.grid = None
-        self.kinds, self.parts = [], []
-        self.G = self.staged = self.direction = None
+        self.P, self.s_values, self.kinds, self.parts = P, s_values, [], []
+        self.groups = self.grid = self.G = self.staged = self.direction = None   # (groups None: nothing to check)
 
 
 @dataclass(frozen=True)
