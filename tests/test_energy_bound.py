@@ -315,3 +315,7 @@ def test_a_proved_motor_in_the_catalogues_json_and_summary():
     assert p["bodies"]["arm"].startswith(">=")
     (name, outcome, what), = [o for o in motor_outcomes(cat) if o[1] != "not tried"]
     assert (name, outcome) == ("m0", "does not fit") and "energy proof" in what
+    from optdesign.report.drive_train import catalogue_outcome
+    shown = catalogue_outcome(doc["motors"]["m0"], p)   # report.html's catalogue table
+    assert shown.startswith("does not fit: energy proof") and f"{p['energy_needed_J']:,.0f} J" in shown
+    assert catalogue_outcome("fits", None) == "fits"

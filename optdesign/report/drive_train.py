@@ -185,6 +185,17 @@ def train_summary(doc, sweep) -> list:
     return lines
 
 
+def catalogue_outcome(outcome, proof) -> str:
+    """A catalogue motor's outcome for the page, with the energy proof that decided it (result.json's
+    ``proofs``: design/energy_bound.EnergyProof.to_dict) where there is one."""
+    if not proof:
+        return outcome
+    t1, t2 = proof["window_s"]
+    return (f"{outcome}: energy proof, case '{proof['case']}' from t = {t1:.4g} to {t2:.4g} s: the load needs "
+            f">= {proof['energy_needed_J']:,.0f} J at the motor, the motor gives <= {proof['energy_available_J']:,.0f} J "
+            f"({proof['boxes']:,} boxes of {', '.join(proof['variables'])})")
+
+
 def train_html(doc, sweep, table, escape) -> str:
     """report.html's drive-train section of result.json ``doc`` (tables ``drive-train``,
     ``motors``, ``catalogue``, ``cylinder-sizes``, ``governing``, ``duty``), or '' without a drive train; ``table``
@@ -203,8 +214,10 @@ def train_html(doc, sweep, table, escape) -> str:
         parts.append(table("motors", MOTOR_HEAD, rows["motors"], [r[0].endswith("(chosen)") for r in rows["motors"]]))
     if doc.get("motors"):   # the catalogue's optimisations: each motor tried
         parts.append("<p class=\"meta\">The catalogue: each motor optimised with its limits, smallest rated torque "
-                     "first, until one fits.</p>")
-        parts.append(table("catalogue", ["motor", "outcome"], [[k, v] for k, v in doc["motors"].items()],
+                     "first, until one fits; a motor an energy bound proves cannot fit is decided before its starts "
+                     "(design/energy_bound.py).</p>")
+        parts.append(table("catalogue", ["motor", "outcome"],
+                           [[k, catalogue_outcome(v, (doc.get("proofs") or {}).get(k))] for k, v in doc["motors"].items()],
                            [k == doc.get("chosen_motor") for k in doc["motors"]]))
     if rows.get("cylinder"):
         parts.append(table("cylinder-sizes", ["", ""], [list(r) for r in rows["cylinder"]]))
