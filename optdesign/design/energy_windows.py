@@ -171,16 +171,11 @@ class CaseEnergy:
         i, j = np.triu_indices(len(nodes), 1)
         T = self.t[j] - self.t[i]
         d_free = (self.e_free[:, j] - self.e_free[:, i]).sum(axis=0) if self.e_free.size else np.zeros(len(i))
-        nat = E[0][0][j] - E[1][0][i]                              # (pairs, boxes)
-        gd = np.maximum(np.abs(G[0][:, j] - G[1][:, i]), np.abs(G[1][:, j] - G[0][:, i]))   # (nu, pairs, boxes)
-        mv = Ec[0][0][j] - Ec[1][0][i] - np.einsum("kpb,kb->pb", gd, half) * (1 + 2.0**-40)
-        mv = mv - 2.0**-40 * (np.abs(Ec[0][0][j]) + np.abs(Ec[0][0][i]))   # (the sums' rounding)
-        mv = np.where(ok[i] & ok[j] & np.isfinite(mv), mv, -np.inf)
         # positions alone: the kinetic energy >= 0 at the end, 0 at a start from rest (no derivative
         # of the kinematics, which a box near a lock-up position leaves unbounded)
         ke_start = np.where(self.speed[i][:, None] == 0.0, 0.0, KE[1][0][i])
         by_pe = PE[0][0][j] - PE[1][0][i] - ke_start
-        d_dep = np.fmax(np.fmax(np.where(np.isnan(nat), -np.inf, nat), mv), np.where(np.isnan(by_pe), -np.inf, by_pe))
+        d_dep = np.fmax(_difference(E, Ec, G, half, ok, i, j), np.where(np.isnan(by_pe), -np.inf, by_pe))
         rotor = np.where(self.speed[i] == 0.0, 0.0, 0.5 * jr * wm**2)[:, None]   # 0 from rest
         need = self.a * (d_free[:, None] + d_dep) - rotor - self.smooth_rate * T[:, None]
         with np.errstate(invalid="ignore"):
