@@ -162,7 +162,7 @@ def catalogue_json(catalogue, result_json) -> dict:
             "catalogue": {name: result_json(r) for name, r in catalogue.results.items()},
             "not_tried": list(catalogue.not_tried),
             "motors": {name: outcome for name, outcome, _ in motor_outcomes(catalogue)},
-            "proofs": {name: p.to_dict() for name, p in getattr(catalogue, "proofs", {}).items()},
+            "proofs": {name: p.to_dict() for name, p in catalogue.proofs.items()},
             "interrupted": stopped is not None,
             "interrupted_motor": None if stopped is None else {
                 "name": stopped, "starts_finished": catalogue.interrupted_starts[0],
@@ -177,7 +177,7 @@ def motor_outcomes(catalogue) -> list:
         if name == catalogue.interrupted:
             continue
         what = f"objective {r.objective:.9g}" if r.success else f"no feasible optimum ({r.status})"
-        proof = getattr(catalogue, "proofs", {}).get(name)
+        proof = catalogue.proofs.get(name)
         if proof is not None:   # decided before its starts (design/energy_bound.py)
             out.append((name, "does not fit", proof.message()))
             continue
