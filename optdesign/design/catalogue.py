@@ -21,7 +21,8 @@ from dataclasses import dataclass
 
 from ..errors import OptimisationInterrupted, interrupt_pending, interruptible
 from ..model.train import motor_numbers
-from .multistart import optimise
+from .multistart import optimise, prepare
+from .proof_process import Proofs
 from .results import OptimisationResult
 
 
@@ -68,26 +69,33 @@ def optimise_catalogue(scene, progress=None, **options) -> CatalogueResult:
     motors = motor_order(scene)
     results, chosen, ahead, proofs = {}, None, None, {}
     prover = Prover(scene, options.get("settings"))
-    with interruptible():   # a Ctrl-C between two motors' starts (a motor's build) is kept too
+    ready = {}   # motor index -> its Prepared, made here while a smaller motor's proof was sought (Proofs)
+    # a Ctrl-C between two motors' starts (a motor's build, its proof) is kept too
+    with interruptible(), Proofs(prover, motors, fork=options.get("workers", 1) > 1) as proving:
         for k, motor in enumerate(motors):
             one = with_motor(scene, motor)
-            if ahead is None and len(proofs) == k:   # every smaller motor proved not to fit: try this one
-                proof = prover.prove(motor)
-                if proof is not None:
-                    proofs[motor.name] = proof
-                    results[motor.name] = proved_result(one, proof, options.get("settings"))
-                    continue
             label = f"{motor.name}, motor {k + 1} of {len(motors)}"
             step = None if progress is None else (lambda done, total, label=label: progress(label, done, total))
-            prepared, ahead = (ahead.result(), None) if ahead is not None else (None, None)
-            following = with_motor(scene, motors[k + 1]) if k + 1 < len(motors) else None
-            look_ahead = Ahead(following, options) if following is not None and options.get("workers", 1) > 1 else None
             try:
+                if ahead is None and len(proofs) == k:   # every smaller motor proved not to fit: try this one
+                    proving.seek_from(k)
+                    prepare_while_proved(proving, ready, motors, k, scene, options)
+                    proof = proving.verdict(k)
+                    if proof is not None:
+                        proofs[motor.name] = proof
+                        results[motor.name] = proved_result(one, proof, options.get("settings"))
+                        ready.pop(k, None)
+                        continue
+                prepared, ahead = (ahead.result(), None) if ahead is not None else (ready.pop(k, None), None)
+                following = with_motor(scene, motors[k + 1]) if k + 1 < len(motors) else None
+                look_ahead = (Ahead(following, options) if following is not None and k + 1 not in ready
+                              and options.get("workers", 1) > 1 else None)
                 results[motor.name] = optimise(one, progress=step, prepared=prepared,
                                                finished=None if look_ahead is None else look_ahead.finished,
                                                planned=None if look_ahead is None else look_ahead.planned,
                                                retry_if_fits=True, **options)
-                ahead = look_ahead if look_ahead is not None and look_ahead.started else None
+                ahead = (look_ahead if look_ahead is not None and look_ahead.started else
+                         Made(ready.pop(k + 1)) if k + 1 in ready else None)
             except KeyboardInterrupt as stop:
                 raise interrupted_catalogue(motors, results, stop, proofs) from None
             except RuntimeError as exc:   # a Ctrl-C that CasADi reported as a failed call (errors.py)
@@ -111,20 +119,57 @@ class Prover:
     the proof covers: ``why``)."""
 
     def __init__(self, scene, settings=None):
-        self.scene, self.settings, self._bound, self.why = scene, settings, None, None
+        self.scene, self.settings, self._bound, self.why, self._likely = scene, settings, None, None, {}
 
-    def prove(self, motor):
+    def ready(self) -> bool:
+        """The bound built (if it was not): whether a proof can be sought (else ``why`` says why not)."""
         from .energy_bound import EnergyBound, Unproven
 
-        if self.why is not None:
-            return None
-        if self._bound is None:
+        if self._bound is None and self.why is None:
             try:
                 self._bound = EnergyBound(self.scene, self.settings)
             except Unproven as exc:
                 self.why = str(exc)
-                return None
-        return self._bound.prove(motor)
+        return self.why is None
+
+    def prove(self, motor):
+        return self._bound.prove(motor) if self.ready() else None
+
+    def likely(self, motor) -> bool:
+        """Whether ``motor``'s proof looks likely (:meth:`.energy_bound.EnergyBound.likely`): a
+        guess of which motor to build while it is sought, never a verdict."""
+        if motor.name not in self._likely:
+            self._likely[motor.name] = self.ready() and self._bound.likely(motor)
+        return self._likely[motor.name]
+
+
+def prepare_while_proved(proving, ready, motors, k, scene, options):
+    """While motor ``k``'s proof is sought in another process (:class:`.proof_process.Proofs`),
+    the problem of the motor whose starts will likely run next built and its starts planned here
+    (into ``ready``): the next motor's when this one's proof looks likely (crane_luffing_drive's
+    4 kW motor), else this one's; nothing when either is made already.  The same problem and plan
+    as made in turn; one made for a motor then proved is dropped, one for the motor after a motor
+    that is not proved is that motor's next (as :class:`Ahead` would make it)."""
+    if not proving.forked or proving.decided(k) or k in ready or k + 1 in ready:
+        return
+    j = k + 1 if proving.prover.likely(motors[k]) else k
+    if j >= len(motors):
+        return
+    o = options
+    made = prepare(with_motor(scene, motors[j]), o.get("starts", 20), o.get("seed", 0), o.get("settings"),
+                   o.get("x_starts"))
+    made.ahead_s = made.timings["build_s"] + made.timings["screen_s"]   # not in the optimise that uses it
+    ready[j] = made
+
+
+class Made:
+    """A motor's :class:`~.multistart.Prepared` made beforehand, given as :class:`Ahead` gives it."""
+
+    def __init__(self, prepared):
+        self.prepared = prepared
+
+    def result(self):
+        return self.prepared
 
 
 def proved_result(scene, proof, settings=None) -> OptimisationResult:

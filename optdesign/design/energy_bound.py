@@ -190,6 +190,18 @@ class EnergyBound:
             return self._branch_and_bound(motor, root, cases, full, tp, wm, jr)
         return None
 
+    def likely(self, motor) -> bool:
+        """Whether a proof of ``motor`` looks likely: the cheap stage settles every design that
+        :meth:`prove` tries alone first (a guess of what to build while the proof is sought,
+        design/catalogue.py; never a verdict)."""
+        nums = motor_numbers(motor, self.mech.resolved.values)
+        tp, wm, jr = nums["peak_torque"], nums["max_speed"], nums["inertia"]
+        if not (tp > 0 and wm > 0 and jr >= 0 and math.isfinite(tp * wm)):
+            return False
+        used = np.flatnonzero(self.used)
+        root = (self.lower[used].copy(), self.upper[used].copy())
+        return not self._unsettled_point(root, self._ranked(root, tp, wm, jr)[:CASES], False, tp, wm, jr)
+
     def _branch_and_bound(self, motor, root, cases, full, tp, wm, jr):
         used = np.flatnonzero(self.used)
         queue = [root]
