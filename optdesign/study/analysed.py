@@ -105,6 +105,9 @@ def _columns(analysis, P) -> list:
             failed.append((i, res.error))
             continue
         extra[i] = _cases_row(res.cases) if res.cases is not None else {}
+        why = not_certified(res)
+        if why:
+            extra[i] = {"not_certified": why, **extra[i]}
         if res.batch is not None:   # a certified case's figures as its batch's columns (the same names)
             shape = (id(res.batch[0]), id(res.batch[2]), tuple(rms[i]), tuple(extra[i]))
         else:
@@ -152,6 +155,27 @@ def _batch_columns(named, batch, rms, where, rms_names):
         named[f"constraint:{name}:min"] = low
         named[f"constraint:{name}:max"] = high
     named.update({f"constraint:{name}": values for name, values in stroke})
+
+
+def not_certified(res) -> str:
+    """Why some figures of an analysed case (a :class:`~optdesign.model.runs.CaseRun`) are not
+    certified, as ``analyse`` prints them (report/analysis.certificate_lines: "NAME: note", its
+    load cases' as "case 'NAME' NAME: note"), joined by "; "; "" when every figure is (a study's
+    row then has no ``not_certified`` cell).  A batch's case is read from its batch's notes and
+    its certificates made only when one is there."""
+    if res.batch is not None:
+        figures, i, found, c = res.batch
+        if not (any(found.notes[c]) or figures.notes[i] or figures.dead[i]):
+            certificates = {}
+        else:
+            certificates = res.certificates
+    else:
+        certificates = res.certificates or {}
+    parts = [f"{k}: {c['note']}" for k, c in certificates.items() if c["note"]]
+    if res.cases is not None:
+        parts += [f"case {name!r} {k}: {c['note']}" for name, case in res.cases.cases.items()
+                  for k, c in (case.certificates or {}).items() if c["note"]]
+    return "; ".join(parts)
 
 
 def _cases_row(cases) -> dict:

@@ -14,7 +14,7 @@ from .rows import Rows, cell
 
 CSV = "cases.csv"
 PARTIAL = f".{CSV}.partial.tmp"   # cases.csv while the study runs (a produced file's temporary name)
-LEADING = ("status", "success", "objective", "objective_sampled", "peak_certified", "starts_total",
+LEADING = ("status", "success", "not_certified", "objective", "objective_sampled", "peak_certified", "starts_total",
            "starts_at_best", "warm", "iterations")
 GROUPS = ("design:", "constraint:", "multiplier:", "sensitivity:", "peak:", "peak_at:", "peak_sampled:", "rms:")
 
