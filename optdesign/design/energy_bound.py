@@ -177,13 +177,10 @@ class EnergyBound:
 
     def prove(self, motor) -> EnergyProof | None:
         """The proof that ``motor`` cannot fit, or None (not found within the budget WORK)."""
-        nums = motor_numbers(motor, self.mech.resolved.values)
-        tp, wm, jr = nums["peak_torque"], nums["max_speed"], nums["inertia"]
-        if not (tp > 0 and wm > 0 and jr >= 0 and math.isfinite(tp * wm)):
+        begun = self._begin(motor)
+        if begun is None:
             return None
-        used = np.flatnonzero(self.used)
-        root = (self.lower[used].copy(), self.upper[used].copy())
-        cases = self._ranked(root, tp, wm, jr)[:CASES]
+        root, cases, tp, wm, jr = begun
         for full in (False, True):   # the cheap stage alone, else (a design it cannot settle) both stages
             if self._unsettled_point(root, cases, full, tp, wm, jr):
                 continue   # a design no verdict settles even alone: no box holding it can be
@@ -194,13 +191,19 @@ class EnergyBound:
         """Whether a proof of ``motor`` looks likely: the cheap stage settles every design that
         :meth:`prove` tries alone first (a guess of what to build while the proof is sought,
         design/catalogue.py; never a verdict)."""
+        begun = self._begin(motor)
+        return begun is not None and not self._unsettled_point(*begun[:2], False, *begun[2:])
+
+    def _begin(self, motor):
+        """(the root box, the cases ranked for it, peak torque, top speed, rotor inertia) of
+        ``motor``, or None when its numbers admit no proof."""
         nums = motor_numbers(motor, self.mech.resolved.values)
         tp, wm, jr = nums["peak_torque"], nums["max_speed"], nums["inertia"]
         if not (tp > 0 and wm > 0 and jr >= 0 and math.isfinite(tp * wm)):
-            return False
+            return None
         used = np.flatnonzero(self.used)
         root = (self.lower[used].copy(), self.upper[used].copy())
-        return not self._unsettled_point(root, self._ranked(root, tp, wm, jr)[:CASES], False, tp, wm, jr)
+        return root, self._ranked(root, tp, wm, jr)[:CASES], tp, wm, jr
 
     def _branch_and_bound(self, motor, root, cases, full, tp, wm, jr):
         used = np.flatnonzero(self.used)
