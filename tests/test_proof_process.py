@@ -88,6 +88,26 @@ def test_a_proof_process_that_dies_leaves_its_verdicts_to_this_one(crank, alone,
     assert multiprocessing.active_children() == []
 
 
+def test_a_proof_process_that_hangs_is_ended_and_its_verdicts_found_here(crank, alone, tmp_path, monkeypatch):
+    """A proof process that gives no verdict within proof_process.WAIT (here 1 s; it sleeps for
+    a minute) is ended, and its verdict is found in this process: the same catalogue, no hang."""
+    from optdesign.design import proof_process
+
+    monkeypatch.setattr(proof_process, "WAIT", 1.0)
+    log = tmp_path / "provers"
+    _spy_prove(monkeypatch, log, replace=lambda self, motor: time.sleep(60))
+    t0 = time.perf_counter()
+    shared = optimise_catalogue(crank, starts=3, workers=2)
+    assert time.perf_counter() - t0 < 50
+    _same(alone, shared)
+    assert [name for _, name in _provers(log)] == ["tiny", "tiny", "small", "small"]
+    assert [int(pid) == os.getpid() for pid, _ in _provers(log)] == [False, True, False, True]
+    for pid, _ in _provers(log)[::2]:   # ended and reaped
+        with pytest.raises(ProcessLookupError):
+            os.kill(int(pid), 0)
+    assert multiprocessing.active_children() == []
+
+
 def test_an_error_in_the_proof_process_is_raised_here(crank, tmp_path, monkeypatch):
     def fail(self, motor):
         raise ValueError("no proof today")

@@ -11,8 +11,9 @@ prepares a motor here.  A verdict (an :class:`~.energy_bound.EnergyProof` or Non
 the same code gives in this process (the budget is counted, not timed); once a motor is not
 proved, the proofs of larger motors are not needed and their processes are ended.
 
-Should a process die or be unable to start, its verdict is found here (the same one); an error
-in it is raised here as it would be here.  Ctrl-C is the command's: the processes ignore it and
+Should a process die, be unable to start, or give no verdict within ``WAIT`` seconds (a process
+that hangs: it is ended), its verdict is found here (the same one); an error in it is raised here
+as it would be here.  Ctrl-C is the command's: the processes ignore it and
 end with the block (and die with this process, as a pool's workers)."""
 from __future__ import annotations
 
@@ -20,6 +21,9 @@ import multiprocessing
 import os
 import pickle
 import traceback
+
+
+WAIT = 600.0   # seconds a verdict is waited for (crane_luffing_drive's take ~1.5-3 s of CPU); then found here
 
 
 class Proofs:
@@ -75,6 +79,8 @@ class Proofs:
     def _receive(self, k):
         proc, conn = self._sought[k]
         try:
+            if not conn.poll(WAIT):   # it hangs (the budget is counted: it should not): ended, found here
+                return
             kind, value = conn.recv()
         except (EOFError, OSError, pickle.UnpicklingError):   # it died: found here
             return
