@@ -133,13 +133,9 @@ def write_figures(result, folder, workers=1, animate=True, before_html=None) -> 
 def _import_for_children():
     """Everything the forked figure processes use, imported once before the fork (else each
     process imports matplotlib.figure and the drawing modules again: 0.2 s of CPU each)."""
-    import matplotlib.backends.backend_agg  # noqa: F401
     import matplotlib.backends.backend_svg  # noqa: F401
-    import matplotlib.figure  # noqa: F401
-    from matplotlib.font_manager import FontProperties, findfont, get_font
-    from PIL import Image
 
     from . import animate as _animate, checks, mechanism, stroke_plots  # noqa: F401
+    from .forked import prepare
 
-    Image.preinit()                          # Pillow's PNG and GIF writers
-    get_font(findfont(FontProperties()))     # the font file, read once
+    prepare()
