@@ -77,3 +77,26 @@ def test_ctrl_c_here_ends_the_forked_process(tmp_path):
         forked.run_jobs([interrupted, interrupted, interrupted], workers=2)
     assert time.monotonic() - started < 30
     assert not _left()
+
+
+def test_the_forked_process_dies_with_a_parent_killed_by_sigkill(tmp_path):
+    import subprocess
+    import sys
+
+    code = ("import time\nfrom optdesign.report import forked\n"
+            "forked.run_jobs([lambda: time.sleep(120) or [], lambda: time.sleep(120) or []], workers=2)\n")
+    proc = subprocess.Popen([sys.executable, "-c", code], start_new_session=True)
+    try:
+        children = []
+        t0 = time.monotonic()
+        while not children and time.monotonic() - t0 < 60:
+            time.sleep(0.1)
+            children = subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True, text=True).stdout.split()
+        assert children, "no forked process seen"
+    finally:
+        proc.kill()
+        proc.wait()
+    t0 = time.monotonic()
+    while any(Path(f"/proc/{c}").exists() for c in children) and time.monotonic() - t0 < 10:
+        time.sleep(0.05)
+    assert not any(Path(f"/proc/{c}").exists() for c in children), "the forked process outlived its parent"

@@ -6,8 +6,8 @@ drawing modules imported, and draws the very bytes this one would.
 
 Whatever the forked process did not report as done (it died, a job failed there, it was not
 started) is drawn here, so the files never depend on it and an error while drawing is raised
-here as it would be without it.  The process ends with the call: on Ctrl-C (which reaches both)
-or any error here it is killed and waited for."""
+here as it would be without it.  The process ends with the call: on Ctrl-C or any error here it
+is killed, and it dies with this process."""
 from __future__ import annotations
 
 import multiprocessing
@@ -26,7 +26,7 @@ def run_jobs(jobs, workers=None) -> list:
     context = multiprocessing.get_context("fork")
     taken = context.Value("i", 0)           # the next job not taken (its lock shared by both)
     mine, theirs = context.Pipe(duplex=False)
-    child = context.Process(target=_child, args=(jobs, taken, mine, theirs))
+    child = context.Process(target=_child, args=(jobs, taken, mine, theirs, os.getpid()))
     child.start()
     theirs.close()
     done, ended = {}, False
@@ -72,11 +72,16 @@ def _take(taken, n):
         return k
 
 
-def _child(jobs, taken, mine, theirs):
+def _child(jobs, taken, mine, theirs, parent):
     """The forked process: the next job not taken, until none is left; each one drawn reported
-    (k, paths); a job that fails is left for the parent (which then meets its error)."""
+    (k, paths); a job that fails is left for the parent (which then meets its error).  As the
+    optimiser's workers (errors.worker_process): Ctrl-C is the parent's (which kills it), and it
+    dies with a parent killed by SIGKILL."""
     mine.close()
     try:
+        from ..errors import worker_process
+
+        worker_process(parent)
         while (k := _take(taken, len(jobs))) is not None:
             try:
                 paths = jobs[k]()
