@@ -93,6 +93,8 @@ def _titles(monkeypatch, scene_text, tmp_path):
     instead of saved; the cases' own figures left out)."""
     import optdesign
     import optdesign.report.analysis as analysis
+    import optdesign.report.cases as cases_report
+    import optdesign.report.forked as forked
     import optdesign.report.stroke_plots as stroke_plots
 
     titles = {}
@@ -104,7 +106,8 @@ def _titles(monkeypatch, scene_text, tmp_path):
         return path
 
     monkeypatch.setattr(stroke_plots, "save_figure", capture)
-    monkeypatch.setattr(analysis, "cases_figures", lambda result, folder: [])
+    monkeypatch.setattr(cases_report, "cases_figure_jobs", lambda result, folder: [])
+    monkeypatch.setattr(forked, "_cores", lambda: 1)   # drawn here, where save_figure is captured
     analysis._analysis_figures(optdesign.analyse(optdesign.loads(scene_text), certify=False), tmp_path)
     return titles
 

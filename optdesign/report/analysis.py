@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from .cases import FIGURES as CASE_FIGURES
-from .cases import cases_figures, cases_json, cases_table
+from .cases import cases_json, cases_table
 from .checks import violation_text, violations, violations_json
 from .output import SCHEMA, Rows, table_chunks
 from .units import ColumnUnits
@@ -184,21 +184,26 @@ def analysis_figures(result, folder, label="folder") -> list:
 
 def _analysis_figures(result, folder) -> list:
     """drive.png, reduced_inertia.png and constraints.png over the sweep in the scene's units, bounds
-    shaded and violations red (report/stroke_plots.py), and the cases' figures."""
+    shaded and violations red (report/stroke_plots.py), and the cases' figures: drawn by this
+    process and one forked from it at once (report/forked.py), listed in this order."""
+    from .cases import cases_figure_jobs
+    from .forked import prepare, run_jobs
     from .stroke_plots import inertia_figure, joints_figure, quantities_figure, stroke_figure
 
     folder = Path(folder)
     # with [[cases]] these are the nominal state's (the cases' own: cases.png), and say so
     note = " (the nominal [drive] state; the load cases: cases.png)" if result.scene.cases else ""
-    written = [stroke_figure([("", result)], folder / "drive.png", components=True, constraints=False,
-                             title=f"{result.scene.title}\ndrive load and its components{note}")]
+    jobs = [lambda: [stroke_figure([("", result)], folder / "drive.png", components=True, constraints=False,
+                                   title=f"{result.scene.title}\ndrive load and its components{note}")]]
     if "reduced_inertia" in result.columns:
-        written.append(inertia_figure(result, folder / "reduced_inertia.png", note))
+        jobs.append(lambda: [inertia_figure(result, folder / "reduced_inertia.png", note)])
     if any(np.ndim(v) for v in result.constraints.values()):
-        written.append(stroke_figure([("", result)], folder / "constraints.png", drive=False,
-                                     title=f"{result.scene.title}\nconstraints over the stroke{note}"))
+        jobs.append(lambda: [stroke_figure([("", result)], folder / "constraints.png", drive=False,
+                                           title=f"{result.scene.title}\nconstraints over the stroke{note}")])
     if result.quantities:   # [quantities]
-        written.append(quantities_figure(result, folder / "quantities.png", note))
+        jobs.append(lambda: [quantities_figure(result, folder / "quantities.png", note)])
     if any(k.startswith("pin_force(") for k in result.columns):   # analyse --joints
-        written.append(joints_figure(result, folder / "joints.png", note))
-    return written + cases_figures(result, folder)
+        jobs.append(lambda: [joints_figure(result, folder / "joints.png", note)])
+    jobs += cases_figure_jobs(result, folder)
+    prepare()
+    return run_jobs(jobs)

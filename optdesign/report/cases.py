@@ -264,21 +264,32 @@ def first_columns(cr) -> set:
 def cases_figures(result, folder) -> list:
     """cases.png, duty.png and the figures of what was sized (torque_speed.png, cylinder.png:
     report/sized.py) into ``folder`` (nothing without cases); the paths written."""
+    return [p for job in cases_figure_jobs(result, folder) for p in job()]
+
+
+def cases_figure_jobs(result, folder) -> list:
+    """:func:`cases_figures` as jobs, each drawing one figure (or none) and returning the paths
+    it wrote (for report/forked.run_jobs)."""
     cr = _cases(result)
     if cr is None:
         return []
     from .sized import sized_figures
 
     folder = Path(folder)
-    written = [case_load_figure(cr, result.scene, folder / "cases.png")]
-    if "reason" not in cr.duty:
-        written.append(folder / "duty.png")
-        save_figure(_duty_figure(cr, UNITS[result.scene.drive.kind]), written[-1])
+
+    def duty():
+        save_figure(_duty_figure(cr, UNITS[result.scene.drive.kind]), folder / "duty.png")
+        return [folder / "duty.png"]
+
+    def motion():
         from .output_motion import motion_figure   # the sweep's motion in time beside the motor's
 
-        if motion_figure(result, cr, folder / "motion.png") is not None:
-            written.append(folder / "motion.png")
-    return written + sized_figures(cr, folder)
+        return [folder / "motion.png"] if motion_figure(result, cr, folder / "motion.png") is not None else []
+
+    jobs = [lambda: [case_load_figure(cr, result.scene, folder / "cases.png")]]
+    if "reason" not in cr.duty:
+        jobs += [duty, motion]
+    return jobs + [lambda: sized_figures(cr, folder)]
 
 
 def case_load_figure(cr, scene, path, title="load cases over the stroke") -> Path:

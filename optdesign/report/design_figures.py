@@ -78,14 +78,18 @@ def sized_figures(result, folder) -> list:
         cases, folder, "the optimum")
 
 
+SIZED = ("cases.png", "torque_speed.png", "cylinder.png")   # sized_figures' files
+
+
 def write_figures(result, folder, workers=1, animate=True, before_html=None) -> list:
     """Every figure and report.html into ``folder``; returns the paths written.  With
-    ``workers`` > 1 the animation (the longest) is forked as soon as the optimum's analysis
-    is made, the drawing once the start's is, and this process draws the load figure.
+    ``workers`` > 1 the animation (the longest) and the figures of what was sized are forked as
+    soon as the optimum's analysis is made, the drawing once the start's is, and this process
+    draws the load figure (on 2 cores: the three forks' and this one's ~4 s of CPU in ~2 s).
     ``before_html``: called (if given) once the figures are drawn, before report.html is
     written from the folder's result.json (the figure process waits there for the JSON)."""
-    from ..model.analysis import Analysis
     from .design_cases import optimum_analysis
+    from .drive_train import start_analysis
     from .html import write_html
 
     folder = Path(folder)
@@ -105,17 +109,21 @@ def write_figures(result, folder, workers=1, animate=True, before_html=None) -> 
     optimum = optimum_analysis(result)   # the one the JSON and the summary use (report/design_cases.py)
     if animate:
         job(animation, result, folder, optimum)
-    runs = [("start", Analysis(scene, cases=False).run()), ("optimum", optimum)]   # (the cases: at the optimum)
+    if fork and scene.cases:   # (in this process they are drawn after the load figure, as the files are listed)
+        job(sized_figures, result, folder)
+    runs = [("start", start_analysis(scene)), ("optimum", optimum)]   # (the cases: at the optimum)
     job(mechanism_figure, result, folder, runs)
-    written = [load_figure(result, folder, runs)] + sized_figures(result, folder)
+    load = load_figure(result, folder, runs)
+    if not (fork and scene.cases):
+        sized_figures(result, folder)
     for k, (target, args) in enumerate(jobs):
         if fork:
             children[k].join()
             if children[k].exitcode == 0:
                 continue
         target(*args)   # in this process (a child writes atomically: should it have failed, done here)
-    written += [folder / n for n in ("mechanism.png", "mechanism.svg", "animation.gif", "animation.mp4")
-                if (folder / n).exists()]
+    written = [load] + [folder / n for n in SIZED + ("mechanism.png", "mechanism.svg", "animation.gif",
+                                                       "animation.mp4") if (folder / n).exists()]
     if before_html is not None:
         before_html()
     written.append(write_html(result, folder, runs, [p.name for p in written]))
@@ -125,13 +133,9 @@ def write_figures(result, folder, workers=1, animate=True, before_html=None) -> 
 def _import_for_children():
     """Everything the forked figure processes use, imported once before the fork (else each
     process imports matplotlib.figure and the drawing modules again: 0.2 s of CPU each)."""
-    import matplotlib.backends.backend_agg  # noqa: F401
     import matplotlib.backends.backend_svg  # noqa: F401
-    import matplotlib.figure  # noqa: F401
-    from matplotlib.font_manager import FontProperties, findfont, get_font
-    from PIL import Image
 
     from . import animate as _animate, checks, mechanism, stroke_plots  # noqa: F401
+    from .forked import prepare
 
-    Image.preinit()                          # Pillow's PNG and GIF writers
-    get_font(findfont(FontProperties()))     # the font file, read once
+    prepare()

@@ -58,10 +58,10 @@ def prebuild(scene):
 
     build = Analysis(scene)
     try:
-        build.run()
+        own = build.run()
     except OptdesignError:   # the start does not assemble, say: the design may
-        pass
-    _BUILT[:], _RAN[:] = [build], []
+        own = None
+    _BUILT[:], _RAN[:], _OWN[:] = [build], [], [own]
 
 
 def analyse_at(scene, design: dict):
@@ -97,8 +97,24 @@ def analyse_ahead(design: dict):
             pass
 
 
+def start_analysis(scene):
+    """The nominal analysis of ``scene`` at its own values, its [[cases]] left out (an
+    optimisation's start, for its figures): the run :func:`prebuild` made at the scene's own
+    values when it was of this scene (or of this scene with other [[motors]]: a catalogue's,
+    which only the cases' drive train reads), its cases dropped (the nominal state is the same
+    computation with or without them), else made now."""
+    import dataclasses
+
+    from ..model.analysis import Analysis
+
+    if _OWN and _OWN[0] is not None and dataclasses.replace(_BUILT[0].scene, motors=scene.motors) == scene:
+        return dataclasses.replace(_OWN[0], scene=scene, cases=None)
+    return Analysis(scene, cases=False).run()
+
+
 _BUILT = []   # the analysis built beforehand (prebuild), in the process that made it
 _RAN = []     # its last run: (build, design, AnalysisResult)
+_OWN = []     # its run at the scene's own values (None: it failed)
 
 
 def _speed(v) -> str:

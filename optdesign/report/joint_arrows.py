@@ -33,31 +33,66 @@ def governing_pin_forces(scene, s_values, cases=True):
     """({pin: (2, n) force} at the sweep values ``s_values``, case): the scene's pin forces, or
     with [[cases]] (and ``cases``) those of the case whose largest pin force over ``s_values`` is
     the largest, and its name (None without cases); ({}, None) when the scene has no drive or its
-    joint structure cannot be derived."""
+    joint structure cannot be derived.  The graphs are built once for a scene and its designs
+    (:func:`_built`): the start and the optimum of a figure share one build."""
     if scene.drive is None:
         return {}, None
     s_values = np.asarray(s_values, float)
+    runs, p = _built(scene, bool(cases and scene.cases))
+    if runs is None:
+        return {}, None
+    best = (-np.inf, {}, None)
+    for name, pins, function, parameters in runs:
+        out = function.map(len(s_values))(s=s_values[None, :], p=parameters(p))
+        forces = {pin: np.asarray(out[pin], float) for pin in pins}
+        top = max((float(np.nanmax(np.hypot(*f))) for f in forces.values()), default=-np.inf)
+        if top > best[0]:
+            best = (top, forces, name)
+    return best[1], best[2]
+
+
+_BUILT = []   # the last build in this process: (scene, cases, runs or None when its structure has no forces)
+
+
+def _built(scene, cases):
+    """(runs, p): the pin forces' graphs of ``scene`` as (case name, pins, Function of (s, p), the
+    case's p from the scene's), runs None where the joint structure cannot be derived; made once
+    and reused for a scene that differs only in the values of design variables (leaf parameters,
+    inputs of the graphs, never folded into constants: the same numbers as a build of its own,
+    as report/drive_train.analyse_at), p then that scene's leaf values."""
+    resolved = ResolvedScene(scene)
+    if _BUILT and _BUILT[1] == cases and _serves(_BUILT[0], scene):
+        return _BUILT[2], resolved.leaf_values.copy()
+    mech = Mechanism(resolved)
+    mech.cse_function = cse_function
     try:
-        mech = Mechanism(ResolvedScene(scene))
-        mech.cse_function = cse_function
-        if cases and scene.cases:
+        if cases:
             from ..model.cases import CaseModel
 
-            runs = [(cm.name, cm.model, cm.case_parameters(mech.parameter_values))
-                    for cm in (CaseModel(mech, c) for c in scene.cases)]
+            models = [(cm.name, cm.model, cm.case_parameters) for cm in (CaseModel(mech, c) for c in scene.cases)]
         else:
-            runs = [(None, ReducedModel(mech), mech.parameter_values)]
-        best = (-np.inf, {}, None)
-        for name, model, p in runs:
+            models = [(None, ReducedModel(mech), lambda p: p)]
+        runs = []
+        for name, model, parameters in models:
             joints = JointForces(model)
-            out = mech.function("pin_forces", joints.pins).map(len(s_values))(s=s_values[None, :], p=p)
-            forces = {pin: np.asarray(out[pin], float) for pin in joints.pins}
-            top = max((float(np.nanmax(np.hypot(*f))) for f in forces.values()), default=-np.inf)
-            if top > best[0]:
-                best = (top, forces, name)
+            runs.append((name, list(joints.pins), mech.function("pin_forces", joints.pins), parameters))
     except JointStructureError:
-        return {}, None
-    return best[1], best[2]
+        runs = None
+    _BUILT[:] = [scene, cases, runs]
+    return runs, mech.parameter_values
+
+
+def _serves(built, scene) -> bool:
+    """Whether the build of scene ``built`` serves ``scene``: the same scene but for the values of
+    some design variables."""
+    if built is scene:
+        return True
+    if [p.name for p in built.parameters] != [p.name for p in scene.parameters]:
+        return False
+    changed = {q.name: q.value for p, q in zip(built.parameters, scene.parameters) if p != q}
+    design = {p.name for p in built.parameters if p.is_design and not p.value.names()}
+    return set(changed) <= design and all(not scene.parameter(n).value.names() for n in changed) and (
+        built.with_parameters(**changed) == scene)
 
 
 def draw_pin_arrows(ax, frame, forces, scale, w, peaks=None, ctx=None):

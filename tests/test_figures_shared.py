@@ -1,0 +1,90 @@
+"""What the results folder's figures share instead of making again (issue 31: the end of
+`optdesign optimise`): the pin forces' graphs built once for a scene and its designs
+(report/joint_arrows._built), the start's analysis taken from the figure process's prebuilt run
+(report/drive_train.start_analysis), and the figures of what was sized drawn in a forked
+process.  Each gives the numbers, and the files, that making them anew gives."""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import optdesign
+from optdesign.model.analysis import Analysis
+from optdesign.report import design as design_report
+from optdesign.report import drive_train, joint_arrows
+from optdesign.report.figure_process import FigureProcess
+from optdesign.scene import ResolvedScene
+
+PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
+
+
+def _fresh(scene, s):
+    joint_arrows._BUILT.clear()
+    return joint_arrows.governing_pin_forces(scene, s)
+
+
+def _same_forces(a, b):
+    return a[1] == b[1] and list(a[0]) == list(b[0]) and all(np.array_equal(a[0][k], b[0][k], equal_nan=True) for k in a[0])
+
+
+@pytest.mark.parametrize("name", ["seed1_jib.toml", "hatch_cover.toml"])
+def test_pin_forces_of_another_design_from_one_build(name):
+    scene = optdesign.load(PROBLEMS / name)
+    values = ResolvedScene(scene).values
+    s = ResolvedScene(scene).stroke(7)
+    design = {p.name: 1.05 * values[p.name] for p in scene.parameters if p.is_design}
+    other = scene.with_parameters(**design)
+    _fresh(scene, s)                                   # the start's build ...
+    shared = joint_arrows.governing_pin_forces(other, s)   # ... evaluated at the other design
+    assert joint_arrows._BUILT[0] is scene             # (not built again)
+    own = _fresh(other, s)                             # its own build
+    assert shared[0] and _same_forces(shared, own)
+    # a change other than a design variable's value is built anew, and gives its own forces
+    fixed = next(p.name for p in scene.parameters if not p.is_design and not p.value.names())
+    heavier = scene.with_parameters(**{fixed: 1.5 * values[fixed]})
+    _fresh(scene, s)
+    rebuilt = joint_arrows.governing_pin_forces(heavier, s)
+    assert joint_arrows._BUILT[0] is heavier
+    assert _same_forces(rebuilt, _fresh(heavier, s))
+
+
+def test_start_analysis_from_the_prebuilt_run():
+    scene = optdesign.load(PROBLEMS / "crane_luffing_drive.toml")   # a catalogue: built with every motor
+    one = dataclasses.replace(scene, motors=scene.motors[:1])
+    drive_train.prebuild(scene)
+    taken = drive_train.start_analysis(one)
+    made = Analysis(one, cases=False).run()
+    assert taken.scene is one and taken.cases is None
+    for f in dataclasses.fields(made):
+        if f.name in ("timings", "scene"):
+            continue
+        a, b = getattr(taken, f.name), getattr(made, f.name)
+        assert repr(a) == repr(b), f.name   # arrays and dicts of floats: the same digits
+    for k, v in made.columns.items():
+        assert np.array_equal(taken.columns[k], v), k
+    other = one.with_parameters(**{next(p.name for p in one.parameters if p.is_design): 2.0})
+    assert drive_train.start_analysis(other).columns["drive"].tobytes() == \
+        Analysis(other, cases=False).run().columns["drive"].tobytes()   # another scene: made anew
+
+
+@pytest.fixture(scope="module")
+def hatch():
+    return optdesign.optimise(optdesign.load(PROBLEMS / "hatch_cover.toml"), starts=2, seed=0, workers=1)
+
+
+def test_the_folder_drawn_in_processes_is_the_folder_drawn_here(hatch, tmp_path):
+    here = design_report.write_results(hatch, tmp_path / "here", workers=1, animate=False)
+    with FigureProcess(hatch.scene) as figures:
+        figures.begin(dict(hatch.design))
+        there = design_report.write_results(hatch, tmp_path / "there", workers=2, animate=False, figures=figures)
+    names = [p.name for p in here]
+    assert names == [p.name for p in there]
+    assert {"cases.png", "drive_and_constraints.png", "mechanism.png"} <= set(names)
+    for name in names:
+        if name.endswith(".png"):
+            digests = [hashlib.sha256((tmp_path / w / name).read_bytes()).hexdigest() for w in ("here", "there")]
+            assert digests[0] == digests[1], name
