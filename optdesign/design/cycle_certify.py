@@ -22,6 +22,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from ..model.case_results import case_nodes
+from ..model.case_runs import finish_columns
 from ..model.cases import CaseAnalysis
 from ..model.duty import case_integrals
 from ..model.train import motor_numbers
@@ -72,8 +73,18 @@ def warm_cycle(pb):
     and their time weights on the recheck's dense grids, which depend on the grids and the cases'
     profiles alone (model/duty.CaseTimes.of keeps them), by the recheck's rule at the start design."""
     if integrated(pb):
-        for factor in RECHECK_GRIDS:
-            rule_rms(pb, pb.start, None, factor)
+        rule_rms_grids(pb, pb.start, None)
+
+
+def cycle_duty(pb, x, fixed=None) -> dict:
+    """The duty cycle of the cases at design ``x`` (``analyse``'s: the adaptive quadrature's
+    integrals), the last one kept: a start's certificate and the summary's of the same design
+    (the best start, polished) are one evaluation."""
+    p = pb.full_parameters(np.clip(np.asarray(x, float), pb.lower, pb.upper), fixed)
+    key, kept = p.tobytes(), pb._built.get("last duty")
+    if kept is None or kept[0] != key:
+        kept = pb._built["last duty"] = (key, cycle_cases(pb).run(p).duty)
+    return kept[1]
 
 
 def cycle_rms(pb, x, fixed=None) -> dict:
@@ -82,26 +93,53 @@ def cycle_rms(pb, x, fixed=None) -> dict:
     as ``analyse`` reports it; {} when the cycle has no motion in time."""
     if not integrated(pb):
         return {}
-    duty = cycle_cases(pb).run(pb.full_parameters(np.clip(np.asarray(x, float), pb.lower, pb.upper), fixed)).duty
+    duty = cycle_duty(pb, x, fixed)
     if "reason" in duty:
         return {}
     rms, errors = duty["rms_time"], duty.get("errors", {}).get("rms_time", {})
     return {k: (float(rms[k]), float(errors.get(k, 0.0))) for k in integrated(pb) if k in rms}
 
 
-def rule_rms(pb, x, fixed, factor) -> dict:
+def rule_rms_grids(pb, x, fixed) -> list:
+    """:func:`rule_rms` on each of RECHECK_GRIDS, densest first, in one evaluation where a
+    coarser grid's samples are the denser one's (linspace's points of a grid 8 times denser are
+    every second point of the one 16 times denser, bit for bit, and each sample's columns are
+    its own evaluation: the same numbers as evaluated apart)."""
+    outputs = {}
+    return [rule_rms(pb, x, fixed, factor, outputs) for factor in sorted(RECHECK_GRIDS, reverse=True)]
+
+
+def _case_columns(function, names, nodes, p_case, outputs, c):
+    """Case c's columns at ``nodes`` (as :meth:`CaseAnalysis._evaluate` has them before
+    finishing), taken from ``outputs[c]`` (nodes, columns) of a denser grid when ``nodes`` are
+    among its nodes, else evaluated (and kept there)."""
+    if c in outputs:
+        denser, columns = outputs[c]
+        order = np.argsort(denser, kind="stable")
+        at = np.minimum(np.searchsorted(denser[order], nodes), len(denser) - 1)
+        if np.array_equal(denser[order][at], nodes):
+            return {k: v[order[at]] for k, v in columns.items()}
+    columns = dict(zip(names, (np.asarray(v, float).ravel() for v in function(nodes, p_case))))
+    outputs[c] = (nodes, columns)
+    return {k: v.copy() for k, v in columns.items()}   # (finishing may change a column in place)
+
+
+def rule_rms(pb, x, fixed, factor, outputs=None) -> dict:
     """{name: RMS over the duty cycle's time} of each integrated quantity at design ``x`` by
     another path than :func:`cycle_rms`: the rule on the samples of :mod:`optdesign.model.duty`
     (linear in the sweep between samples against the exact time law, second order) on a grid
-    ``factor`` times denser than the scene's, the cases' loads unsmoothed (as analysed)."""
+    ``factor`` times denser than the scene's, the cases' loads unsmoothed (as analysed).
+    ``outputs``: each case's columns on a denser grid at this design (:func:`rule_rms_grids`)."""
     a = cycle_cases(pb)
     grid = pb.mech.stroke()
     dense = np.linspace(grid[0], grid[-1], factor * (len(grid) - 1) + 1)
     p = pb.full_parameters(np.clip(np.asarray(x, float), pb.lower, pb.upper), fixed)
     results, evaluated = {}, {}
-    for cm, (names, function) in zip(a.cases, a.functions):
+    for c, (cm, (names, function)) in enumerate(zip(a.cases, a.functions)):
         nodes, _ = case_nodes(dense, cm.profile)
-        values, times = a._evaluate(cm, names, function, nodes, cm.case_parameters(p))
+        p_case = cm.case_parameters(p)
+        columns = _case_columns(function, names, nodes, p_case, {} if outputs is None else outputs, c)
+        values, times = finish_columns(a, cm, names, function, nodes, p_case, columns)[:2]
         sigma = cm.profile.sigma if cm.profile is not None else 1.0
         distance = np.abs(nodes - cm.begins_at(np.sign(values["k"][0])))
         at = {"start": int(np.argmin(distance)), "end": int(np.argmax(distance))}
@@ -128,7 +166,7 @@ def recheck_cycle(pb, x, fixed, certified) -> str | None:
     keys = [k for k in integrated(pb) if rms_key(k) in certified]
     if not keys:
         return None
-    fine, coarse = (rule_rms(pb, x, fixed, factor) for factor in RECHECK_GRIDS)
+    fine, coarse = rule_rms_grids(pb, x, fixed)
     for k in keys:
         mine, error = certified[rms_key(k)], certified.get((rms_key(k)[0], "error"), 0.0)
         if k not in fine:
@@ -151,7 +189,7 @@ def certify_cycle(pb, sol, value, rule_value, fixed=None):
     cycle_constraints = getattr(pb, "cycle_constraints", ())
     if not time_terms and not cycle_constraints:
         return value, "", {}
-    duty = cycle_cases(pb).run(pb.full_parameters(np.clip(np.asarray(sol.x, float), pb.lower, pb.upper), fixed)).duty
+    duty = cycle_duty(pb, sol.x, fixed)
     if "reason" in duty:
         return value, duty["reason"], {}
     rms, errors = duty["rms_time"], duty.get("errors", {}).get("rms_time", {})

@@ -89,12 +89,16 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
             np.fmax.at(at, where[inside], centre[inside])
             r_of, code = tasks.row.take(task), tasks.code.take(task)
             rows = np.bincount(r_of).nonzero()[0]   # (the rows asked for, ascending: np.unique's)
-            L, U, vm_lo, vm_hi = enclosure.bounds(lo[pick], hi[pick], rows, case[pick], at)
-            # each entry's row and interval, as one index into the flattened arrays (np.take:
-            # the same elements as L[r_of, where], without numpy's two-array indexing, ~5x its cost)
-            flat = r_of * L.shape[1] + where
-            ub = target_bound(L.take(flat), U.take(flat), code, upper=True)
-            vm_lo, vm_hi = vm_lo.take(flat), vm_hi.take(flat)
+            skipped = _prefiltered(enclosure, pass_, lo, hi, pick, case, r_of, where, code, best.take(task))
+            if skipped is None:
+                L, U, vm_lo, vm_hi = enclosure.bounds(lo[pick], hi[pick], rows, case[pick], at)
+                # each entry's row and interval, as one index into the flattened arrays (np.take:
+                # the same elements as L[r_of, where], without numpy's two-array indexing, ~5x its cost)
+                flat = r_of * L.shape[1] + where
+                ub = target_bound(L.take(flat), U.take(flat), code, upper=True)
+                vm_lo, vm_hi = vm_lo.take(flat), vm_hi.take(flat)
+            else:
+                ub, vm_lo, vm_hi = _open_bounds(enclosure, skipped, lo, hi, pick, case, at, rows, r_of, where, code)
             at_mid = target_bound(vm_lo, vm_hi, code, upper=False)
             locate_better(evaluate, tasks, found, best, task, lo, hi, at_mid, vm_lo + vm_hi, s_tol, limits)
             # the tolerance, or where rounding is larger, four times the width of the midpoint's
@@ -134,6 +138,46 @@ def certify(enclosure, evaluate, tasks, s_grid, T, found, s_tol=1e-13, tol=None)
             notes[k] = (f"not certified: the enclosure did not close within {tol_abs[k]:.3g} of the located value "
                         f"near s = {0.5 * (lo[i] + hi[i]):.9g} (bound {bound[k]:.9g} against {best[k]:.9g})")
     return np.maximum(bound, best), notes
+
+
+def _prefiltered(enclosure, pass_, lo, hi, pick, case, r_of, where, code, best):
+    """In the first pass, with an enclosure that has a pre-filter
+    (:class:`~.linear_parts.Prefiltered`): (per entry its pre-filter bound, per distinct
+    interval whether every entry's is <= its task's best located target ``best``: no per-case
+    enclosure needed); else (or where none is) None."""
+    upper = getattr(enclosure, "upper", None) if pass_ == 0 else None
+    if upper is None:
+        return None
+    pre = upper(lo[pick], hi[pick], case[pick], r_of, where, code, best)
+    if pre is None:
+        return None
+    needed = np.zeros(len(pick), bool)
+    needed[where[~(pre <= best)]] = True   # (NaN: needed)
+    if np.count_nonzero(needed) == len(pick):
+        return None
+    return pre, needed
+
+
+def _open_bounds(enclosure, skipped, lo, hi, pick, case, at, rows, r_of, where, code):
+    """(ub, vm_lo, vm_hi) per entry of the first pass (:func:`certify`'s) where the pre-filter
+    closed some intervals (``skipped``: :func:`_prefiltered`'s): the per-case enclosure of the
+    others only (the same bits per interval as in one call of all), the pre-filter's bound for
+    the entries of the closed ones and no midpoint (NaN: its value is below that bound, so it
+    cannot beat its task's best)."""
+    pre, needed = skipped
+    kept = needed.nonzero()[0]
+    ub = pre.copy()
+    vm_lo, vm_hi = np.full(len(pre), np.nan), np.full(len(pre), np.nan)
+    if len(kept):
+        p = pick[kept]
+        L, U, m_lo, m_hi = enclosure.bounds(lo[p], hi[p], rows, case[p], at[kept])
+        position = np.full(len(pick), -1)
+        position[kept] = np.arange(len(kept))
+        e = needed.take(where).nonzero()[0]
+        flat = r_of.take(e) * L.shape[1] + position.take(where.take(e))
+        ub[e] = target_bound(L.take(flat), U.take(flat), code.take(e), upper=True)
+        vm_lo[e], vm_hi[e] = m_lo.take(flat), m_hi.take(flat)
+    return ub, vm_lo, vm_hi
 
 
 def split(task, lo, hi, left_ub, cuts, around=None, middle=None):

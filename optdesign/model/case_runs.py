@@ -33,7 +33,7 @@ def run_many(ca_, P) -> list:
     n = len(P)
     errors = [None] * n
     results, evaluated = [{} for _ in range(n)], [{} for _ in range(n)]
-    for cm, (names, function), pin_peaks in zip(ca_.cases, ca_.functions, ca_.pin_peaks):
+    for c, (cm, (names, function), pin_peaks) in enumerate(zip(ca_.cases, ca_.functions, ca_.pin_peaks)):
         nodes, on_sample = case_nodes(ca_.s_values, cm.profile)
         p_case = {}
         for i in (i for i in range(n) if errors[i] is None):
@@ -43,7 +43,7 @@ def run_many(ca_, P) -> list:
                 errors[i] = exc
         staged = _evaluated(ca_, cm, names, function, nodes, p_case, errors)
         pins = _pin_peaks(pin_peaks, nodes, p_case, staged, errors)
-        integrals = _integrals(ca_, cm, names, function, nodes, p_case, staged, errors)
+        integrals = _integrals(ca_, cm, c, nodes, p_case, staged, errors)
         for i, (values, times, sampled) in staged.items():
             if errors[i] is not None:
                 continue
@@ -118,7 +118,7 @@ def _pin_peaks(pin_peaks, nodes, p_case, staged, errors) -> dict:
     return _batch_or_each(peaks, live, errors)
 
 
-def _integrals(ca_, cm, names, function, nodes, p_case, staged, errors) -> dict:
+def _integrals(ca_, cm, c, nodes, p_case, staged, errors) -> dict:
     """i -> the integrals over time of vector i's load case ``cm``: on its samples
     (:func:`~.duty.case_integrals`), then to :data:`.time_integrals.TOLERANCE` by the adaptive
     quadrature of all the live vectors at once (:func:`~.time_integrals.certified_integrals`),
@@ -135,6 +135,8 @@ def _integrals(ca_, cm, names, function, nodes, p_case, staged, errors) -> dict:
     live = [i for i, v in sampled.items() if v]
     if not live:
         return sampled
+
+    names, function = ca_.integrands(c)   # (the columns the quadrature reads)
 
     def exact(which):
         return certified_integrals(cm, columns_at(function, names, [p_case[i] for i in which]), nodes, sigma,

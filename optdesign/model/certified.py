@@ -19,6 +19,7 @@ import numpy as np
 
 from ..kinematics.batches import parameters_used
 from ..kinematics.enclosure import Enclosures
+from ..kinematics.linear_parts import LinearParts
 from ..kinematics.peaks import Extremum, Request, continuous_maxima_rows, maxima_of_cases, resolving_points
 from ..scene.expressions import Expression
 from .intervals_compiled import compile_program
@@ -80,8 +81,7 @@ class CertifiedExtremes:
         if derivatives is None:
             derivatives = mech.function("certified_ds", {"v": v, "dv": dv, "d2v": mech.ds(dv)})
             self.enclosures = Enclosures(derivatives, compile_program)
-        # compiled from the disk cache where it is there (CasADi's C of the same graph: the same
-        # numbers, ~14x faster per point on the truck crane: measured)
+        # compiled from the disk cache where it is there (CasADi's C of the same graph: ~14x faster per point)
         self.derivatives = MappedFunction(derivatives, compile=compiled_function)
         self.values = MappedFunction(mech.function("certified_v", {"v": v}), compile=compiled_function)
         # the aggregates' rows at the samples (not among the sampled columns), once per distinct
@@ -92,6 +92,7 @@ class CertifiedExtremes:
         self.aggregate_parameters = None if func is None else parameters_used(mech, inner)
         self.q = MappedFunction(mech.function("q", {"q": mech.q}), compile=compiled_function)
         self.fixed_rows, self.fixed_parameters = _fixed_rows(mech, rows)
+        self._linear = LinearParts.of_axes(mech, rows, compile_program)   # (a study's pre-filter)
 
     def with_margins(self):
         """(evaluate, enclosure) of this analysis's rows followed by its assembly's relative
@@ -238,8 +239,9 @@ class CertifiedExtremes:
         operations on the same bits).  Without such rows, or without others, all in one call as
         before (an analysis without axes)."""
         fixed = [j for j, r in enumerate(requests) if r.row in self.fixed_rows]
+        enclosure = self._linear.at(self.enclosures.at(P), P)   # (the axes' pre-filter, for several cases)
         if not fixed or len(fixed) == len(requests):
-            return [(_per_case(self.derivatives, P), values, requests, self.enclosures.at(P))], lambda found: found[0]
+            return [(_per_case(self.derivatives, P), values, requests, enclosure)], lambda found: found[0]
         moving = [j for j in range(len(requests)) if j not in fixed]
         rows = sorted({requests[j].row for j in fixed})
         # by the bits of the parameters those rows read and of each row's samples (views, not
@@ -247,7 +249,7 @@ class CertifiedExtremes:
         first, inverse = _groups([P[:, self.fixed_parameters].view(np.int64)]
                                  + [values[:, r].view(np.int64) for r in rows])
         Q = P[first]
-        parts = [(_per_case(self.derivatives, P), values, [requests[j] for j in moving], self.enclosures.at(P)),
+        parts = [(_per_case(self.derivatives, P), values, [requests[j] for j in moving], enclosure),
                  (_per_case(self.derivatives, Q), values[first], [requests[j] for j in fixed], self.enclosures.at(Q))]
 
         def combine(found):

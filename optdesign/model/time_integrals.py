@@ -30,6 +30,8 @@ from .quadrature import end_power, integrate_many
 
 TOLERANCE = 1e-10   # relative to the integral of |integrand| over the stroke
 FIRST_INTERVALS = 128
+# the columns of a case that certified_integrals reads (with the [quantities] integrated)
+INTEGRAND_COLUMNS = ("drive", "k", "power", "drive_speed", "motor_load_torque", "motor_acceleration")
 KEYS = ("drive_squared", "energy", "energy_driving", "motor_load_squared", "motor_load_acceleration",
         "motor_acceleration_squared", "time")
 
