@@ -71,6 +71,23 @@ def test_start_analysis_from_the_prebuilt_run():
         Analysis(other, cases=False).run().columns["drive"].tobytes()   # another scene: made anew
 
 
+def test_start_analysis_of_a_catalogue_whose_simulation_names_another_motor():
+    """transfer_arm's [simulation] names its 1.5 kW motor; the result's scene has the chosen one
+    alone, its simulation that one's (design/catalogue.with_motor): the start's analysis is that
+    scene's (it raised "unknown motor 'servo 1.5 kW'" and `optdesign optimise` failed)."""
+    from optdesign.design.catalogue import with_motor
+
+    scene = optdesign.load(PROBLEMS / "transfer_arm.toml")
+    assert scene.simulation.motor not in {m.name for m in scene.motors[:1]}
+    one = with_motor(scene, scene.motors[0])
+    drive_train.prebuild(scene)
+    taken = drive_train.start_analysis(one)
+    made = Analysis(one, cases=False).run()
+    assert taken.scene == one
+    for k, v in made.columns.items():
+        assert np.array_equal(taken.columns[k], v), k
+
+
 @pytest.fixture(scope="module")
 def hatch():
     return optdesign.optimise(optdesign.load(PROBLEMS / "hatch_cover.toml"), starts=2, seed=0, workers=1)

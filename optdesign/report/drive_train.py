@@ -107,9 +107,22 @@ def start_analysis(scene):
 
     from ..model.analysis import Analysis
 
-    if _OWN and _OWN[0] is not None and dataclasses.replace(_BUILT[0].scene, motors=scene.motors) == scene:
+    if _OWN and _OWN[0] is not None and _with_motors(_BUILT[0].scene, scene.motors) == scene:
         return dataclasses.replace(_OWN[0], scene=scene, cases=None)
     return Analysis(scene, cases=False).run()
+
+
+def _with_motors(scene, motors):
+    """``scene`` with ``motors``, or None where that is no scene (its [simulation] names a motor
+    not among them: a catalogue's, transfer_arm's, whose chosen motor runs the simulation)."""
+    import dataclasses
+
+    from ..errors import OptdesignError
+
+    try:
+        return dataclasses.replace(scene, motors=motors)
+    except OptdesignError:
+        return None
 
 
 _BUILT = []   # the analysis built beforehand (prebuild), in the process that made it
