@@ -105,3 +105,20 @@ def test_the_folder_drawn_in_processes_is_the_folder_drawn_here(hatch, tmp_path)
         if name.endswith(".png"):
             digests = [hashlib.sha256((tmp_path / w / name).read_bytes()).hexdigest() for w in ("here", "there")]
             assert digests[0] == digests[1], name
+
+
+def test_a_drawing_process_that_fails_ends_quietly(capfd):
+    """A forked drawing process whose figure fails (its folder gone: the command failed) ends
+    with status 1 and prints no traceback; the parent, if it is still there, draws the figure
+    itself and meets the error (design_figures.write_figures)."""
+    import multiprocessing
+
+    from optdesign.report.design_figures import _quietly
+
+    def fail():
+        raise OSError("the folder is gone")
+    child = multiprocessing.get_context("fork").Process(target=_quietly, args=(fail,))
+    child.start()
+    child.join()
+    assert child.exitcode == 1
+    assert "Traceback" not in capfd.readouterr().err

@@ -103,7 +103,7 @@ def write_figures(result, folder, workers=1, animate=True, before_html=None) -> 
     def job(target, *args):
         jobs.append((target, args))
         if fork:
-            children.append(context.Process(target=target, args=args))
+            children.append(context.Process(target=_quietly, args=(target, *args)))
             children[-1].start()
 
     optimum = optimum_analysis(result)   # the one the JSON and the summary use (report/design_cases.py)
@@ -128,6 +128,19 @@ def write_figures(result, folder, workers=1, animate=True, before_html=None) -> 
         before_html()
     written.append(write_html(result, folder, runs, [p.name for p in written]))
     return written
+
+
+def _quietly(target, *args):
+    """A forked drawing process: ``target(*args)``; an error ends it with status 1 and no
+    traceback (the parent draws that figure itself and meets the error there; or it has failed
+    already and removed the folder being written: transfer_arm's animation printed a traceback
+    then)."""
+    import os
+
+    try:
+        target(*args)
+    except BaseException:   # noqa: BLE001 - said by the parent, which draws it again
+        os._exit(1)
 
 
 def _import_for_children():
