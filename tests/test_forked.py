@@ -100,3 +100,26 @@ def test_the_forked_process_dies_with_a_parent_killed_by_sigkill(tmp_path):
     while any(Path(f"/proc/{c}").exists() for c in children) and time.monotonic() - t0 < 10:
         time.sleep(0.05)
     assert not any(Path(f"/proc/{c}").exists() for c in children), "the forked process outlived its parent"
+
+
+def test_a_forked_process_that_hangs_is_ended_and_its_jobs_done_here(tmp_path, monkeypatch):
+    """The forked process reports nothing for forked.WAIT seconds (here 1 s; a job sleeps a
+    minute there): it is killed and its job is done here, the results the serial ones.  Each job
+    hangs in the forked process and, here, waits until the forked process has begun one."""
+    monkeypatch.setattr(forked, "WAIT", 1.0)
+    begun = tmp_path / "begun"
+
+    def job(name):
+        def run():
+            if os.getpid() != PARENT:
+                begun.touch()
+                time.sleep(60)
+            t0 = time.perf_counter()
+            while not begun.exists() and time.perf_counter() - t0 < 30:
+                time.sleep(0.01)
+            return [tmp_path / name]
+        return run
+    t0 = time.perf_counter()
+    assert forked.run_jobs([job("a"), job("b")], workers=2) == [tmp_path / "a", tmp_path / "b"]
+    assert begun.exists() and time.perf_counter() - t0 < 40
+    assert _left() == []

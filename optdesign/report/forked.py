@@ -7,12 +7,16 @@ drawing modules imported, and draws the very bytes this one would.
 Whatever the forked process did not report as done (it died, a job failed there, it was not
 started) is drawn here, so the files never depend on it and an error while drawing is raised
 here as it would be without it.  The process ends with the call: on Ctrl-C or any error here it
-is killed, and it dies with this process."""
+is killed, and it dies with this process; one that reports nothing for ``WAIT`` seconds (it hangs:
+a lock held by another thread at the fork, say) is killed and its jobs are done here."""
 from __future__ import annotations
 
 import multiprocessing
 import os
 from pathlib import Path
+
+
+WAIT = 300.0   # seconds without a report from the forked process (a figure takes 0.3-2 s) before it is ended
 
 
 def run_jobs(jobs, workers=None) -> list:
@@ -35,11 +39,13 @@ def run_jobs(jobs, workers=None) -> list:
             done[k] = list(jobs[k]())
         while True:                           # what the forked process drew, as it reports it
             try:
+                if not mine.poll(WAIT):       # nothing for WAIT seconds: it hangs; ended, its jobs done here
+                    break
                 k, paths = mine.recv()
             except (EOFError, OSError):       # it has ended (os._exit closes its end)
+                ended = True
                 break
             done[k] = [Path(p) for p in paths]
-        ended = True
     finally:
         mine.close()
         if not ended:                         # an error or Ctrl-C here: it stops too
