@@ -54,22 +54,13 @@ def degrees(func: ca.Function, params):
     its operands are 0, else 2.  A row of degree <= 1 is a polynomial of degree 1 in them with
     coefficients free of them: affine, exactly (in exact arithmetic)."""
     chosen = {int(k) for k in params}
-    degree = np.zeros(func.sz_w(), int)
-    rows = func.sparsity_out(0).row()
-    out = np.zeros(func.size1_out(0), int)
     comparisons = []
-    for k in range(func.n_instructions()):
-        op, i, o = func.instruction_id(k), func.instruction_input(k), func.instruction_output(k)
-        if op == ca.OP_OUTPUT:
-            if o[0] == 0:
-                out[rows[o[1]]] = degree[i[0]]
-            continue
+
+    def degree_of(k, op, i, degree):
         if op == ca.OP_INPUT:
-            degree[o[0]] = 1 if (i[0] == 1 and i[1] in chosen) else 0
-            continue
+            return 1 if (i[0] == 1 and i[1] in chosen) else 0
         if op == ca.OP_CONST:
-            degree[o[0]] = 0
-            continue
+            return 0
         ins = [degree[x] for x in i]   # (the operands: one or two)
         rule = _AFFINE.get(op)
         if rule == "max":
@@ -86,14 +77,31 @@ def degrees(func: ca.Function, params):
             d = 0 if max(ins, default=0) == 0 else NONLINEAR
             if d and op in COMPARISONS:
                 comparisons.append(k)
-        degree[o[0]] = min(d, NONLINEAR)
-    return out, comparisons
+        return min(d, NONLINEAR)
+    out = _walk(func, np.zeros(func.sz_w(), int), degree_of)
+    return np.array([0 if d is None else d for d in out], int), comparisons
 
 
 def rebuilt(func: ca.Function, inputs, forced: dict) -> list:
     """The rows of ``func``'s first output as SX expressions of ``inputs`` (its instructions
     again), the instructions ``forced`` (number -> value) replaced by those constants."""
-    work = [None] * func.sz_w()
+    def value(k, op, i, work):
+        if k in forced:
+            return ca.SX(forced[k])
+        if op == ca.OP_INPUT:
+            return inputs[i[0]][i[1]]
+        if op == ca.OP_CONST:
+            return ca.SX(float(func.instruction_constant(k)))
+        if len(i) == 2:
+            return ca.SX.binary(op, work[i[0]], work[i[1]])
+        return ca.SX.unary(op, work[i[0]])
+    out = _walk(func, [None] * func.sz_w(), value)
+    return [ca.SX(0.0) if x is None else x for x in out]
+
+
+def _walk(func: ca.Function, work, value) -> list:
+    """``func``'s instructions in order, each one's result ``value(k, op, inputs, work)`` kept in
+    ``work``; its first output's rows as read from ``work`` (None where a row is structurally zero)."""
     out = [None] * func.size1_out(0)
     rows = func.sparsity_out(0).row()
     for k in range(func.n_instructions()):
@@ -102,18 +110,8 @@ def rebuilt(func: ca.Function, inputs, forced: dict) -> list:
             if o[0] == 0:
                 out[rows[o[1]]] = work[i[0]]
             continue
-        if k in forced:
-            value = ca.SX(forced[k])
-        elif op == ca.OP_INPUT:
-            value = inputs[i[0]][i[1]]
-        elif op == ca.OP_CONST:
-            value = ca.SX(float(func.instruction_constant(k)))
-        elif len(i) == 2:
-            value = ca.SX.binary(op, work[i[0]], work[i[1]])
-        else:
-            value = ca.SX.unary(op, work[i[0]])
-        work[o[0]] = value
-    return [ca.SX(0.0) if x is None else x for x in out]
+        work[o[0]] = value(k, op, i, work)
+    return out
 
 
 class LinearParts:
