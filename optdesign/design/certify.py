@@ -78,9 +78,18 @@ class ContinuousCheck:
         self.pb = problem
         # the per-sample quantities' s-derivatives at many sweep values
         self.derivatives = MappedFunction(problem.quantity_derivatives, compile=compiled_function)
-        # the same program in interval arithmetic: the proof between the samples
-        self.enclosures = Enclosures(problem.quantity_derivatives, compile_program)
+        self._enclosures = None
         self.notes = {}   # of the last certified call: (name, sense) -> why it has no certificate
+
+    @property
+    def enclosures(self) -> Enclosures:
+        """The same program in interval arithmetic: the proof between the samples.  Built on
+        first use (an objective phase's solution; :meth:`.solver.Solver.warm` builds it before
+        the workers fork): a problem whose starts all fail phase 1 never needs it
+        (crane_luffing_drive's 5.5 kW motor: 0.25-0.35 s of CPU to build)."""
+        if self._enclosures is None:
+            self._enclosures = Enclosures(self.pb.quantity_derivatives, compile_program)
+        return self._enclosures
 
     def __call__(self, x, fixed, w, s_points):
         """Worst values of every block over the continuous stroke at design x.

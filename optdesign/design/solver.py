@@ -32,14 +32,15 @@ class Solver:
 
     def warm(self):
         """Build what an objective phase builds on its first use (the extrema's tracking, the
-        exchange's warm solver, the duty cycle's certifier and its recheck's time weights), so
-        that the worker processes forked after this share them rather than each building its own
-        (crane_luffing_drive's 7.5 kW motor: about 1.5 s of CPU per worker).  The same objects as
-        built on first use."""
+        exchange's warm solver, the continuous check's enclosure, the duty cycle's certifier and
+        its recheck's time weights), so that the worker processes forked after this share them
+        rather than each building its own (crane_luffing_drive's 7.5 kW motor: about 1.5 s of CPU
+        per worker).  The same objects as built on first use."""
         pb = self.pb
         if pb.settings.slots:
             pb.quantity_tracking   # noqa: B018 - a property built on first use
         pb.warm_solver   # noqa: B018
+        self.checker.enclosures   # noqa: B018
         warm_cycle(pb)
 
     def fixed_values(self, fixed=None):

@@ -45,6 +45,7 @@ from .time_integrals import rms_error
 from .train import gear_factor_at_rest, motor_numbers
 
 KEPT_WEIGHTS = 32   # a case model's time weights kept for the node sets last used (CaseTimes.of)
+SHARED_WEIGHTS = 64   # of every case model (shared_weights)
 PEAK_KEYS = ("drive", "static_load", "reduced_inertia", "power", "motor_torque", "motor_load_torque",
              "motor_speed", "rod_buckling")
 
@@ -85,7 +86,7 @@ class CaseTimes:
         if key not in kept:
             if len(kept) >= KEPT_WEIGHTS:
                 kept.pop(next(iter(kept)))
-            kept[key] = (time_weights(nodes, t, profile), work_weights(nodes, t, profile, speed))
+            kept[key] = shared_weights(profile, nodes, t, speed, key)
         weights, work = kept[key]
         return cls(t, profile.duration, weights.copy(), "", work.copy())
 
@@ -99,6 +100,33 @@ class CaseTimes:
         if self.work_weights is None:
             return self.integral(power)
         return float(np.dot(self.work_weights, np.asarray(drive, float) * np.asarray(k, float) * sign))
+
+
+_SHARED = {}   # shared_weights': (profile's numbers, nodes, t, speed) -> (time weights, work weights)
+
+
+def shared_weights(profile, nodes, t, speed, key) -> tuple:
+    """(time weights, work weights) of a profile at ``nodes`` (``key``: the bytes of nodes, t,
+    speed), computed once per process for every case model on a profile of the same numbers: the
+    cases of one profile and direction (crane_luffing_drive's three luffing in), and every
+    problem of a scene made again (a catalogue's motors, which differ in their limits alone:
+    tanh-sinh weights were a fifth of each motor's build).  Kept under the profile's shape and
+    ends (its repr: every number, exactly), which are all the weights read of it; a law
+    (a speed expression of the case's parameters, or a motion law) is not shared."""
+    shape = profile.shape
+    if shape.kind == "law" or shape.motion_law is not None:
+        return time_weights(nodes, t, profile), work_weights(nodes, t, profile, speed)
+    key = (repr((shape, profile.s_begin, profile.s_end)), *key)
+    found = _SHARED.get(key)   # (no lock: a process forked while another thread held it would wait for ever)
+    if found is None:
+        found = (time_weights(nodes, t, profile), work_weights(nodes, t, profile, speed))
+        while len(_SHARED) >= SHARED_WEIGHTS:
+            try:
+                _SHARED.pop(next(iter(_SHARED)), None)
+            except (RuntimeError, StopIteration):   # changed by another thread meanwhile: look again
+                pass
+        _SHARED[key] = found
+    return found
 
 
 def time_weights(nodes, t, profile=None) -> np.ndarray:
