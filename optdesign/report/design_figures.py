@@ -146,9 +146,7 @@ def _quietly(target, *args):
 def _import_for_children():
     """Everything the forked figure processes use, imported once before the fork (else each
     process imports matplotlib.figure and the drawing modules again: 0.2 s of CPU each)."""
-    import matplotlib.backends.backend_svg  # noqa: F401
-
-    from . import animate as _animate, checks, mechanism, stroke_plots  # noqa: F401
     from .forked import prepare
 
-    prepare()
+    prepare()   # matplotlib first (report/mpl_import.py)
+    from . import animate as _animate, checks, mechanism, stroke_plots  # noqa: F401
