@@ -91,6 +91,7 @@ def write_figures(result, folder, workers=1, animate=True, before_html=None) -> 
     from .design_cases import optimum_analysis
     from .drive_train import start_analysis
     from .html import write_html
+    from .joint_arrows import build_ahead
 
     folder = Path(folder)
     scene = result.scene
@@ -107,6 +108,8 @@ def write_figures(result, folder, workers=1, animate=True, before_html=None) -> 
             children[-1].start()
 
     optimum = optimum_analysis(result)   # the one the JSON and the summary use (report/design_cases.py)
+    if fork and animate:   # the drawing's and the animation's pin forces: one build, before they fork
+        build_ahead(scene)
     if animate:
         job(animation, result, folder, optimum)
     if fork and scene.cases:   # (in this process they are drawn after the load figure, as the files are listed)
