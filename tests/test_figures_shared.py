@@ -7,6 +7,10 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import os
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -117,11 +121,84 @@ def test_a_drawing_process_that_fails_ends_quietly(capfd):
 
     def fail():
         raise OSError("the folder is gone")
-    child = multiprocessing.get_context("fork").Process(target=_quietly, args=(fail,))
+    child = multiprocessing.get_context("fork").Process(target=_quietly, args=(os.getpid(), fail))
     child.start()
     child.join()
     assert child.exitcode == 1
     assert "Traceback" not in capfd.readouterr().err
+
+
+def _gone(pids, seconds=10.0) -> bool:
+    t0 = time.monotonic()
+    while any(Path(f"/proc/{p}").exists() for p in pids) and time.monotonic() - t0 < seconds:
+        time.sleep(0.05)
+    return not any(Path(f"/proc/{p}").exists() for p in pids)
+
+
+def _children_of(proc, seconds=60.0) -> list:
+    t0, children = time.monotonic(), []
+    while not children and time.monotonic() - t0 < seconds:
+        time.sleep(0.1)
+        children = subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True, text=True).stdout.split()
+    return children
+
+
+def test_a_drawing_process_dies_with_a_parent_killed_by_sigkill():
+    """A forked drawing process whose parent (the figure process) is killed stops drawing at
+    once instead of drawing on into a folder nobody will read (here its figure takes 2 minutes)."""
+    code = ("import multiprocessing, os, time\nfrom optdesign.report.design_figures import _quietly\n"
+            "child = multiprocessing.get_context('fork').Process(target=_quietly, args=(os.getpid(), time.sleep, 120))\n"
+            "child.start()\ntime.sleep(120)\n")
+    proc = subprocess.Popen([sys.executable, "-c", code], start_new_session=True)
+    try:
+        children = _children_of(proc)
+        assert children, "no drawing process seen"
+    finally:
+        proc.kill()
+        proc.wait()
+    assert _gone(children), "the drawing process outlived its parent"
+
+
+def test_a_drawing_process_that_hangs_is_ended_and_its_figure_drawn_here(tmp_path, monkeypatch):
+    """write_figures' forked processes are waited for forked.WAIT seconds each (here 1 s), then
+    killed, their figure drawn by this process: a child that hangs (a minute here) cannot hang
+    the command."""
+    import multiprocessing
+
+    from optdesign.report import forked
+    from optdesign.report.design_figures import _quietly, finish
+
+    monkeypatch.setattr(forked, "WAIT", 1.0)
+    here = os.getpid()
+    path = tmp_path / "figure.png"
+
+    def draw():
+        if os.getpid() != here:
+            time.sleep(60)
+        path.write_text(str(os.getpid()))
+    child = multiprocessing.get_context("fork").Process(target=_quietly, args=(here, draw))
+    child.start()
+    t0 = time.monotonic()
+    finish([child], [(draw, ())])
+    assert time.monotonic() - t0 < 30
+    assert path.read_text() == str(here) and not child.is_alive()
+
+
+def test_the_figure_process_dies_with_a_command_killed_by_sigkill():
+    """The figure process, busy (here its prebuild takes 2 minutes) when the command is killed
+    with SIGKILL, ends at once (and so do the drawing processes it forks: above)."""
+    code = ("import time\nfrom optdesign.report import figure_process\n"
+            "figure_process._prebuild = lambda scene: time.sleep(120)\n"
+            "with figure_process.FigureProcess(scene='a scene'):\n    time.sleep(120)\n")
+    proc = subprocess.Popen([sys.executable, "-c", code], start_new_session=True)
+    try:
+        children = _children_of(proc)
+        assert children, "no figure process seen"
+        time.sleep(1.0)   # it is in its prebuild
+    finally:
+        proc.kill()
+        proc.wait()
+    assert _gone(children), "the figure process outlived the command"
 
 
 @pytest.mark.slow

@@ -8,6 +8,7 @@ drawing and the animation are made by forked processes while this one draws the 
 from __future__ import annotations
 
 import multiprocessing
+import os
 from pathlib import Path
 
 FIGURES = ("drive_and_constraints.png", "mechanism.png", "mechanism.svg", "animation.gif", "animation.mp4",
@@ -104,7 +105,7 @@ def write_figures(result, folder, workers=1, animate=True, before_html=None) -> 
     def job(target, *args):
         jobs.append((target, args))
         if fork:
-            children.append(context.Process(target=_quietly, args=(target, *args)))
+            children.append(context.Process(target=_quietly, args=(os.getpid(), target, *args)))
             children[-1].start()
 
     optimum = optimum_analysis(result)   # the one the JSON and the summary use (report/design_cases.py)
@@ -119,12 +120,7 @@ def write_figures(result, folder, workers=1, animate=True, before_html=None) -> 
     load = load_figure(result, folder, runs)
     if not (fork and scene.cases):
         sized_figures(result, folder)
-    for k, (target, args) in enumerate(jobs):
-        if fork:
-            children[k].join()
-            if children[k].exitcode == 0:
-                continue
-        target(*args)   # in this process (a child writes atomically: should it have failed, done here)
+    finish(children, jobs)
     written = [load] + [folder / n for n in SIZED + ("mechanism.png", "mechanism.svg", "animation.gif",
                                                        "animation.mp4") if (folder / n).exists()]
     if before_html is not None:
@@ -133,14 +129,40 @@ def write_figures(result, folder, workers=1, animate=True, before_html=None) -> 
     return written
 
 
-def _quietly(target, *args):
+def finish(children, jobs):
+    """Each job (target, args) that its forked process (``children``, in the same order; none
+    when nothing was forked) did not finish, done here: it failed there, or it ran for
+    forked.WAIT seconds from here on (it hangs, a lock held at the fork, say) and was killed.  A
+    child writes atomically, so a figure it did not finish is drawn here whole.  On any error or
+    Ctrl-C here the children left are killed."""
+    from .forked import WAIT
+
+    try:
+        for k, (target, args) in enumerate(jobs):
+            if children:
+                children[k].join(WAIT)
+                if children[k].exitcode == 0:
+                    continue
+                children[k].kill()
+                children[k].join()
+            target(*args)
+    finally:
+        for child in children:
+            if child.is_alive():
+                child.kill()
+                child.join()
+
+
+def _quietly(parent, target, *args):
     """A forked drawing process: ``target(*args)``; an error ends it with status 1 and no
     traceback (the parent draws that figure itself and meets the error there; or it has failed
     already and removed the folder being written: transfer_arm's animation printed a traceback
-    then)."""
-    import os
-
+    then).  As the optimiser's workers (errors.worker_process): Ctrl-C is the parent's, and it
+    dies with its parent (``parent``: its process id), also one killed by SIGKILL."""
     try:
+        from ..errors import worker_process
+
+        worker_process(parent)
         target(*args)
     except BaseException:   # noqa: BLE001 - said by the parent, which draws it again
         os._exit(1)

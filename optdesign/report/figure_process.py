@@ -44,7 +44,7 @@ class FigureProcess:
             return
         context = multiprocessing.get_context("fork")
         self._conn, theirs = context.Pipe()
-        self._proc = context.Process(target=_serve, args=(theirs, self._conn, scene))   # not a daemon: it forks
+        self._proc = context.Process(target=_serve, args=(theirs, self._conn, scene, os.getpid()))   # not a daemon: it forks
         self._proc.start()
         theirs.close()
 
@@ -127,13 +127,18 @@ class FigureProcess:
         self.close()
 
 
-def _serve(conn, parents, scene):
+def _serve(conn, parents, scene, parent):
     """The child: import, build the analysis of ``scene`` (if given), answer the requests for the
-    analysis, wait for one result, draw its figures, send the paths (or the error)."""
+    analysis, wait for one result, draw its figures, send the paths (or the error).  As the
+    optimiser's workers (errors.worker_process): Ctrl-C is the parent's (which ends this process
+    with the block, or sends it the interrupted result to draw), and it dies with its parent
+    (``parent``: its process id), also one killed by SIGKILL, and its own drawing processes with it."""
     parents.close()                  # so that the parent's exit ends the wait (EOFError)
     try:
+        from ..errors import worker_process
         from .design_figures import _import_for_children, write_figures
 
+        worker_process(parent)
         gc.disable()                 # the imports leave little to collect (their collections: 0.1 s)
         try:
             _import_for_children()
