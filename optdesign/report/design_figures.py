@@ -92,6 +92,7 @@ def write_figures(result, folder, workers=1, animate=True, before_html=None) -> 
     from .design_cases import optimum_analysis
     from .drive_train import start_analysis
     from .html import write_html
+    from .joint_arrows import build_ahead
 
     folder = Path(folder)
     scene = result.scene
@@ -108,6 +109,8 @@ def write_figures(result, folder, workers=1, animate=True, before_html=None) -> 
             children[-1].start()
 
     optimum = optimum_analysis(result)   # the one the JSON and the summary use (report/design_cases.py)
+    if fork and animate:   # the drawing's and the animation's pin forces: one build, before they fork
+        build_ahead(scene)
     if animate:
         job(animation, result, folder, optimum)
     if fork and scene.cases:   # (in this process they are drawn after the load figure, as the files are listed)
@@ -168,9 +171,7 @@ def _quietly(parent, target, *args):
 def _import_for_children():
     """Everything the forked figure processes use, imported once before the fork (else each
     process imports matplotlib.figure and the drawing modules again: 0.2 s of CPU each)."""
-    import matplotlib.backends.backend_svg  # noqa: F401
-
-    from . import animate as _animate, checks, mechanism, stroke_plots  # noqa: F401
     from .forked import prepare
 
-    prepare()
+    prepare()   # matplotlib first (report/mpl_import.py)
+    from . import animate as _animate, checks, mechanism, stroke_plots  # noqa: F401

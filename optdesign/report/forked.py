@@ -59,9 +59,11 @@ def run_jobs(jobs, workers=None) -> list:
 
 def prepare():
     """Import what every drawing uses (matplotlib's figure and Agg canvas, Pillow's writers, the
-    default font file) before forking, so that the forked processes do not each import it."""
-    import matplotlib.backends.backend_agg  # noqa: F401
-    import matplotlib.figure  # noqa: F401
+    default font file) before forking, so that the forked processes do not each import it
+    (matplotlib without its docstrings' property tables: report/mpl_import.py)."""
+    from .mpl_import import import_for_drawing
+
+    import_for_drawing()
     from matplotlib.font_manager import FontProperties, findfont, get_font
     from PIL import Image
 
