@@ -143,20 +143,26 @@ def _children_of(proc, seconds=60.0) -> list:
     return children
 
 
-def test_a_drawing_process_dies_with_a_parent_killed_by_sigkill():
-    """A forked drawing process whose parent (the figure process) is killed stops drawing at
-    once instead of drawing on into a folder nobody will read (here its figure takes 2 minutes)."""
-    code = ("import multiprocessing, os, time\nfrom optdesign.report.design_figures import _quietly\n"
-            "child = multiprocessing.get_context('fork').Process(target=_quietly, args=(os.getpid(), time.sleep, 120))\n"
-            "child.start()\ntime.sleep(120)\n")
+def _killed_leaves_none(code, what, settle=0.0):
+    """Run ``code`` in a new process; once it has a child (and ``settle`` seconds more), kill it
+    with SIGKILL: its children must be gone within 10 s."""
     proc = subprocess.Popen([sys.executable, "-c", code], start_new_session=True)
     try:
         children = _children_of(proc)
-        assert children, "no drawing process seen"
+        assert children, f"no {what} seen"
+        time.sleep(settle)
     finally:
         proc.kill()
         proc.wait()
-    assert _gone(children), "the drawing process outlived its parent"
+    assert _gone(children), f"the {what} outlived its parent"
+
+
+def test_a_drawing_process_dies_with_a_parent_killed_by_sigkill():
+    """A forked drawing process whose parent (the figure process) is killed stops drawing at
+    once instead of drawing on into a folder nobody will read (here its figure takes 2 minutes)."""
+    _killed_leaves_none("import multiprocessing, os, time\nfrom optdesign.report.design_figures import _quietly\n"
+                        "child = multiprocessing.get_context('fork').Process(target=_quietly, "
+                        "args=(os.getpid(), time.sleep, 120))\nchild.start()\ntime.sleep(120)\n", "drawing process")
 
 
 def test_a_drawing_process_that_hangs_is_ended_and_its_figure_drawn_here(tmp_path, monkeypatch):
@@ -187,46 +193,7 @@ def test_a_drawing_process_that_hangs_is_ended_and_its_figure_drawn_here(tmp_pat
 def test_the_figure_process_dies_with_a_command_killed_by_sigkill():
     """The figure process, busy (here its prebuild takes 2 minutes) when the command is killed
     with SIGKILL, ends at once (and so do the drawing processes it forks: above)."""
-    code = ("import time\nfrom optdesign.report import figure_process\n"
-            "figure_process._prebuild = lambda scene: time.sleep(120)\n"
-            "with figure_process.FigureProcess(scene='a scene'):\n    time.sleep(120)\n")
-    proc = subprocess.Popen([sys.executable, "-c", code], start_new_session=True)
-    try:
-        children = _children_of(proc)
-        assert children, "no figure process seen"
-        time.sleep(1.0)   # it is in its prebuild
-    finally:
-        proc.kill()
-        proc.wait()
-    assert _gone(children), "the figure process outlived the command"
-
-
-@pytest.mark.slow
-def test_the_animation_and_drawing_forked_after_one_pin_force_build_are_those_drawn_here(hatch, tmp_path):
-    """With the animation, the pin forces' graphs are built before the drawing processes fork
-    (joint_arrows.build_ahead): mechanism.png and animation.gif are the bytes drawn in one process."""
-    joint_arrows._BUILT.clear()
-    here = design_report.write_results(hatch, tmp_path / "here", workers=1, animate=True)
-    joint_arrows._BUILT.clear()
-    there = design_report.write_results(hatch, tmp_path / "there", workers=2, animate=True)
-    assert joint_arrows._BUILT and joint_arrows._BUILT[0] is hatch.scene   # built here, before the forks
-    assert [p.name for p in here] == [p.name for p in there]
-    for name in ("mechanism.png", "animation.gif", "drive_and_constraints.png", "cases.png"):
-        assert (tmp_path / "here" / name).read_bytes() == (tmp_path / "there" / name).read_bytes(), name
-
-
-def test_a_pin_force_build_ahead_that_fails_is_left_to_the_drawing(monkeypatch):
-    """build_ahead swallows an error of the build and keeps no build; the drawing that asks for
-    the forces then meets the error itself, and no earlier scene's build is served."""
-    scene = optdesign.load(PROBLEMS / "hatch_cover.toml")
-    s = ResolvedScene(scene).stroke(7)
-    _fresh(scene, s)
-    other = optdesign.load(PROBLEMS / "seed1_jib.toml")
-
-    def broken(model):
-        raise RuntimeError("a stand-in for a failing build")
-    monkeypatch.setattr(joint_arrows, "JointForces", broken)
-    joint_arrows.build_ahead(other)
-    assert joint_arrows._BUILT == []
-    with pytest.raises(RuntimeError, match="stand-in"):
-        joint_arrows.governing_pin_forces(other, ResolvedScene(other).stroke(7))
+    _killed_leaves_none("import time\nfrom optdesign.report import figure_process\n"
+                        "figure_process._prebuild = lambda scene: time.sleep(120)\n"
+                        "with figure_process.FigureProcess(scene='a scene'):\n    time.sleep(120)\n",
+                        "figure process", settle=1.0)   # (it is in its prebuild then)
