@@ -197,3 +197,34 @@ def test_the_figure_process_dies_with_a_command_killed_by_sigkill():
                         "figure_process._prebuild = lambda scene: time.sleep(120)\n"
                         "with figure_process.FigureProcess(scene='a scene'):\n    time.sleep(120)\n",
                         "figure process", settle=1.0)   # (it is in its prebuild then)
+
+
+@pytest.mark.slow
+def test_the_animation_and_drawing_forked_after_one_pin_force_build_are_those_drawn_here(hatch, tmp_path):
+    """With the animation, the pin forces' graphs are built before the drawing processes fork
+    (joint_arrows.build_ahead): mechanism.png and animation.gif are the bytes drawn in one process."""
+    joint_arrows._BUILT.clear()
+    here = design_report.write_results(hatch, tmp_path / "here", workers=1, animate=True)
+    joint_arrows._BUILT.clear()
+    there = design_report.write_results(hatch, tmp_path / "there", workers=2, animate=True)
+    assert joint_arrows._BUILT and joint_arrows._BUILT[0] is hatch.scene   # built here, before the forks
+    assert [p.name for p in here] == [p.name for p in there]
+    for name in ("mechanism.png", "animation.gif", "drive_and_constraints.png", "cases.png"):
+        assert (tmp_path / "here" / name).read_bytes() == (tmp_path / "there" / name).read_bytes(), name
+
+
+def test_a_pin_force_build_ahead_that_fails_is_left_to_the_drawing(monkeypatch):
+    """build_ahead swallows an error of the build and keeps no build; the drawing that asks for
+    the forces then meets the error itself, and no earlier scene's build is served."""
+    scene = optdesign.load(PROBLEMS / "hatch_cover.toml")
+    s = ResolvedScene(scene).stroke(7)
+    _fresh(scene, s)
+    other = optdesign.load(PROBLEMS / "seed1_jib.toml")
+
+    def broken(model):
+        raise RuntimeError("a stand-in for a failing build")
+    monkeypatch.setattr(joint_arrows, "JointForces", broken)
+    joint_arrows.build_ahead(other)
+    assert joint_arrows._BUILT == []
+    with pytest.raises(RuntimeError, match="stand-in"):
+        joint_arrows.governing_pin_forces(other, ResolvedScene(other).stroke(7))
