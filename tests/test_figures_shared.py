@@ -8,8 +8,6 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import os
-import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -22,6 +20,7 @@ from optdesign.report import design as design_report
 from optdesign.report import drive_train, joint_arrows
 from optdesign.report.figure_process import FigureProcess
 from optdesign.scene import ResolvedScene
+from processes import kill_once_forked  # tests/ is on sys.path under pytest
 
 PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
 
@@ -128,41 +127,15 @@ def test_a_drawing_process_that_fails_ends_quietly(capfd):
     assert "Traceback" not in capfd.readouterr().err
 
 
-def _gone(pids, seconds=10.0) -> bool:
-    t0 = time.monotonic()
-    while any(Path(f"/proc/{p}").exists() for p in pids) and time.monotonic() - t0 < seconds:
-        time.sleep(0.05)
-    return not any(Path(f"/proc/{p}").exists() for p in pids)
-
-
-def _children_of(proc, seconds=60.0) -> list:
-    t0, children = time.monotonic(), []
-    while not children and time.monotonic() - t0 < seconds:
-        time.sleep(0.1)
-        children = subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True, text=True).stdout.split()
-    return children
-
-
-def _killed_leaves_none(code, what, settle=0.0):
-    """Run ``code`` in a new process; once it has a child (and ``settle`` seconds more), kill it
-    with SIGKILL: its children must be gone within 10 s."""
-    proc = subprocess.Popen([sys.executable, "-c", code], start_new_session=True)
-    try:
-        children = _children_of(proc)
-        assert children, f"no {what} seen"
-        time.sleep(settle)
-    finally:
-        proc.kill()
-        proc.wait()
-    assert _gone(children), f"the {what} outlived its parent"
-
-
 def test_a_drawing_process_dies_with_a_parent_killed_by_sigkill():
     """A forked drawing process whose parent (the figure process) is killed stops drawing at
     once instead of drawing on into a folder nobody will read (here its figure takes 2 minutes)."""
-    _killed_leaves_none("import multiprocessing, os, time\nfrom optdesign.report.design_figures import _quietly\n"
-                        "child = multiprocessing.get_context('fork').Process(target=_quietly, "
-                        "args=(os.getpid(), time.sleep, 120))\nchild.start()\ntime.sleep(120)\n", "drawing process")
+    children, left = kill_once_forked(
+        "import multiprocessing, os, time\nfrom optdesign.report.design_figures import _quietly\n"
+        "child = multiprocessing.get_context('fork').Process(target=_quietly, args=(os.getpid(), time.sleep, 120))\n"
+        "child.start()\ntime.sleep(120)\n")
+    assert children, "no drawing process seen"
+    assert left == [], "the drawing process outlived its parent"
 
 
 def test_a_drawing_process_that_hangs_is_ended_and_its_figure_drawn_here(tmp_path, monkeypatch):
@@ -193,10 +166,12 @@ def test_a_drawing_process_that_hangs_is_ended_and_its_figure_drawn_here(tmp_pat
 def test_the_figure_process_dies_with_a_command_killed_by_sigkill():
     """The figure process, busy (here its prebuild takes 2 minutes) when the command is killed
     with SIGKILL, ends at once (and so do the drawing processes it forks: above)."""
-    _killed_leaves_none("import time\nfrom optdesign.report import figure_process\n"
-                        "figure_process._prebuild = lambda scene: time.sleep(120)\n"
-                        "with figure_process.FigureProcess(scene='a scene'):\n    time.sleep(120)\n",
-                        "figure process", settle=1.0)   # (it is in its prebuild then)
+    children, left = kill_once_forked("import time\nfrom optdesign.report import figure_process\n"
+                                      "figure_process._prebuild = lambda scene: time.sleep(120)\n"
+                                      "with figure_process.FigureProcess(scene='a scene'):\n    time.sleep(120)\n",
+                                      settle=1.0)   # (it is in its prebuild then)
+    assert children, "no figure process seen"
+    assert left == [], "the figure process outlived the command"
 
 
 @pytest.mark.slow

@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from optdesign.report import forked
+from processes import kill_once_forked  # tests/ is on sys.path under pytest
 
 PARENT = os.getpid()
 
@@ -80,26 +81,11 @@ def test_ctrl_c_here_ends_the_forked_process(tmp_path):
 
 
 def test_the_forked_process_dies_with_a_parent_killed_by_sigkill(tmp_path):
-    import subprocess
-    import sys
-
     code = ("import time\nfrom optdesign.report import forked\n"
             "forked.run_jobs([lambda: time.sleep(120) or [], lambda: time.sleep(120) or []], workers=2)\n")
-    proc = subprocess.Popen([sys.executable, "-c", code], start_new_session=True)
-    try:
-        children = []
-        t0 = time.monotonic()
-        while not children and time.monotonic() - t0 < 60:
-            time.sleep(0.1)
-            children = subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True, text=True).stdout.split()
-        assert children, "no forked process seen"
-    finally:
-        proc.kill()
-        proc.wait()
-    t0 = time.monotonic()
-    while any(Path(f"/proc/{c}").exists() for c in children) and time.monotonic() - t0 < 10:
-        time.sleep(0.05)
-    assert not any(Path(f"/proc/{c}").exists() for c in children), "the forked process outlived its parent"
+    children, left = kill_once_forked(code)
+    assert children, "no forked process seen"
+    assert left == [], "the forked process outlived its parent"
 
 
 def test_a_forked_process_that_hangs_is_ended_and_its_jobs_done_here(tmp_path, monkeypatch):
